@@ -1,0 +1,28 @@
+# Every third-party dependency, found once. The learned core (util, geometry, nerf, reg, dbarf)
+# needs only Torch, Eigen and header-only libraries; Embree, Open3D, OpenCV and Ceres are used by
+# the edge libraries alone, so the core can be rebuilt against a CUDA LibTorch elsewhere.
+find_package(Threads REQUIRED)
+find_package(OpenMP REQUIRED)
+find_package(Torch REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(nlohmann_json REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(fmt REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(ZLIB REQUIRED)
+find_package(embree 3 REQUIRED)
+find_package(Open3D REQUIRED)
+find_package(Ceres REQUIRED)
+find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+if(NERFREG_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(NERFREG_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()
+
+# Torch's imported target carries flags (-D_GLIBCXX_USE_CXX11_ABI, include dirs); wrap it so the
+# layers link one name.
+add_library(nerfreg_torch INTERFACE)
+target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
+target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})

@@ -1,0 +1,46 @@
+# nerfreg_add_library(NAME SRCS ... [PUBLIC_LINK ...] [PRIVATE_LINK ...] [TORCH])
+#   One static library per layer folder. TORCH: the sources include <torch/torch.h>; they reuse
+#   one precompiled header (torch headers cost ~15 s per translation unit otherwise).
+# nerfreg_add_test(NAME SRCS ... LINK ... [TORCH])
+#   One GoogleTest binary per layer; every TEST becomes its own ctest entry.
+
+set(NERFREG_SRC_ROOT ${PROJECT_SOURCE_DIR}/src)
+
+# The shared torch precompiled header, built once.
+add_library(nerfreg_torch_pch STATIC ${PROJECT_SOURCE_DIR}/cmake/torch_pch.cc)
+target_link_libraries(nerfreg_torch_pch PUBLIC nerfreg_torch)
+target_precompile_headers(nerfreg_torch_pch PRIVATE <torch/torch.h>)
+
+function(nerfreg_use_torch_pch TARGET)
+  target_precompile_headers(${TARGET} REUSE_FROM nerfreg_torch_pch)
+endfunction()
+
+function(nerfreg_add_library NAME)
+  cmake_parse_arguments(A "TORCH" "" "SRCS;PUBLIC_LINK;PRIVATE_LINK" ${ARGN})
+  add_library(${NAME} STATIC ${A_SRCS})
+  target_include_directories(${NAME} PUBLIC ${NERFREG_SRC_ROOT})
+  target_link_libraries(${NAME} PUBLIC ${A_PUBLIC_LINK} PRIVATE ${A_PRIVATE_LINK})
+  target_compile_options(${NAME} PRIVATE -Wall -Wextra -Wno-unused-parameter)
+  if(A_TORCH)
+    target_link_libraries(${NAME} PUBLIC nerfreg_torch)
+    nerfreg_use_torch_pch(${NAME})
+  endif()
+endfunction()
+
+function(nerfreg_add_test NAME)
+  if(NOT NERFREG_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(A "TORCH" "" "SRCS;LINK" ${ARGN})
+  add_executable(${NAME} ${A_SRCS})
+  target_link_libraries(${NAME} PRIVATE ${A_LINK} nerfreg_test_main)
+  if(A_TORCH)
+    target_link_libraries(${NAME} PRIVATE nerfreg_torch)
+    nerfreg_use_torch_pch(${NAME})
+  endif()
+  # Tests find shipped assets and the built binary through these.
+  target_compile_definitions(${NAME} PRIVATE
+    NERFREG_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    NERFREG_BINARY="${PROJECT_BINARY_DIR}/nerfreg")
+  gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120 PROPERTIES TIMEOUT 180)
+endfunction()

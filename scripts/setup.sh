@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs every Debian package nerfreg needs. Idempotent: packages already present are skipped,
+# and apt is not touched at all when nothing is missing.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config
+  # learned core
+  libtorch-dev libopenblas0-pthread libeigen3-dev
+  # edges: ray casting, point-cloud baselines, pose graphs, image features
+  libembree-dev libopen3d-dev libceres-dev libopencv-dev
+  # header-only and small utilities
+  nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
+  # tests and benchmarks
+  googletest libgtest-dev libgmock-dev libbenchmark-dev
+  # meshes used by tests and training data (libcgal-demo is reserved for independent evaluation)
+  assimp-testmodels openscad-testing-data
+  # COLMAP interop tests and baselines
+  colmap
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done"

@@ -1,0 +1,32 @@
+#include "nerfreg/exe/command.h"
+
+#include "nerfreg/util/logging.h"
+
+namespace nerfreg {
+
+void AddCommonOptions(CLI::App& app, CommonOptions* options) {
+  app.add_flag("--quiet,-q", options->quiet, "Only warnings and errors; no progress bars");
+  app.add_flag("--json", options->json, "Machine-readable JSON lines on stderr");
+  app.add_flag("--verbose,-v", options->verbose, "Debug messages");
+  app.add_flag("--force", options->force, "Overwrite existing outputs");
+}
+
+int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  LogOptions log;
+  log.quiet = common.quiet;
+  log.json = common.json;
+  log.verbose = common.verbose;
+  InitLogging(log);
+  return -1;
+}
+
+void DescribeCommand(CLI::App& app, const std::string& summary, const std::string& example) {
+  app.description(summary + "\n\nExample:\n  " + example);
+}
+
+}  // namespace nerfreg

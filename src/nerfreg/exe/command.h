@@ -1,0 +1,30 @@
+#pragma once
+// The nerfreg binary is one table of subcommands (see ../shared/spec/cli.md). Each subcommand is a
+// `int RunX(int argc, char** argv)` that parses its options with CLI11, checks them, and calls a
+// typed, testable function in a library layer. argv[0] is the full command name ("nerf train").
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace nerfreg {
+
+// Options every subcommand takes.
+struct CommonOptions {
+  bool quiet = false;
+  bool json = false;
+  bool verbose = false;
+  bool force = false;  // overwrite existing outputs
+};
+
+// Adds --quiet, --json, --verbose and --force to `app`.
+void AddCommonOptions(CLI::App& app, CommonOptions* options);
+
+// Parses argv into app. Returns -1 when parsing succeeded and the command should run, otherwise
+// the exit code to return (0 for --help, 2 for a usage error, with the message printed).
+// Also applies the logging options.
+int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common);
+
+// Sets the app's description followed by an example line, shown by --help.
+void DescribeCommand(CLI::App& app, const std::string& summary, const std::string& example);
+
+}  // namespace nerfreg

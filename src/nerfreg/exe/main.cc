@@ -1,0 +1,84 @@
+// nerfreg: one binary, a table of subcommands. Errors from user input are caught here once and
+// printed as one line; the exit code tells their kind (2 bad input or usage, 3 internal error).
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/logging.h"
+
+namespace {
+
+struct CommandEntry {
+  const char* name;  // one or two words
+  int (*run)(int argc, char** argv);
+  const char* summary;
+};
+
+// The contract is ../shared/spec/cli.md; keep names stable.
+const std::vector<CommandEntry>& Commands() {
+  static const std::vector<CommandEntry> commands = {
+      NERFREG_COMMAND_TABLE
+  };
+  return commands;
+}
+
+void PrintUsage() {
+  std::printf("nerfreg: register NeRF blocks and pose unposed images.\n\nUsage: nerfreg COMMAND [options]"
+              " (COMMAND --help for details)\n\nCommands:\n");
+  for (const auto& c : Commands()) std::printf("  %-22s %s\n", c.name, c.summary);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  nerfreg::InitLogging(nerfreg::LogOptions{});
+  nerfreg::InitThreads();
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+    PrintUsage();
+    return argc < 2 ? 2 : 0;
+  }
+  // Two-word commands first ("nerf train"), then one-word ones ("render").
+  const CommandEntry* found = nullptr;
+  int words = 0;
+  for (const auto& c : Commands()) {
+    const std::string name = c.name;
+    if (argc >= 3 && name == std::string(argv[1]) + " " + argv[2]) {
+      found = &c;
+      words = 2;
+      break;
+    }
+  }
+  if (!found) {
+    for (const auto& c : Commands()) {
+      if (std::string(c.name) == argv[1]) {
+        found = &c;
+        words = 1;
+        break;
+      }
+    }
+  }
+  if (!found) {
+    std::fprintf(stderr, "nerfreg: unknown command '%s'\n\n", argv[1]);
+    PrintUsage();
+    return 2;
+  }
+  // Hand the subcommand an argv whose [0] is its full name, for its --help.
+  std::vector<char*> sub_argv;
+  std::string full_name = std::string("nerfreg ") + found->name;
+  sub_argv.push_back(full_name.data());
+  for (int i = 1 + words; i < argc; ++i) sub_argv.push_back(argv[i]);
+  try {
+    return found->run(static_cast<int>(sub_argv.size()), sub_argv.data());
+  } catch (const nerfreg::InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "internal error: %s\n", e.what());
+    return 3;
+  }
+}

@@ -1,0 +1,97 @@
+#include "nerfreg/util/image.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
+#include <stb/stb_image.h>
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb/stb_image_write.h>
+
+namespace nerfreg {
+
+void ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
+  if (!stbi_info(path.c_str(), width, height, channels)) {
+    ThrowInputError(path, "", std::string("a PNG or JPEG image (") + stbi_failure_reason() + ")");
+  }
+  if (*width <= 0 || *height <= 0 ||
+      static_cast<std::int64_t>(*width) * *height > kMaxImagePixels) {
+    ThrowInputError(path, "size",
+                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " +
+                        std::to_string(*width) + "x" + std::to_string(*height));
+  }
+}
+
+Image ReadImage(const std::string& path, int channels) {
+  int w = 0, h = 0, c = 0;
+  ReadImageSize(path, &w, &h, &c);
+  if (channels != 0 && channels != 1 && channels != 3 && channels != 4) {
+    throw std::invalid_argument("ReadImage: channels must be 0, 1, 3 or 4");
+  }
+  unsigned char* pixels = stbi_load(path.c_str(), &w, &h, &c, channels);
+  if (pixels == nullptr) {
+    ThrowInputError(path, "", std::string("a decodable PNG or JPEG (") + stbi_failure_reason() + ")");
+  }
+  const int out_c = channels == 0 ? c : channels;
+  Image image(w, h, out_c);
+  const size_t n = image.data.size();
+  for (size_t i = 0; i < n; ++i) image.data[i] = pixels[i] / 255.f;
+  stbi_image_free(pixels);
+  return image;
+}
+
+void WriteImage(const std::string& path, const Image& image) {
+  if (image.empty() || image.width <= 0 || image.height <= 0 ||
+      image.data.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
+    throw std::invalid_argument("WriteImage: inconsistent image for " + path);
+  }
+  std::vector<unsigned char> bytes(image.data.size());
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    const float v = std::isfinite(image.data[i]) ? image.data[i] : 0.f;
+    bytes[i] = static_cast<unsigned char>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
+  }
+  const std::string ext = LowerExtension(path);
+  WriteAtomically(path, [&](const std::string& tmp) {
+    int ok = 0;
+    if (ext == ".png") {
+      ok = stbi_write_png(tmp.c_str(), image.width, image.height, image.channels, bytes.data(),
+                          image.width * image.channels);
+    } else if (ext == ".jpg" || ext == ".jpeg") {
+      ok = stbi_write_jpg(tmp.c_str(), image.width, image.height, image.channels, bytes.data(), 95);
+    } else {
+      ThrowInputError(path, "extension", ".png, .jpg or .jpeg");
+    }
+    if (!ok) throw InputError(path + ": could not write image");
+  });
+}
+
+Image CompositeOver(const Image& rgba, float r, float g, float b) {
+  if (rgba.channels != 4) throw std::invalid_argument("CompositeOver: expects RGBA");
+  Image out(rgba.width, rgba.height, 3);
+  const float bg[3] = {r, g, b};
+  const size_t n = static_cast<size_t>(rgba.width) * rgba.height;
+  for (size_t i = 0; i < n; ++i) {
+    const float a = rgba.data[i * 4 + 3];
+    for (int c = 0; c < 3; ++c) out.data[i * 3 + c] = rgba.data[i * 4 + c] * a + bg[c] * (1 - a);
+  }
+  return out;
+}
+
+Image NormalizeForDisplay(const Image& m, float lo, float hi) {
+  if (m.channels != 1) throw std::invalid_argument("NormalizeForDisplay: expects one channel");
+  Image out(m.width, m.height, 1);
+  const float scale = hi > lo ? 1.f / (hi - lo) : 0.f;
+  for (size_t i = 0; i < m.data.size(); ++i) {
+    const float v = m.data[i];
+    out.data[i] = std::isfinite(v) ? std::clamp((v - lo) * scale, 0.f, 1.f) : 0.f;
+  }
+  return out;
+}
+
+}  // namespace nerfreg
