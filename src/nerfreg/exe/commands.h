@@ -13,7 +13,10 @@ int RunConvert(int argc, char** argv);
 // NeRF blocks (exe/nerf_commands.cc)
 // Registration (exe/reg_commands.cc)
 // DBARF (exe/dbarf_commands.cc)
+// Reports (exe/report_command.cc)
+int RunReport(int argc, char** argv);
 
 #define NERFREG_COMMAND_TABLE                                                            \
   {"render", RunRender, "Render a mesh or procedural object into a dataset (and blocks)"}, \
-  {"convert", RunConvert, "Convert camera files: transforms.json, LLFF, COLMAP"},
+  {"convert", RunConvert, "Convert camera files: transforms.json, LLFF, COLMAP"}, \
+  {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -9,6 +9,7 @@ LogOptions g_options;
 
 void InitLogging(const LogOptions& options) {
   g_options = options;
+  spdlog::drop("nerfreg");  // re-initialised once the command has parsed --quiet / --json
   auto logger = spdlog::stderr_color_mt("nerfreg");
   if (options.json) {
     logger->set_pattern(R"({"time":"%Y-%m-%dT%H:%M:%S.%e","level":"%l","msg":"%v"})");
