@@ -14,6 +14,8 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
   # tests and benchmarks
   googletest libgtest-dev libgmock-dev libbenchmark-dev
+  # the HTML report is checked in a real browser
+  chromium
   # fuzzing (libFuzzer) and the sanitizer build
   clang libclang-rt-14-dev
   # meshes used by tests and training data (libcgal-demo is reserved for independent evaluation)
