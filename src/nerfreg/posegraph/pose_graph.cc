@@ -1,0 +1,190 @@
+#include "nerfreg/posegraph/pose_graph.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <map>
+#include <numeric>
+#include <queue>
+#include <stdexcept>
+
+namespace nerfreg {
+
+void PoseGraphOptions::Check() const {
+  if (!(loss_scale > 0) || !(translation_weight > 0) || max_iterations <= 0 ||
+      !(max_rotation_error_deg > 0) || !(max_translation_error > 0)) {
+    throw std::invalid_argument("PoseGraphOptions: all scales, weights and limits must be positive");
+  }
+}
+
+namespace {
+
+void CheckEdges(int num_nodes, const std::vector<PoseGraphEdge>& edges) {
+  if (num_nodes <= 0) throw std::invalid_argument("OptimizePoseGraph: no nodes");
+  for (const auto& e : edges) {
+    if (e.i < 0 || e.j < 0 || e.i >= num_nodes || e.j >= num_nodes || e.i == e.j || !(e.weight > 0)) {
+      throw std::invalid_argument("OptimizePoseGraph: bad edge " + std::to_string(e.i) + "->" +
+                                  std::to_string(e.j));
+    }
+  }
+}
+
+// Residual of one edge for world_from_i = (q_i, t_i), world_from_j = (q_j, t_j):
+// predicted j_from_i = world_from_j^-1 * world_from_i; error = measured^-1 * predicted,
+// as [2 * vec(q_err); t_err] (rotation vector for small errors), scaled by the edge weight.
+struct RelativePoseCost {
+  RelativePoseCost(const Rigid3d& j_from_i, double sqrt_weight, double translation_weight)
+      : q_meas(j_from_i.rotation), t_meas(j_from_i.translation), w(sqrt_weight), wt(translation_weight) {}
+
+  template <typename T>
+  bool operator()(const T* qi_, const T* ti_, const T* qj_, const T* tj_, T* res) const {
+    Eigen::Map<const Eigen::Quaternion<T>> qi(qi_), qj(qj_);
+    Eigen::Map<const Eigen::Matrix<T, 3, 1>> ti(ti_), tj(tj_);
+    const Eigen::Quaternion<T> qj_inv = qj.conjugate();
+    const Eigen::Quaternion<T> q_pred = qj_inv * qi;
+    const Eigen::Matrix<T, 3, 1> t_pred = qj_inv * (ti - tj);
+    const Eigen::Quaternion<T> q_err = q_meas.cast<T>().conjugate() * q_pred;
+    const Eigen::Matrix<T, 3, 1> t_err = t_pred - t_meas.cast<T>();
+    // q and -q are one rotation: take the sign with a non-negative real part.
+    const T sign = q_err.w() < T(0) ? T(-1) : T(1);
+    for (int k = 0; k < 3; ++k) {
+      res[k] = T(w) * T(2) * sign * q_err.vec()[k];
+      res[3 + k] = T(w * wt) * t_err[k];
+    }
+    return true;
+  }
+
+  Eigen::Quaterniond q_meas;
+  Eigen::Vector3d t_meas;
+  double w, wt;
+};
+
+}  // namespace
+
+std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                    double max_rotation_deg, double max_translation) {
+  // b_from_a for every measured ordered pair (either direction of an edge).
+  std::map<std::pair<int, int>, Rigid3d> rel;
+  for (const auto& e : edges) {
+    rel[{e.i, e.j}] = e.j_from_i;
+    rel[{e.j, e.i}] = e.j_from_i.Inverse();
+  }
+  std::vector<double> support(edges.size(), 0.0);
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const auto& e = edges[k];
+    for (int m = 0; m < num_nodes; ++m) {
+      if (m == e.i || m == e.j) continue;
+      auto im = rel.find({e.i, m});
+      auto mj = rel.find({m, e.j});
+      if (im == rel.end() || mj == rel.end()) continue;
+      const Rigid3d via_m = mj->second * im->second;  // j_from_m * m_from_i
+      if (RotationErrorDeg(via_m.rotation, e.j_from_i.rotation) <= max_rotation_deg &&
+          TranslationError(via_m.translation, e.j_from_i.translation) <= max_translation) {
+        support[k] += 1.0;
+      }
+    }
+  }
+  return support;
+}
+
+std::vector<Rigid3d> InitializeFromSpanningTree(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                                std::vector<bool>* connected) {
+  CheckEdges(num_nodes, edges);
+  // A wrong registration taken into the tree would put its node far from the optimum, where the
+  // robust loss cannot pull it back. Edges that close consistent triangles are preferred: the
+  // tree's priority is the weight times (1 + number of consistent triangles through the edge).
+  const PoseGraphOptions defaults;
+  const std::vector<double> support =
+      TriangleSupport(num_nodes, edges, 3 * defaults.max_rotation_error_deg, 3 * defaults.max_translation_error);
+  std::vector<Rigid3d> world_from_node(num_nodes);
+  connected->assign(num_nodes, false);
+  (*connected)[0] = true;
+  // Prim's algorithm on weights: always add the heaviest edge leaving the tree.
+  using Item = std::pair<double, int>;  // weight, edge index
+  std::priority_queue<Item> queue;
+  auto push_edges_of = [&](int node) {
+    for (size_t k = 0; k < edges.size(); ++k) {
+      if (edges[k].i == node || edges[k].j == node) {
+        queue.push({edges[k].weight * (1.0 + support[k]), static_cast<int>(k)});
+      }
+    }
+  };
+  push_edges_of(0);
+  while (!queue.empty()) {
+    const PoseGraphEdge& e = edges[queue.top().second];
+    queue.pop();
+    const bool has_i = (*connected)[e.i], has_j = (*connected)[e.j];
+    if (has_i == has_j) continue;
+    if (has_i) {  // world_from_j = world_from_i * i_from_j
+      world_from_node[e.j] = world_from_node[e.i] * e.j_from_i.Inverse();
+      (*connected)[e.j] = true;
+      push_edges_of(e.j);
+    } else {
+      world_from_node[e.i] = world_from_node[e.j] * e.j_from_i;
+      (*connected)[e.i] = true;
+      push_edges_of(e.i);
+    }
+  }
+  return world_from_node;
+}
+
+PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                  const PoseGraphOptions& options) {
+  options.Check();
+  PoseGraphResult result;
+  result.world_from_node = InitializeFromSpanningTree(num_nodes, edges, &result.connected);
+
+  std::vector<Eigen::Quaterniond> q(num_nodes);
+  std::vector<Eigen::Vector3d> t(num_nodes);
+  for (int k = 0; k < num_nodes; ++k) {
+    q[k] = result.world_from_node[k].rotation;
+    t[k] = result.world_from_node[k].translation;
+  }
+  ceres::Problem problem;
+  int used_edges = 0;
+  for (const auto& e : edges) {
+    if (!result.connected[e.i] || !result.connected[e.j]) continue;
+    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
+        new RelativePoseCost(e.j_from_i, std::sqrt(e.weight), options.translation_weight));
+    problem.AddResidualBlock(cost, new ceres::CauchyLoss(options.loss_scale), q[e.i].coeffs().data(),
+                             t[e.i].data(), q[e.j].coeffs().data(), t[e.j].data());
+    ++used_edges;
+  }
+  if (used_edges > 0) {
+    for (int k = 0; k < num_nodes; ++k) {
+      if (!problem.HasParameterBlock(q[k].coeffs().data())) continue;
+      problem.SetManifold(q[k].coeffs().data(), new ceres::EigenQuaternionManifold);
+    }
+    // Node 0 is the world frame.
+    if (problem.HasParameterBlock(q[0].coeffs().data())) {
+      problem.SetParameterBlockConstant(q[0].coeffs().data());
+      problem.SetParameterBlockConstant(t[0].data());
+    }
+    ceres::Solver::Options solver;
+    solver.max_num_iterations = options.max_iterations;
+    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    result.initial_cost = summary.initial_cost;
+    result.final_cost = summary.final_cost;
+    result.converged = summary.termination_type == ceres::CONVERGENCE;
+  } else {
+    result.converged = true;
+  }
+  for (int k = 0; k < num_nodes; ++k) result.world_from_node[k] = Rigid3d(q[k], t[k]);
+
+  for (const auto& e : edges) {
+    const Rigid3d pred = result.world_from_node[e.j].Inverse() * result.world_from_node[e.i];
+    const double rot = RotationErrorDeg(pred.rotation, e.j_from_i.rotation);
+    const double trans = TranslationError(pred.translation, e.j_from_i.translation);
+    result.edge_rotation_error_deg.push_back(rot);
+    result.edge_translation_error.push_back(trans);
+    result.edge_inlier.push_back(result.connected[e.i] && result.connected[e.j] &&
+                                 rot <= options.max_rotation_error_deg &&
+                                 trans <= options.max_translation_error);
+  }
+  return result;
+}
+
+}  // namespace nerfreg

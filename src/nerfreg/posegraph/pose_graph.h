@@ -1,0 +1,64 @@
+#pragma once
+// Fusing pairwise relative poses into one consistent set of absolute poses (a pose graph), used
+// for registering many NeRF blocks into one scene (`reg register-many`) and for DBARF's global
+// cameras from the view graph's relative poses. Ceres with a robust loss, so a few wrong pairwise
+// registrations do not drag the whole graph; initialised by a maximum-weight spanning tree.
+#include <vector>
+
+#include "nerfreg/geometry/rigid3.h"
+
+namespace nerfreg {
+
+// A measured relative pose between nodes i and j: x_in_j = j_from_i * x_in_i.
+struct PoseGraphEdge {
+  int i = 0;
+  int j = 0;
+  Rigid3d j_from_i;
+  double weight = 1.0;  // confidence (e.g. registration confidence or inlier count), > 0
+};
+
+struct PoseGraphOptions {
+  // Cauchy loss scale on each edge's (weighted) residual norm; residuals are radians for the
+  // rotation part and scene units for the translation part.
+  double loss_scale = 0.1;
+  // Relative weight of the translation residual against the rotation residual.
+  double translation_weight = 1.0;
+  int max_iterations = 200;
+  // Edges whose final rotation error exceeds this (degrees) or translation error exceeds
+  // max_translation_error are reported as outliers.
+  double max_rotation_error_deg = 5.0;
+  double max_translation_error = 0.1;
+  void Check() const;  // throws std::invalid_argument
+};
+
+struct PoseGraphResult {
+  // world_from_node for every node; node 0 defines the world frame (identity). Nodes not
+  // connected to node 0 keep identity and have connected[k] == false.
+  std::vector<Rigid3d> world_from_node;
+  std::vector<bool> connected;
+  // Per edge, after optimisation: rotation error (deg) and translation error of the measurement
+  // against the fused poses, and whether it is an inlier by the options' thresholds.
+  std::vector<double> edge_rotation_error_deg;
+  std::vector<double> edge_translation_error;
+  std::vector<bool> edge_inlier;
+  double initial_cost = 0;
+  double final_cost = 0;
+  bool converged = false;
+};
+
+// For each edge, the number of nodes m for which going i -> m -> j agrees with the edge within
+// the given thresholds (cycle consistency): wrong registrations have little support.
+std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                    double max_rotation_deg, double max_translation);
+
+// Initial absolute poses from a maximum-priority spanning tree rooted at node 0, priority =
+// weight * (1 + triangle support).
+std::vector<Rigid3d> InitializeFromSpanningTree(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                                std::vector<bool>* connected);
+
+// Optimises the graph. Throws std::invalid_argument on edges naming unknown nodes, self-loops or
+// non-positive weights.
+PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                  const PoseGraphOptions& options);
+
+}  // namespace nerfreg

@@ -1,0 +1,78 @@
+#include "nerfreg/posegraph/pose_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace nerfreg {
+namespace {
+
+std::vector<Rigid3d> RandomPoses(std::mt19937& rng, int n) {
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Rigid3d> poses(n);
+  for (int k = 1; k < n; ++k) {
+    poses[k] = Rigid3d(RandomRotation(u(rng), u(rng), u(rng)), Eigen::Vector3d(u(rng), u(rng), u(rng)) * 2);
+  }
+  return poses;
+}
+
+PoseGraphEdge Measure(const std::vector<Rigid3d>& world_from, int i, int j, std::mt19937& rng, double noise) {
+  std::normal_distribution<double> g(0, noise);
+  Vector6d xi;
+  for (int k = 0; k < 6; ++k) xi(k) = g(rng);
+  PoseGraphEdge e;
+  e.i = i;
+  e.j = j;
+  e.j_from_i = Rigid3d::Exp(xi) * (world_from[j].Inverse() * world_from[i]);
+  return e;
+}
+
+TEST(PoseGraph, RecoversPosesFromNoisyLoopAndRejectsAnOutlier) {
+  std::mt19937 rng(5);
+  const int n = 6;
+  const auto gt = RandomPoses(rng, n);
+  std::vector<PoseGraphEdge> edges;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) edges.push_back(Measure(gt, i, j, rng, 0.003));
+  // One grossly wrong registration, with a high weight so the spanning tree may even pick it.
+  PoseGraphEdge bad = Measure(gt, 2, 4, rng, 0.0);
+  bad.j_from_i = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitX())),
+                         Eigen::Vector3d(1, 1, 1)) * bad.j_from_i;
+  edges.push_back(bad);
+  const std::vector<double> support = TriangleSupport(n, edges, 5.0, 0.1);
+  EXPECT_EQ(support.back(), 0.0);  // the wrong edge closes no consistent triangle
+  EXPECT_GE(support.front(), n - 3.0);
+  const PoseGraphResult r = OptimizePoseGraph(n, edges, PoseGraphOptions{});
+  for (int k = 0; k < n; ++k) {
+    ASSERT_TRUE(r.connected[k]);
+    EXPECT_LT(RotationErrorDeg(r.world_from_node[k].rotation, gt[k].rotation), 0.5) << k;
+    EXPECT_LT(TranslationError(r.world_from_node[k].translation, gt[k].translation), 0.02) << k;
+  }
+  EXPECT_FALSE(r.edge_inlier.back());
+  int inliers = 0;
+  for (bool b : r.edge_inlier) inliers += b;
+  EXPECT_EQ(inliers, static_cast<int>(edges.size()) - 1);
+}
+
+TEST(PoseGraph, DisconnectedNodesAreFlagged) {
+  std::mt19937 rng(6);
+  const auto gt = RandomPoses(rng, 4);
+  std::vector<PoseGraphEdge> edges = {Measure(gt, 0, 1, rng, 0), Measure(gt, 2, 3, rng, 0)};
+  const PoseGraphResult r = OptimizePoseGraph(4, edges, PoseGraphOptions{});
+  EXPECT_TRUE(r.connected[1]);
+  EXPECT_FALSE(r.connected[2]);
+  EXPECT_FALSE(r.connected[3]);
+  EXPECT_LT(RotationErrorDeg(r.world_from_node[1].rotation, gt[1].rotation), 1e-6);
+}
+
+TEST(PoseGraph, BadEdgesThrow) {
+  PoseGraphEdge e;
+  e.i = 0;
+  e.j = 5;
+  EXPECT_THROW(OptimizePoseGraph(2, {e}, PoseGraphOptions{}), std::invalid_argument);
+  e.j = 0;
+  EXPECT_THROW(OptimizePoseGraph(2, {e}, PoseGraphOptions{}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace nerfreg
