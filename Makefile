@@ -2,8 +2,10 @@
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
+FUZZ_SECONDS ?= 300
+FUZZ_SECONDS_CI ?= 10
 
-.PHONY: all setup build test demo bench clean
+.PHONY: all setup build test demo fuzz bench clean
 
 all: build
 
@@ -18,6 +20,11 @@ build: setup $(BUILD_DIR)/build.ninja
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 300
+	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) bash scripts/fuzz.sh
+
+# Sanitized (ASan + UBSan) unit tests of the parser layers, then every fuzz target.
+fuzz: setup
+	FUZZ_SECONDS=$(FUZZ_SECONDS) bash scripts/fuzz.sh
 
 demo: build
 	bash scripts/demo.sh

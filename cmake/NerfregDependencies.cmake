@@ -3,7 +3,9 @@
 # the edge libraries alone, so the core can be rebuilt against a CUDA LibTorch elsewhere.
 find_package(Threads REQUIRED)
 find_package(OpenMP REQUIRED)
-find_package(Torch REQUIRED)
+if(NERFREG_WITH_TORCH)
+  find_package(Torch REQUIRED)
+endif()
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(nlohmann_json REQUIRED)
 find_package(CLI11 REQUIRED)
@@ -23,6 +25,8 @@ endif()
 
 # Torch's imported target carries flags (-D_GLIBCXX_USE_CXX11_ABI, include dirs); wrap it so the
 # layers link one name.
-add_library(nerfreg_torch INTERFACE)
-target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
-target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
+if(NERFREG_WITH_TORCH)
+  add_library(nerfreg_torch INTERFACE)
+  target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
+  target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
+endif()

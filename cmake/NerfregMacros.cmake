@@ -7,9 +7,11 @@
 set(NERFREG_SRC_ROOT ${PROJECT_SOURCE_DIR}/src)
 
 # The shared torch precompiled header, built once.
-add_library(nerfreg_torch_pch STATIC ${PROJECT_SOURCE_DIR}/cmake/torch_pch.cc)
-target_link_libraries(nerfreg_torch_pch PUBLIC nerfreg_torch)
-target_precompile_headers(nerfreg_torch_pch PRIVATE <torch/torch.h>)
+if(NERFREG_WITH_TORCH)
+  add_library(nerfreg_torch_pch STATIC ${PROJECT_SOURCE_DIR}/cmake/torch_pch.cc)
+  target_link_libraries(nerfreg_torch_pch PUBLIC nerfreg_torch)
+  target_precompile_headers(nerfreg_torch_pch PRIVATE <torch/torch.h>)
+endif()
 
 function(nerfreg_use_torch_pch TARGET)
   target_precompile_headers(${TARGET} REUSE_FROM nerfreg_torch_pch)

@@ -6,11 +6,7 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 
-#define STB_IMAGE_IMPLEMENTATION
-#define STBI_ONLY_PNG
-#define STBI_ONLY_JPEG
 #include <stb/stb_image.h>
-#define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
 
 namespace nerfreg {

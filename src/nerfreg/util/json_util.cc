@@ -11,7 +11,8 @@ Json ReadJsonFile(const std::string& path) {
   const std::string text = ReadFileToString(path);
   try {
     return Json::parse(text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
+    // parse_error, and out_of_range for numbers too large for a double (found by fuzzing).
     ThrowInputError(path, "", std::string("valid JSON (") + e.what() + ")");
   }
 }

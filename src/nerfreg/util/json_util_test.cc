@@ -43,6 +43,9 @@ TEST(JsonUtil, TruncatedFileIsAnInputError) {
   WriteFileAtomic(dir.File("t.json"), R"({"frames": [)");
   const std::string msg = ErrorOf([&] { ReadJsonFile(dir.File("t.json")); });
   EXPECT_NE(msg.find("t.json: expected valid JSON"), std::string::npos) << msg;
+  // A number that overflows a double (a fuzzer finding: nlohmann throws out_of_range).
+  WriteFileAtomic(dir.File("n.json"), R"({"w": 6777477777777777E77777777777388888888888888})");
+  EXPECT_NE(ErrorOf([&] { ReadJsonFile(dir.File("n.json")); }).find("n.json"), std::string::npos);
 }
 
 }  // namespace
