@@ -1,0 +1,159 @@
+#include "nerfreg/viewgraph/view_graph.h"
+
+#include <algorithm>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/logging.h"
+
+namespace nerfreg {
+
+void ViewGraphOptions::Check() const {
+  if (max_features <= 0 || !(ratio > 0 && ratio < 1) || !(ransac_threshold_px > 0) ||
+      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5) {
+    throw std::invalid_argument("ViewGraphOptions: out of range");
+  }
+}
+
+std::vector<int> ViewGraph::Neighbors(int i, int k) const {
+  std::vector<std::pair<int, int>> scored;  // inliers, other
+  for (const auto& e : edges) {
+    if (e.i == i) scored.push_back({e.num_inliers, e.j});
+    if (e.j == i) scored.push_back({e.num_inliers, e.i});
+  }
+  std::sort(scored.begin(), scored.end(), [](auto a, auto b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+  std::vector<int> out;
+  for (int n = 0; n < static_cast<int>(scored.size()) && n < k; ++n) out.push_back(scored[n].second);
+  return out;
+}
+
+std::vector<int> ViewGraph::Isolated() const {
+  std::vector<bool> linked(names.size(), false);
+  for (const auto& e : edges) linked[e.i] = linked[e.j] = true;
+  std::vector<int> out;
+  for (size_t k = 0; k < names.size(); ++k)
+    if (!linked[k]) out.push_back(static_cast<int>(k));
+  return out;
+}
+
+const ViewGraphEdge* ViewGraph::FindEdge(int i, int j) const {
+  for (const auto& e : edges)
+    if ((e.i == i && e.j == j) || (e.i == j && e.j == i)) return &e;
+  return nullptr;
+}
+
+namespace {
+
+cv::Mat ToGray8(const Image& im) {
+  cv::Mat gray(im.height, im.width, CV_8UC1);
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      float v = 0;
+      if (im.channels >= 3) {
+        v = 0.299f * im.at(x, y, 0) + 0.587f * im.at(x, y, 1) + 0.114f * im.at(x, y, 2);
+        if (im.channels == 4) v = v * im.at(x, y, 3) + (1 - im.at(x, y, 3));  // over white
+      } else {
+        v = im.at(x, y, 0);
+      }
+      gray.at<uint8_t>(y, x) = static_cast<uint8_t>(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f);
+    }
+  return gray;
+}
+
+struct Features {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+};
+
+std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, double ratio) {
+  if (a.descriptors.empty() || b.descriptors.empty() || b.descriptors.rows < 2 || a.descriptors.rows < 2) return {};
+  cv::BFMatcher matcher(cv::NORM_L2);
+  std::vector<std::vector<cv::DMatch>> ab, ba;
+  matcher.knnMatch(a.descriptors, b.descriptors, ab, 2);
+  matcher.knnMatch(b.descriptors, a.descriptors, ba, 2);
+  std::vector<int> best_ba(b.descriptors.rows, -1);
+  for (const auto& m : ba)
+    if (m.size() == 2 && m[0].distance < ratio * m[1].distance) best_ba[m[0].queryIdx] = m[0].trainIdx;
+  std::vector<cv::DMatch> out;
+  for (const auto& m : ab) {
+    if (m.size() == 2 && m[0].distance < ratio * m[1].distance && best_ba[m[0].trainIdx] == m[0].queryIdx) {
+      out.push_back(m[0]);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options) {
+  options.Check();
+  if (images.size() != cameras.size() || images.size() != names.size()) {
+    throw std::invalid_argument("BuildViewGraph: images, cameras and names differ in count");
+  }
+  for (size_t k = 0; k < images.size(); ++k) {
+    if (images[k].width != images[0].width || images[k].height != images[0].height) {
+      ThrowInputError(names[k], "size", std::to_string(images[0].width) + "x" + std::to_string(images[0].height) +
+                                            " like " + names[0] + ", got " + std::to_string(images[k].width) +
+                                            "x" + std::to_string(images[k].height));
+    }
+    if (images[k].width != cameras[k].width || images[k].height != cameras[k].height) {
+      ThrowInputError(names[k], "size", "the camera's " + std::to_string(cameras[k].width) + "x" +
+                                            std::to_string(cameras[k].height));
+    }
+  }
+  ViewGraph graph;
+  graph.names = names;
+  const int n = static_cast<int>(images.size());
+  std::vector<Features> features(n);
+  std::vector<std::vector<cv::Point2d>> normalised(n);
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features);
+  for (int k = 0; k < n; ++k) {
+    sift->detectAndCompute(ToGray8(images[k]), cv::noArray(), features[k].keypoints, features[k].descriptors);
+    for (const auto& kp : features[k].keypoints) {
+      const Eigen::Vector3d d = cameras[k].CamFromImg({kp.pt.x, kp.pt.y});
+      normalised[k].push_back({d.x(), d.y()});
+    }
+  }
+  const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const auto matches = MatchMutualRatio(features[i], features[j], options.ratio);
+      if (static_cast<int>(matches.size()) < options.min_inliers) continue;
+      std::vector<cv::Point2d> pi, pj;
+      for (const auto& m : matches) {
+        pi.push_back(normalised[i][m.queryIdx]);
+        pj.push_back(normalised[j][m.trainIdx]);
+      }
+      // Normalised coordinates: the pixel threshold becomes threshold / focal.
+      const double f = 0.25 * (cameras[i].fx + cameras[i].fy + cameras[j].fx + cameras[j].fy);
+      cv::Mat mask;
+      cv::Mat e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence,
+                                       options.ransac_threshold_px / f, mask);
+      if (e.rows != 3 || e.cols != 3) continue;  // degenerate, or several solutions stacked
+      cv::Mat r, t;
+      const int inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
+      if (inliers < options.min_inliers) continue;
+      Eigen::Matrix3d rot;
+      Eigen::Vector3d trans;
+      for (int a = 0; a < 3; ++a) {
+        trans(a) = t.at<double>(a);
+        for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
+      }
+      ViewGraphEdge edge;
+      edge.i = i;
+      edge.j = j;
+      edge.num_matches = static_cast<int>(matches.size());
+      edge.num_inliers = inliers;
+      edge.j_from_i = Rigid3d(rot, trans.normalized());
+      graph.edges.push_back(edge);
+    }
+  }
+  for (int k : graph.Isolated()) LOG_WARN("{}: no geometric matches to any other image; left out", names[k]);
+  return graph;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,55 @@
+#pragma once
+// A view graph from images alone (no poses): which images see the same part of the scene, and
+// their relative rotation and translation direction. DBARF chooses each target's source views
+// from it, at training AND at test time (the original used ground-truth camera distances at test
+// time, spec dbarf.md 9.3), and its relative poses are the classical initialisation that the
+// pose graph fuses into global cameras.
+//
+// SIFT features (OpenCV), Lowe ratio test + mutual consistency, essential matrix by RANSAC on
+// undistorted normalised coordinates, cheirality check (recoverPose). Edge weight = inlier count.
+#include <string>
+#include <vector>
+
+#include "nerfreg/geometry/camera.h"
+#include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/util/image.h"
+
+namespace nerfreg {
+
+struct ViewGraphOptions {
+  int max_features = 4000;           // SIFT keypoints kept per image (strongest first)
+  double ratio = 0.8;                // Lowe ratio test
+  double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
+  double ransac_confidence = 0.999;
+  int min_inliers = 30;              // fewer geometric inliers: no edge
+  void Check() const;                // throws std::invalid_argument
+};
+
+// Two views related by an essential matrix: x_in_j = j_from_i * x_in_i with |t| = 1 (the scale
+// of a two-view translation is unknown).
+struct ViewGraphEdge {
+  int i = 0;
+  int j = 0;
+  int num_matches = 0;  // after the ratio and mutual tests
+  int num_inliers = 0;  // essential-matrix inliers in front of both cameras
+  Rigid3d j_from_i;
+};
+
+struct ViewGraph {
+  std::vector<std::string> names;  // one per image
+  std::vector<ViewGraphEdge> edges;
+
+  // The k neighbours of image i with the most inliers, best first.
+  std::vector<int> Neighbors(int i, int k) const;
+  // Images with no edge at all (reported by name and left out by callers).
+  std::vector<int> Isolated() const;
+  const ViewGraphEdge* FindEdge(int i, int j) const;
+};
+
+// Builds the graph over all pairs. images: 8-bit-range float images (grey or colour) of equal size;
+// cameras: one per image (intrinsics only). Throws InputError naming the image when sizes differ
+// from the first image or from the camera.
+ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options);
+
+}  // namespace nerfreg

@@ -1,0 +1,88 @@
+#include "nerfreg/viewgraph/view_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "nerfreg/geometry/conventions.h"
+#include "nerfreg/geometry/rays.h"
+#include "nerfreg/util/error.h"
+
+namespace nerfreg {
+namespace {
+
+// Smooth value noise on an integer lattice: a texture with blobs at several scales, unbounded and
+// non-repeating, so views of different regions share no features.
+double Lattice(int x, int y, int seed) {
+  unsigned h = static_cast<unsigned>(x) * 73856093u ^ static_cast<unsigned>(y) * 19349663u ^ seed * 83492791u;
+  h = (h ^ (h >> 13)) * 1274126177u;
+  return ((h ^ (h >> 16)) & 0xffff) / 65535.0;
+}
+
+double ValueNoise(double x, double y, int seed) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  const double sx = fx * fx * (3 - 2 * fx), sy = fy * fy * (3 - 2 * fy);
+  const double a = Lattice(x0, y0, seed), b = Lattice(x0 + 1, y0, seed);
+  const double c = Lattice(x0, y0 + 1, seed), d = Lattice(x0 + 1, y0 + 1, seed);
+  return (a * (1 - sx) + b * sx) * (1 - sy) + (c * (1 - sx) + d * sx) * sy;
+}
+
+// Renders the textured ground plane z = 0 seen by a camera.
+Image RenderPlane(const Camera& cam, const Rigid3d& cam_from_world) {
+  Image im(cam.width, cam.height, 3);
+  Eigen::Matrix3Xd o, d;
+  GenerateRays(cam, cam_from_world, &o, &d);
+  for (int i = 0; i < cam.width * cam.height; ++i) {
+    const double t = -o(2, i) / d(2, i);
+    const Eigen::Vector3d p = o.col(i) + t * d.col(i);
+    for (int c = 0; c < 3; ++c) {
+      double v = 0, amp = 0.5;
+      for (int oct = 0; oct < 4; ++oct) {
+        const double s = 4.0 * (1 << oct);
+        v += amp * ValueNoise(p.x() * s, p.y() * s, 7 * c + oct);
+        amp *= 0.5;
+      }
+      im.data[i * 3 + c] = static_cast<float>(v);
+    }
+  }
+  return im;
+}
+
+TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
+  const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
+  const std::vector<Rigid3d> poses = {
+      LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()),
+      LookAt({0.6, -0.3, 2.8}, {0.2, 0.1, 0}, Eigen::Vector3d::UnitY()),
+      LookAt({30, 0, 3}, {30, 0.5, 0}, Eigen::Vector3d::UnitY()),  // a different region
+  };
+  std::vector<Image> images;
+  for (const auto& p : poses) images.push_back(RenderPlane(cam, p));
+  const ViewGraph g = BuildViewGraph(images, {cam, cam, cam}, {"a.png", "b.png", "c.png"}, ViewGraphOptions{});
+  const ViewGraphEdge* ab = g.FindEdge(0, 1);
+  ASSERT_NE(ab, nullptr);
+  EXPECT_GT(ab->num_inliers, 40) << ab->num_matches;
+  EXPECT_EQ(g.FindEdge(0, 2), nullptr);
+  EXPECT_EQ(g.FindEdge(1, 2), nullptr);
+  EXPECT_EQ(g.Isolated(), std::vector<int>{2});
+  EXPECT_EQ(g.Neighbors(0, 5), std::vector<int>{1});
+  const Rigid3d gt = poses[1] * poses[0].Inverse();  // b_from_a
+  EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, gt.rotation), 1.0);
+  const double cos_t = ab->j_from_i.translation.normalized().dot(gt.translation.normalized());
+  EXPECT_GT(cos_t, std::cos(3.0 * M_PI / 180));
+}
+
+TEST(ViewGraph, ImagesOfDifferentSizesAreNamed) {
+  const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
+  const Camera other = Camera::Pinhole(40, 24, 30, 30, 20, 12);
+  std::vector<Image> images = {Image(32, 24, 3), Image(40, 24, 3)};
+  try {
+    BuildViewGraph(images, {cam, other}, {"a.png", "odd.png"}, ViewGraphOptions{});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("odd.png"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace nerfreg
