@@ -1,0 +1,28 @@
+#pragma once
+// Reading and writing camera files in any supported format, for `nerfreg convert` and for every
+// command that takes "a dataset": a transforms.json file (or a folder holding one), an LLFF scene
+// (poses_bounds.npy or its folder), or a COLMAP sparse model folder (text or binary).
+#include <string>
+
+#include "nerfreg/data/dataset.h"
+
+namespace nerfreg {
+
+enum class CameraFormat { kTransformsJson, kLlff, kColmap };
+
+// Throws InputError when `input` is none of the formats.
+CameraFormat DetectCameraFormat(const std::string& input);
+Dataset ReadCameras(const std::string& input);
+
+struct ConvertOptions {
+  std::string to;         // "nerf", "llff" or "colmap"
+  bool binary = false;    // COLMAP output as .bin (default .txt)
+  bool force = false;     // overwrite existing outputs
+  void Check() const;     // throws InputError naming the option
+};
+
+// Writes `dataset` as options.to at `out` (a transforms.json path or a folder for nerf; a folder
+// for llff and colmap). Image paths are rewritten relative to the output location.
+void WriteCameras(const Dataset& dataset, const std::string& out, const ConvertOptions& options);
+
+}  // namespace nerfreg
