@@ -90,4 +90,30 @@ Image NormalizeForDisplay(const Image& m, float lo, float hi) {
   return out;
 }
 
+Image ContactSheet(const std::vector<Image>& images, int columns) {
+  if (images.empty() || columns <= 0) throw std::invalid_argument("ContactSheet: no images or columns");
+  int cw = 0, ch = 0;
+  for (const auto& im : images) {
+    cw = std::max(cw, im.width);
+    ch = std::max(ch, im.height);
+  }
+  const int gap = 2, n = static_cast<int>(images.size());
+  const int cols = std::min(columns, n), rows = (n + cols - 1) / cols;
+  Image sheet(cols * (cw + gap) - gap, rows * (ch + gap) - gap, 3, 1.f);
+  for (int k = 0; k < n; ++k) {
+    const Image& im = images[k];
+    const int ox = (k % cols) * (cw + gap), oy = (k / cols) * (ch + gap);
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 0; x < im.width; ++x) {
+        const float checker = ((x / 8 + y / 8) % 2) ? 0.8f : 0.6f;
+        const float a = im.channels == 4 ? im.at(x, y, 3) : 1.f;
+        for (int c = 0; c < 3; ++c) {
+          const float v = im.at(x, y, im.channels >= 3 ? c : 0);
+          sheet.at(ox + x, oy + y, c) = v * a + checker * (1 - a);
+        }
+      }
+  }
+  return sheet;
+}
+
 }  // namespace nerfreg

@@ -45,4 +45,8 @@ Image CompositeOver(const Image& rgba, float r, float g, float b);
 // (e.g. depth maps for viewing); values outside are clamped, non-finite values become 0.
 Image NormalizeForDisplay(const Image& single_channel, float lo, float hi);
 
+// Tiles images (any channel count; shown as RGB, RGBA over a checkerboard) into one sheet with
+// `columns` columns and a 2-pixel gap, each cell the size of the largest image.
+Image ContactSheet(const std::vector<Image>& images, int columns);
+
 }  // namespace nerfreg

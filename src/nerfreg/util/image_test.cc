@@ -63,5 +63,16 @@ TEST(Image, CompositeOverWhite) {
   EXPECT_FLOAT_EQ(rgb.data[1], 0.75f);
 }
 
+TEST(Image, ContactSheetTilesImages) {
+  std::vector<Image> ims = {Image(4, 3, 3, 0.f), Image(4, 3, 4, 1.f), Image(2, 2, 1, 0.5f)};
+  const Image sheet = ContactSheet(ims, 2);
+  EXPECT_EQ(sheet.width, 2 * 4 + 2);
+  EXPECT_EQ(sheet.height, 2 * 3 + 2);
+  EXPECT_FLOAT_EQ(sheet.at(0, 0, 0), 0.f);      // first image
+  EXPECT_FLOAT_EQ(sheet.at(6, 0, 1), 1.f);      // second (opaque white)
+  EXPECT_FLOAT_EQ(sheet.at(4, 0, 0), 1.f);      // gap
+  EXPECT_FLOAT_EQ(sheet.at(1, 6, 2), 0.5f);     // third, grey
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -1,0 +1,37 @@
+#pragma once
+// Triangle meshes as the renderer needs them. Loading goes through Open3D's readers (OFF, PLY,
+// OBJ with materials, STL, glTF/GLB) behind this header, so Open3D stays out of every other layer.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "nerfreg/util/image.h"
+
+namespace nerfreg {
+
+struct TriangleMesh {
+  std::vector<Eigen::Vector3f> vertices;
+  std::vector<Eigen::Vector3i> triangles;
+  std::vector<Eigen::Vector3f> vertex_colors;  // empty, or one RGB in [0, 1] per vertex
+  std::vector<Eigen::Vector2f> triangle_uvs;   // empty, or 3 per triangle (texture coordinates)
+  Image texture;                               // empty, or the albedo texture for triangle_uvs
+
+  bool HasColors() const { return !vertex_colors.empty() && vertex_colors.size() == vertices.size(); }
+  bool HasTexture() const { return !texture.empty() && triangle_uvs.size() == 3 * triangles.size(); }
+  // Axis-aligned bounds (min, max); zeros for an empty mesh.
+  void Bounds(Eigen::Vector3f* min, Eigen::Vector3f* max) const;
+  // Appends another mesh (colours/uvs kept only when both have them).
+  void Append(const TriangleMesh& other);
+  // Throws InputError(source: ...) when empty or indices are out of range.
+  void Check(const std::string& source) const;
+};
+
+// Loads OFF, PLY, OBJ, STL, glTF or GLB. Throws InputError naming the file when it is missing,
+// unreadable or has no triangles.
+TriangleMesh LoadMesh(const std::string& path);
+
+// Centres the bounding box at the origin and scales the largest side to `largest_side`
+// (DReg-NeRF's convention: 2.5). Returns the scale applied.
+float NormalizeMesh(TriangleMesh* mesh, float largest_side = 2.5f);
+
+}  // namespace nerfreg

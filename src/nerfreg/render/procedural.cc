@@ -1,0 +1,192 @@
+#include "nerfreg/render/procedural.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+
+#include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/render/renderer.h"
+
+namespace nerfreg {
+namespace {
+
+void AddQuadGrid(TriangleMesh* m, const Eigen::Vector3f& origin, const Eigen::Vector3f& du, const Eigen::Vector3f& dv,
+                 int n, const Eigen::Vector3f& color) {
+  const int base = static_cast<int>(m->vertices.size());
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      m->vertices.push_back(origin + du * (float(i) / n) + dv * (float(j) / n));
+      m->vertex_colors.push_back(color);
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = base + j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
+      m->triangles.push_back({a, b, d});
+      m->triangles.push_back({a, d, c});
+    }
+}
+
+Eigen::Vector3f HsvToRgb(float h, float s, float v) {
+  const float c = v * s, x = c * (1 - std::abs(std::fmod(h * 6, 2.f) - 1)), m = v - c;
+  Eigen::Vector3f rgb;
+  const int sector = static_cast<int>(h * 6) % 6;
+  switch (sector) {
+    case 0: rgb = {c, x, 0}; break;
+    case 1: rgb = {x, c, 0}; break;
+    case 2: rgb = {0, c, x}; break;
+    case 3: rgb = {0, x, c}; break;
+    case 4: rgb = {x, 0, c}; break;
+    default: rgb = {c, 0, x};
+  }
+  return rgb + Eigen::Vector3f::Constant(m);
+}
+
+TriangleMesh RandomPrimitive(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(0, 1);
+  const Eigen::Vector3f color = HsvToRgb(u(rng), 0.45f + 0.5f * u(rng), 0.55f + 0.45f * u(rng));
+  const int kind = std::uniform_int_distribution<int>(0, 3)(rng);
+  const float size = 0.25f + 0.35f * u(rng);
+  switch (kind) {
+    case 0: return MakeBox({size * (0.5f + u(rng)), size * (0.5f + u(rng)), size * (0.5f + u(rng))}, color);
+    case 1: return MakeSphere(size, color);
+    case 2: return MakeCylinder(size * 0.6f, size * (1.0f + 1.5f * u(rng)), color);
+    default: return MakeTorus(size, size * (0.2f + 0.2f * u(rng)), color);
+  }
+}
+
+Eigen::Matrix3f RandomRotationMatrix(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  return RandomRotation(u(rng), u(rng), u(rng)).toRotationMatrix().cast<float>();
+}
+
+}  // namespace
+
+TriangleMesh MakeBox(const Eigen::Vector3f& e, const Eigen::Vector3f& color, int n) {
+  TriangleMesh m;
+  const float x = e.x(), y = e.y(), z = e.z();
+  // Six faces, each an n x n grid, outward-facing (winding is irrelevant: rendering is two-sided).
+  AddQuadGrid(&m, {-x, -y, -z}, {2 * x, 0, 0}, {0, 2 * y, 0}, n, color);
+  AddQuadGrid(&m, {-x, -y, z}, {2 * x, 0, 0}, {0, 2 * y, 0}, n, color);
+  AddQuadGrid(&m, {-x, -y, -z}, {2 * x, 0, 0}, {0, 0, 2 * z}, n, color);
+  AddQuadGrid(&m, {-x, y, -z}, {2 * x, 0, 0}, {0, 0, 2 * z}, n, color);
+  AddQuadGrid(&m, {-x, -y, -z}, {0, 2 * y, 0}, {0, 0, 2 * z}, n, color);
+  AddQuadGrid(&m, {x, -y, -z}, {0, 2 * y, 0}, {0, 0, 2 * z}, n, color);
+  return m;
+}
+
+TriangleMesh MakeSphere(float r, const Eigen::Vector3f& color, int rings, int segments) {
+  TriangleMesh m;
+  for (int i = 0; i <= rings; ++i) {
+    const float th = float(M_PI) * i / rings;
+    for (int j = 0; j < segments; ++j) {
+      const float ph = 2 * float(M_PI) * j / segments;
+      m.vertices.push_back(r * Eigen::Vector3f(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)));
+      m.vertex_colors.push_back(color);
+    }
+  }
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const int a = i * segments + j, b = i * segments + (j + 1) % segments;
+      const int c = a + segments, d = b + segments;
+      m.triangles.push_back({a, c, b});
+      m.triangles.push_back({b, c, d});
+    }
+  return m;
+}
+
+TriangleMesh MakeCylinder(float r, float h, const Eigen::Vector3f& color, int segments) {
+  TriangleMesh m;
+  const int rows = 4;
+  for (int i = 0; i <= rows; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const float ph = 2 * float(M_PI) * j / segments;
+      m.vertices.push_back({r * std::cos(ph), r * std::sin(ph), -h / 2 + h * i / rows});
+      m.vertex_colors.push_back(color);
+    }
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const int a = i * segments + j, b = i * segments + (j + 1) % segments;
+      m.triangles.push_back({a, b, a + segments});
+      m.triangles.push_back({b, b + segments, a + segments});
+    }
+  for (int cap = 0; cap < 2; ++cap) {  // fans closing both ends
+    const int centre = static_cast<int>(m.vertices.size());
+    m.vertices.push_back({0, 0, cap ? h / 2 : -h / 2});
+    m.vertex_colors.push_back(color);
+    const int ring = cap ? rows * segments : 0;
+    for (int j = 0; j < segments; ++j) m.triangles.push_back({centre, ring + j, ring + (j + 1) % segments});
+  }
+  return m;
+}
+
+TriangleMesh MakeTorus(float R, float r, const Eigen::Vector3f& color, int rings, int segments) {
+  TriangleMesh m;
+  for (int i = 0; i < rings; ++i) {
+    const float u = 2 * float(M_PI) * i / rings;
+    for (int j = 0; j < segments; ++j) {
+      const float v = 2 * float(M_PI) * j / segments;
+      m.vertices.push_back({(R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u), r * std::sin(v)});
+      m.vertex_colors.push_back(color);
+    }
+  }
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const int a = i * segments + j, b = i * segments + (j + 1) % segments;
+      const int c = ((i + 1) % rings) * segments + j, d = ((i + 1) % rings) * segments + (j + 1) % segments;
+      m.triangles.push_back({a, c, b});
+      m.triangles.push_back({b, c, d});
+    }
+  return m;
+}
+
+TriangleMesh MakeBackdrop(float width, float height, int cx, int cz, float pattern_scale) {
+  TriangleMesh m;
+  for (int j = 0; j <= cz; ++j)
+    for (int i = 0; i <= cx; ++i) {
+      const Eigen::Vector3f p(-width / 2 + width * i / cx, 0, -height / 2 + height * j / cz);
+      m.vertices.push_back(p);
+      m.vertex_colors.push_back(ProceduralAlbedo(p, pattern_scale));
+    }
+  for (int j = 0; j < cz; ++j)
+    for (int i = 0; i < cx; ++i) {
+      const int a = j * (cx + 1) + i, b = a + 1, c = a + (cx + 1), d = c + 1;
+      m.triangles.push_back({a, b, d});
+      m.triangles.push_back({a, d, c});
+    }
+  return m;
+}
+
+void TransformMesh(TriangleMesh* mesh, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& t, float scale) {
+  for (auto& v : mesh->vertices) v = scale * (rotation * v) + t;
+}
+
+TriangleMesh ProceduralObject(unsigned seed) {
+  std::mt19937 rng(seed * 2654435761u + 17u);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  const int count = std::uniform_int_distribution<int>(3, 8)(rng);
+  TriangleMesh object;
+  for (int k = 0; k < count; ++k) {
+    TriangleMesh p = RandomPrimitive(rng);
+    TransformMesh(&p, RandomRotationMatrix(rng), {u(rng), u(rng), u(rng)});
+    object.Append(p);
+  }
+  NormalizeMesh(&object, 2.5f);
+  return object;
+}
+
+TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y) {
+  std::mt19937 rng(seed * 2654435761u + 91u);
+  std::uniform_real_distribution<float> u(0, 1);
+  TriangleMesh scene = MakeBackdrop(12.f, 9.f, 120, 90, 1.5f + u(rng));
+  TransformMesh(&scene, Eigen::Matrix3f::Identity(), {0, backdrop_y, 0});
+  const int count = std::uniform_int_distribution<int>(3, 6)(rng);
+  for (int k = 0; k < count; ++k) {
+    TriangleMesh p = RandomPrimitive(rng);
+    TransformMesh(&p, RandomRotationMatrix(rng), {-1.4f + 2.8f * u(rng), -1.5f + 2.7f * u(rng), -0.9f + 1.8f * u(rng)},
+                  1.0f + 0.8f * u(rng));
+    scene.Append(p);
+  }
+  return scene;
+}
+
+}  // namespace nerfreg

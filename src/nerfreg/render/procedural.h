@@ -1,0 +1,30 @@
+#pragma once
+// Procedural content, seeded and reproducible: the training data of the learned models (no
+// dataset can be downloaded here). Objects are random unions of primitives with varied colours;
+// forward-facing scenes put several objects at different depths in front of a textured backdrop.
+#include <Eigen/Core>
+
+#include "nerfreg/render/mesh.h"
+
+namespace nerfreg {
+
+// Primitives centred at the origin, with one vertex colour (later modulated by the renderer).
+TriangleMesh MakeBox(const Eigen::Vector3f& half_extents, const Eigen::Vector3f& color, int subdivisions = 4);
+TriangleMesh MakeSphere(float radius, const Eigen::Vector3f& color, int rings = 16, int segments = 32);
+TriangleMesh MakeCylinder(float radius, float height, const Eigen::Vector3f& color, int segments = 32);
+TriangleMesh MakeTorus(float major_radius, float minor_radius, const Eigen::Vector3f& color, int rings = 32,
+                       int segments = 16);
+// A subdivided rectangle in the x-z plane at y = 0, normal -y, with the procedural albedo baked
+// into its vertex colours (the backdrop of forward-facing scenes).
+TriangleMesh MakeBackdrop(float width, float height, int cells_x, int cells_z, float pattern_scale);
+
+// Applies x -> s * R * x + t to every vertex.
+void TransformMesh(TriangleMesh* mesh, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& translation, float scale = 1.f);
+
+// 3 to 8 primitives, normalised so the largest bbox side is 2.5 (the DReg-NeRF convention).
+TriangleMesh ProceduralObject(unsigned seed);
+
+// A backdrop at y = backdrop_y and 3 to 6 objects between y = -1.5 and y = 1.2.
+TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y = 2.0f);
+
+}  // namespace nerfreg

@@ -1,0 +1,189 @@
+#include "nerfreg/render/render_dataset.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <random>
+
+#include "nerfreg/data/npy.h"
+#include "nerfreg/data/transforms_json.h"
+#include "nerfreg/geometry/conventions.h"
+#include "nerfreg/render/raycaster.h"
+#include "nerfreg/render/trajectory.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/progress.h"
+#include "nerfreg/util/timer.h"
+
+namespace fs = std::filesystem;
+
+namespace nerfreg {
+
+void RenderDatasetOptions::Check() const {
+  if (trajectory != "orbit" && trajectory != "forward") ThrowInputError("--trajectory", "", "orbit or forward, got " + trajectory);
+  if (views < 0 || views > 100000) ThrowInputError("--views", "", "a count in 1..100000");
+  if (width < 0 || height < 0 || width > 8192 || height > 8192) ThrowInputError("--size", "", "W[xH] in 1..8192");
+  if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
+  if (test_every < 0) ThrowInputError("--test-every", "", ">= 0");
+  try {
+    block_frame.Check();
+    render.Check();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("render options: ") + e.what());
+  }
+}
+
+Json RenderDatasetOptions::ToJson() const {
+  return {{"trajectory", trajectory}, {"views", views}, {"width", width}, {"height", height}, {"blocks", blocks},
+          {"test_every", test_every}, {"seed", seed}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
+          {"block_max_translation", block_frame.max_translation}, {"block_min_scale", block_frame.min_scale},
+          {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth}};
+}
+
+RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options, const std::string& out_dir) {
+  options.Check();
+  mesh.Check("mesh");
+  if (fs::exists(out_dir) && !options.force) throw InputError(out_dir + ": exists; pass --force to overwrite");
+  Timer timer;
+  const bool orbit = options.trajectory == "orbit";
+  std::vector<PosedCamera> cams;
+  if (orbit) {
+    OrbitOptions o;
+    if (options.views) o.num_views = options.views;
+    o.width = options.width ? options.width : 100;
+    o.height = options.height ? options.height : o.width;
+    cams = OrbitTrajectory(o);
+  } else {
+    ForwardOptions o;
+    if (options.views) o.num_views = options.views;
+    if (options.width) o.width = options.width;
+    if (options.height) o.height = options.height;
+    else if (options.width) o.height = options.width * 3 / 4;
+    cams = ForwardTrajectory(o);
+  }
+  const int n = static_cast<int>(cams.size());
+  if (options.blocks > n) ThrowInputError("--blocks", "", "at most the number of views (" + std::to_string(n) + ")");
+
+  const std::string tmp = out_dir + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  CreateDirectories(tmp);
+  try {
+    RayCaster caster(mesh);
+    Dataset world;
+    world.root = tmp;
+    ProgressBar bar("render", n, "view");
+    for (int i = 0; i < n; ++i) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "r_%03d.png", i);
+      const RenderResult r = RenderView(caster, mesh, cams[i].camera, cams[i].cam_from_world, options.render);
+      Frame f;
+      f.name = name;
+      f.file_path = std::string("images/") + name;
+      f.camera = cams[i].camera;
+      f.cam_from_world = cams[i].cam_from_world;
+      if (orbit) {
+        WriteImage(world.ImagePath(f), r.rgba);
+      } else {
+        WriteImage(world.ImagePath(f), CompositeOver(r.rgba, 0, 0, 0));
+        // Depth bounds of what this view sees, padded (LLFF's near/far).
+        float lo = INFINITY, hi = 0;
+        for (float d : r.depth.data)
+          if (d > 0) {
+            lo = std::min(lo, d);
+            hi = std::max(hi, d);
+          }
+        f.near = std::isfinite(lo) ? 0.9 * lo : 0.1;
+        f.far = hi > 0 ? 1.1 * hi : 100.0;
+      }
+      if (options.write_depth) {
+        NpyArray d;
+        d.shape = {r.depth.height, r.depth.width};
+        d.data.assign(r.depth.data.begin(), r.depth.data.end());
+        WriteNpy(JoinPaths(tmp, std::string("depth/") + fs::path(name).stem().string() + ".npy"), d);
+      }
+      world.frames.push_back(f);
+      bar.Tick();
+    }
+    bar.Finish();
+
+    // Blocks: k-means on camera centres; every n-th image of a block is a test view.
+    std::vector<int> label(n, 0);
+    if (options.blocks >= 2) {
+      std::vector<Eigen::Vector3d> centres;
+      for (const auto& c : cams) centres.push_back(CameraCenter(c.cam_from_world));
+      label = KMeans(centres, options.blocks, options.seed);
+    }
+    std::vector<int> index_in_block(options.blocks, 0);
+    for (int i = 0; i < n; ++i) {
+      const int j = index_in_block[label[i]]++;
+      world.frames[i].split = options.test_every > 0 && j % options.test_every == 0 ? "test" : "train";
+    }
+    Eigen::Vector3f mn, mx;
+    mesh.Bounds(&mn, &mx);
+    world.aabb_min = mn.cast<double>();
+    world.aabb_max = mx.cast<double>();
+    WriteTransformsJson(world, JoinPaths(tmp, "transforms.json"));
+
+    if (options.blocks >= 2) {
+      std::mt19937 rng(options.seed * 7919u + 1u);
+      Json gt_blocks = Json::array();
+      for (int k = 0; k < options.blocks; ++k) {
+        const Sim3d block_from_world = RandomBlockFrame(options.block_frame, rng);
+        const std::string block_dir = JoinPaths(tmp, "block_" + std::to_string(k));
+        Dataset block;
+        block.root = block_dir;
+        Json names = Json::array();
+        for (int i = 0; i < n; ++i) {
+          if (label[i] != k) continue;
+          Frame f = world.frames[i];
+          f.cam_from_world = block_from_world.TransformCamera(f.cam_from_world);
+          f.near *= block_from_world.scale;
+          f.far *= block_from_world.scale;
+          CreateDirectories(JoinPaths(block_dir, "images"));
+          fs::copy_file(world.ImagePath(world.frames[i]), block.ImagePath(f));
+          names.push_back(f.name);
+          block.frames.push_back(f);
+        }
+        // The object's box in the block frame (for the block's NeRF bounds).
+        Eigen::Vector3d bmn = Eigen::Vector3d::Constant(INFINITY), bmx = -bmn;
+        for (const auto& v : mesh.vertices) {
+          const Eigen::Vector3d p = block_from_world * v.cast<double>();
+          bmn = bmn.cwiseMin(p);
+          bmx = bmx.cwiseMax(p);
+        }
+        block.aabb_min = bmn;
+        block.aabb_max = bmx;
+        WriteTransformsJson(block, JoinPaths(block_dir, "transforms.json"));
+        gt_blocks.push_back({{"block_from_world", MatrixToJson(block_from_world.ToMatrix())},
+                             {"scale", block_from_world.scale},
+                             {"frames", names}});
+      }
+      WriteJsonFile(JoinPaths(tmp, "ground_truth.json"), {{"blocks", gt_blocks}});
+    }
+    WriteJsonFile(JoinPaths(tmp, "render_options.json"), options.ToJson());
+
+    // Into place: the old output (with --force) is removed only once the new one is complete.
+    if (fs::exists(out_dir)) {
+      const std::string old = out_dir + ".old-" + std::to_string(::getpid());
+      fs::rename(out_dir, old);
+      fs::rename(tmp, out_dir);
+      fs::remove_all(old);
+    } else {
+      const std::string parent = ParentDir(out_dir);
+      if (!parent.empty()) CreateDirectories(parent);
+      fs::rename(tmp, out_dir);
+    }
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+  RenderDatasetSummary s;
+  s.views = n;
+  s.blocks = options.blocks;
+  s.seconds = timer.Seconds();
+  return s;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,43 @@
+#pragma once
+// Renders a mesh into a NeRF dataset, and optionally into K blocks each in its own random frame
+// (the DReg-NeRF data pipeline, spec dreg-nerf.md sections 1-2; the layout is cli.md's):
+//   DIR/transforms.json, DIR/images/r_XXX.png          all views, world frame, with a test split
+//   DIR/block_k/transforms.json, DIR/block_k/images/   block k's views in block k's frame
+//   DIR/ground_truth.json                               {"blocks": [{"block_from_world", "scale", ...}]}
+//   DIR/render_options.json                             the effective options
+// The dataset is written into a temporary folder renamed into place at the end, so an
+// interrupted run leaves nothing half-written.
+#include <string>
+
+#include "nerfreg/render/blocks.h"
+#include "nerfreg/render/mesh.h"
+#include "nerfreg/render/renderer.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct RenderDatasetOptions {
+  std::string trajectory = "orbit";  // "orbit" (objects, RGBA) or "forward" (scenes, RGB)
+  int views = 0;                     // 0: 120 for orbit, 20 for forward
+  int width = 0, height = 0;         // 0: 100x100 for orbit, 128x96 for forward
+  int blocks = 1;                    // K >= 2 writes block_k folders and ground_truth.json
+  int test_every = 20;               // every n-th view of a block (or of all views if K = 1) is a test view
+  unsigned seed = 0;                 // block split and block frames
+  BlockFrameOptions block_frame;
+  RenderOptions render;
+  bool write_depth = false;          // depth maps as DIR/depth/r_XXX.npy (z-depth, 0 = no surface)
+  bool force = false;                // replace an existing DIR
+  void Check() const;                // throws InputError naming the option
+  Json ToJson() const;
+};
+
+struct RenderDatasetSummary {
+  int views = 0;
+  int blocks = 0;
+  double seconds = 0;
+};
+
+RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options,
+                                   const std::string& out_dir);
+
+}  // namespace nerfreg

@@ -1,0 +1,62 @@
+#include "nerfreg/render/trajectory.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "nerfreg/geometry/conventions.h"
+
+namespace nerfreg {
+
+void OrbitOptions::Check() const {
+  if (num_views < 1 || width < 1 || height < 1 || !(camera_angle_x > 0 && camera_angle_x < M_PI) || !(radius > 0)) {
+    throw std::invalid_argument("OrbitOptions: out of range");
+  }
+}
+
+void ForwardOptions::Check() const {
+  if (num_views < 1 || width < 1 || height < 1 || !(focal_factor > 0) || !(distance > 0) || spread < 0) {
+    throw std::invalid_argument("ForwardOptions: out of range");
+  }
+}
+
+void OrbitAngles(const OrbitOptions& o, int i, double* elevation, double* azimuth) {
+  const double deg = M_PI / 180.0;
+  const double tilt = i == 0 ? 0.0 : o.max_tilt * (std::cos(o.tilt_period_step_deg * (i - 1) * deg) + 1.0) / 2.0;
+  *elevation = o.base_elevation + tilt;
+  *azimuth = o.azimuth_step_deg * i * deg;
+}
+
+std::vector<PosedCamera> OrbitTrajectory(const OrbitOptions& o) {
+  o.Check();
+  std::vector<PosedCamera> out;
+  const Camera camera = Camera::FromFovX(o.width, o.height, o.camera_angle_x);
+  for (int i = 0; i < o.num_views; ++i) {
+    double el, az;
+    OrbitAngles(o, i, &el, &az);
+    // Azimuth measured from the +y axis (the rig's start at (0, 4, 0.5)), counter-clockwise.
+    const Eigen::Vector3d eye(-o.radius * std::cos(el) * std::sin(az), o.radius * std::cos(el) * std::cos(az),
+                              o.radius * std::sin(el));
+    out.push_back({camera, LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ())});
+  }
+  return out;
+}
+
+std::vector<PosedCamera> ForwardTrajectory(const ForwardOptions& o) {
+  o.Check();
+  std::vector<PosedCamera> out;
+  const double f = o.focal_factor * o.width;
+  const Camera camera = Camera::Pinhole(o.width, o.height, f, f, 0.5 * o.width, 0.5 * o.height);
+  for (int i = 0; i < o.num_views; ++i) {
+    // Two turns of a spiral whose radius grows from 0.3 to 1 of the spread.
+    const double t = o.num_views > 1 ? double(i) / (o.num_views - 1) : 0.0;
+    const double angle = 4 * M_PI * t;
+    const double r = o.spread * (0.3 + 0.7 * t);
+    const Eigen::Vector3d eye(r * std::cos(angle), -o.distance, r * std::sin(angle) * 0.75);
+    // Look at a point straight ahead, slightly pulled to the centre: forward-facing, converging.
+    const Eigen::Vector3d target(0.3 * eye.x(), -o.distance + o.look_depth, 0.3 * eye.z());
+    out.push_back({camera, LookAt(eye, target, Eigen::Vector3d::UnitZ())});
+  }
+  return out;
+}
+
+}  // namespace nerfreg
