@@ -34,6 +34,60 @@ const std::vector<BadInputCase>& Cases() {
          return "report " + d + "/run --out " + d + "/r.html";
        },
        "r.html: exists; pass --force to overwrite", ""},
+      {"render_missing_mesh",
+       [](const std::string& d) { return "render --mesh " + d + "/none.obj --out " + d + "/out"; },
+       "none.obj: expected an existing mesh file", "out"},
+      {"render_unreadable_mesh",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/bad.off", "OFF\n3 1 0\n0 0 0\n1 0\n");
+         return "render --mesh " + d + "/bad.off --out " + d + "/out";
+       },
+       "bad.off: expected a readable triangle mesh", "out"},
+      {"render_bad_size",
+       [](const std::string& d) { return "render --procedural 1 --size 0x5 --out " + d + "/out"; },
+       "--size", "out"},
+      {"render_existing_output",
+       [](const std::string& d) {
+         CreateDirectories(d + "/out");
+         return "render --procedural 1 --views 2 --size 8 --out " + d + "/out";
+       },
+       "out: exists; pass --force to overwrite", ""},
+      {"convert_truncated_json",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/transforms.json", "{\"frames\": [");
+         return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
+       },
+       "transforms.json: expected valid JSON", "sparse"},
+      {"convert_bad_matrix",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/transforms.json",
+                         R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0]]}]})");
+         return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
+       },
+       "transforms.json: frames[0].transform_matrix: expected a 4x4 matrix", "sparse"},
+      {"convert_missing_image_for_size",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/transforms.json",
+                         R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_0", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
+       },
+       "r_0.png: expected an existing image file", "sparse"},
+      {"convert_truncated_npy",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/poses_bounds.npy", std::string("\x93NUMPY\x01\x00", 8));
+         return "convert " + d + "/poses_bounds.npy --to nerf --out " + d + "/t.json";
+       },
+       "poses_bounds.npy", "t.json"},
+      {"convert_colmap_bad_camera_model",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/m/cameras.txt", "1 FISHEYE_X 64 48 1 2 3\n");
+         WriteFileAtomic(d + "/m/images.txt", "");
+         return "convert " + d + "/m --to nerf --out " + d + "/t.json";
+       },
+       "cameras.txt: line 1 MODEL: expected SIMPLE_PINHOLE", "t.json"},
+      {"convert_unknown_format",
+       [](const std::string& d) { return "convert " + d + " --to nerf --out " + d + "/t.json"; },
+       "expected a transforms.json, an LLFF poses_bounds.npy or a COLMAP model folder", "t.json"},
       {"unknown_option", [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
        "no-such-option", "r.html"},
   };
