@@ -1,0 +1,86 @@
+#include "nerfreg/nerf/field.h"
+
+#include <stdexcept>
+
+namespace nerfreg {
+
+void FieldOptions::Check() const {
+  encoding.Check();
+  if (hidden_dim < 1 || geo_feature_dim < 0 || color_hidden_layers < 1 || aabb_min.size() != 3 || aabb_max.size() != 3) {
+    throw std::invalid_argument("FieldOptions: out of range");
+  }
+  for (int k = 0; k < 3; ++k)
+    if (!(aabb_max[k] > aabb_min[k])) throw std::invalid_argument("FieldOptions: aabb_max must exceed aabb_min");
+}
+
+namespace {
+class TruncExpFunction : public torch::autograd::Function<TruncExpFunction> {
+ public:
+  static torch::Tensor forward(torch::autograd::AutogradContext* ctx, torch::Tensor x) {
+    ctx->save_for_backward({x});
+    return torch::exp(x);
+  }
+  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx, torch::autograd::tensor_list g) {
+    const auto x = ctx->get_saved_variables()[0];
+    return {g[0] * torch::exp(x.clamp_max(15))};
+  }
+};
+}  // namespace
+
+torch::Tensor TruncExp(const torch::Tensor& x) { return TruncExpFunction::apply(x); }
+
+torch::Tensor SphericalHarmonics16(const torch::Tensor& d) {
+  TORCH_CHECK(d.dim() == 2 && d.size(1) == 3, "SphericalHarmonics16: dirs must be [N, 3]");
+  const auto x = d.select(1, 0), y = d.select(1, 1), z = d.select(1, 2);
+  const auto xy = x * y, xz = x * z, yz = y * z, x2 = x * x, y2 = y * y, z2 = z * z;
+  return torch::stack({torch::full_like(x, 0.28209479177387814), -0.48860251190291987 * y, 0.48860251190291987 * z,
+                       -0.48860251190291987 * x, 1.0925484305920792 * xy, -1.0925484305920792 * yz,
+                       0.94617469575755997 * z2 - 0.31539156525251999, -1.0925484305920792 * xz,
+                       0.54627421529603959 * x2 - 0.54627421529603959 * y2, 0.59004358992664352 * y * (-3.0 * x2 + y2),
+                       2.8906114426405538 * xy * z, 0.45704579946446572 * y * (1.0 - 5.0 * z2),
+                       0.3731763325901154 * z * (5.0 * z2 - 3.0), 0.45704579946446572 * x * (1.0 - 5.0 * z2),
+                       1.4453057213202769 * z * (x2 - y2), 0.59004358992664352 * x * (-x2 + 3.0 * y2)},
+                      1);
+}
+
+NerfFieldImpl::NerfFieldImpl(const FieldOptions& options) : options_(options) {
+  options_.Check();
+  const auto& e = options_.encoding;
+  table = register_parameter("table", InitHashTable(e));
+  aabb_min_ = register_buffer("aabb_min", torch::tensor(options_.aabb_min, torch::kFloat32));
+  aabb_size_ = register_buffer("aabb_size", torch::tensor(options_.aabb_max, torch::kFloat32) - aabb_min_);
+  const int h = options_.hidden_dim;
+  using torch::nn::Linear;
+  using torch::nn::LinearOptions;
+  density_mlp_ = register_module("density_mlp", torch::nn::Sequential(Linear(LinearOptions(e.OutputDim(), h).bias(false)),
+                                                                      torch::nn::ReLU(),
+                                                                      Linear(LinearOptions(h, 1 + options_.geo_feature_dim).bias(false))));
+  torch::nn::Sequential color;
+  color->push_back(Linear(LinearOptions(16 + options_.geo_feature_dim, h).bias(false)));
+  color->push_back(torch::nn::ReLU());
+  for (int k = 1; k < options_.color_hidden_layers; ++k) {
+    color->push_back(Linear(LinearOptions(h, h).bias(false)));
+    color->push_back(torch::nn::ReLU());
+  }
+  color->push_back(Linear(LinearOptions(h, 3).bias(false)));
+  color_mlp_ = register_module("color_mlp", color);
+}
+
+std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const torch::Tensor& positions) {
+  TORCH_CHECK(positions.dim() == 2 && positions.size(1) == 3, "NerfField: positions must be [N, 3]");
+  const auto unit = (positions - aabb_min_) / aabb_size_;
+  const auto inside = ((unit >= 0) & (unit <= 1)).all(1);
+  const auto h = density_mlp_->forward(HashEncode(unit.contiguous(), table, options_.encoding));
+  const auto sigma = TruncExp(h.select(1, 0) - 1.0) * inside.to(h.dtype());
+  return {sigma, h.slice(1, 1)};
+}
+
+std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions, const torch::Tensor& dirs) {
+  auto [sigma, features] = DensityAndFeatures(positions);
+  const auto rgb = torch::sigmoid(color_mlp_->forward(torch::cat({SphericalHarmonics16(dirs), features}, 1)));
+  return {sigma, rgb};
+}
+
+torch::Tensor NerfFieldImpl::Density(const torch::Tensor& positions) { return DensityAndFeatures(positions).first; }
+
+}  // namespace nerfreg

@@ -1,0 +1,52 @@
+#pragma once
+// The NeRF block's radiance field (instant-NGP as DReg-NeRF trains it, spec dreg-nerf.md 2):
+// hash encoding of the position normalised to the AABB -> density MLP (1 hidden layer, 16 outputs;
+// density = trunc_exp(out0 - 1)) ; SH degree 4 of the view direction + the other 15 outputs ->
+// colour MLP (2 hidden layers, sigmoid). MLPs without biases, as tiny-cuda-nn's fully fused MLP.
+#include <torch/torch.h>
+
+#include "nerfreg/nerf/hash_encoding.h"
+
+namespace nerfreg {
+
+struct FieldOptions {
+  HashEncodingOptions encoding;
+  int hidden_dim = 64;          // width of both MLPs
+  int geo_feature_dim = 15;     // density MLP outputs besides density
+  int color_hidden_layers = 2;
+  // Axis-aligned box the field lives in (world units of the block); outside, density is 0.
+  std::vector<double> aabb_min = {-1.5, -1.5, -1.5};
+  std::vector<double> aabb_max = {1.5, 1.5, 1.5};
+  void Check() const;  // throws std::invalid_argument
+};
+
+// exp() whose gradient is clamped (exp(min(x, 15))) so early training cannot blow up.
+torch::Tensor TruncExp(const torch::Tensor& x);
+
+// Real spherical harmonics up to degree 3 (16 coefficients) of unit directions [N, 3] -> [N, 16],
+// in tiny-cuda-nn's ordering and constants.
+torch::Tensor SphericalHarmonics16(const torch::Tensor& dirs);
+
+class NerfFieldImpl : public torch::nn::Module {
+ public:
+  explicit NerfFieldImpl(const FieldOptions& options);
+
+  // positions [N, 3] world (float32), dirs [N, 3] unit -> sigma [N], rgb [N, 3].
+  std::pair<torch::Tensor, torch::Tensor> Forward(const torch::Tensor& positions, const torch::Tensor& dirs);
+  // Density only: positions [N, 3] -> sigma [N] (0 outside the AABB).
+  torch::Tensor Density(const torch::Tensor& positions);
+
+  const FieldOptions& options() const { return options_; }
+  torch::Tensor table;  // [L, T, F] hash table parameters
+
+ private:
+  // Returns sigma [N] and the geometry features [N, geo_feature_dim].
+  std::pair<torch::Tensor, torch::Tensor> DensityAndFeatures(const torch::Tensor& positions);
+
+  FieldOptions options_;
+  torch::Tensor aabb_min_, aabb_size_;  // [3] buffers
+  torch::nn::Sequential density_mlp_{nullptr}, color_mlp_{nullptr};
+};
+TORCH_MODULE(NerfField);
+
+}  // namespace nerfreg

@@ -1,0 +1,192 @@
+#include "nerfreg/nerf/hash_encoding.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace nerfreg {
+
+void HashEncodingOptions::Check() const {
+  if (levels < 1 || levels > 32 || features < 1 || features > 8 || log2_table_size < 4 || log2_table_size > 24 ||
+      base_resolution < 2 || !(per_level_scale >= 1.0)) {
+    throw std::invalid_argument("HashEncodingOptions: out of range");
+  }
+}
+
+int LevelResolution(const HashEncodingOptions& o, int level) {
+  return static_cast<int>(std::floor(o.base_resolution * std::pow(o.per_level_scale, level)));
+}
+
+namespace {
+
+constexpr std::uint32_t kPrime1 = 2654435761u, kPrime2 = 805459861u;
+
+struct LevelInfo {
+  int resolution;
+  bool dense;
+  float scale;  // position scale: p * (res - 1) + 0.5, as instant-NGP's grid_scale
+};
+
+std::vector<LevelInfo> Levels(const HashEncodingOptions& o) {
+  std::vector<LevelInfo> out;
+  for (int l = 0; l < o.levels; ++l) {
+    LevelInfo li;
+    li.resolution = LevelResolution(o, l);
+    li.scale = static_cast<float>(li.resolution - 1);
+    const double verts = std::pow(double(li.resolution + 1), 3);
+    li.dense = verts <= double(o.TableSize());
+    out.push_back(li);
+  }
+  return out;
+}
+
+inline std::uint32_t GridIndex(const LevelInfo& li, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t mask) {
+  if (li.dense) {
+    const std::uint32_t stride = static_cast<std::uint32_t>(li.resolution + 1);
+    return (x + y * stride + z * stride * stride) & mask;
+  }
+  return (x ^ (y * kPrime1) ^ (z * kPrime2)) & mask;
+}
+
+// The 8 corners of one point at one level: table indices and trilinear weights.
+inline void Corners(const LevelInfo& li, const float* p, std::uint32_t mask, std::uint32_t idx[8], float w[8]) {
+  float frac[3];
+  std::uint32_t base[3];
+  for (int d = 0; d < 3; ++d) {
+    const float pos = std::min(std::max(p[d], 0.f), 1.f) * li.scale + 0.5f;
+    const float fl = std::floor(pos);
+    frac[d] = pos - fl;
+    base[d] = static_cast<std::uint32_t>(fl);
+  }
+  for (int c = 0; c < 8; ++c) {
+    const std::uint32_t dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    w[c] = (dx ? frac[0] : 1 - frac[0]) * (dy ? frac[1] : 1 - frac[1]) * (dz ? frac[2] : 1 - frac[2]);
+    idx[c] = GridIndex(li, base[0] + dx, base[1] + dy, base[2] + dz, mask);
+  }
+}
+
+class HashEncodingFunction : public torch::autograd::Function<HashEncodingFunction> {
+ public:
+  static torch::Tensor forward(torch::autograd::AutogradContext* ctx, torch::Tensor positions, torch::Tensor table,
+                               const HashEncodingOptions& o) {
+    const auto levels = Levels(o);
+    const std::int64_t n = positions.size(0);
+    const int L = o.levels, F = o.features;
+    const std::uint32_t mask = static_cast<std::uint32_t>(o.TableSize() - 1);
+    auto out = torch::empty({n, L * F}, positions.options());
+    const float* pos = positions.data_ptr<float>();
+    const float* tab = table.data_ptr<float>();
+    float* dst = out.data_ptr<float>();
+    const std::int64_t level_stride = o.TableSize() * F;
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < n; ++i) {
+      std::uint32_t idx[8];
+      float w[8];
+      for (int l = 0; l < L; ++l) {
+        Corners(levels[l], pos + 3 * i, mask, idx, w);
+        const float* t = tab + l * level_stride;
+        for (int f = 0; f < F; ++f) {
+          float acc = 0;
+          for (int c = 0; c < 8; ++c) acc += w[c] * t[idx[c] * F + f];
+          dst[i * L * F + l * F + f] = acc;
+        }
+      }
+    }
+    ctx->save_for_backward({positions});
+    ctx->saved_data["levels"] = static_cast<std::int64_t>(o.levels);
+    ctx->saved_data["features"] = static_cast<std::int64_t>(o.features);
+    ctx->saved_data["log2"] = static_cast<std::int64_t>(o.log2_table_size);
+    ctx->saved_data["base"] = static_cast<std::int64_t>(o.base_resolution);
+    ctx->saved_data["scale"] = o.per_level_scale;
+    return out;
+  }
+
+  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx, torch::autograd::tensor_list grads) {
+    HashEncodingOptions o;
+    o.levels = static_cast<int>(ctx->saved_data["levels"].toInt());
+    o.features = static_cast<int>(ctx->saved_data["features"].toInt());
+    o.log2_table_size = static_cast<int>(ctx->saved_data["log2"].toInt());
+    o.base_resolution = static_cast<int>(ctx->saved_data["base"].toInt());
+    o.per_level_scale = ctx->saved_data["scale"].toDouble();
+    const auto positions = ctx->get_saved_variables()[0];
+    const auto grad_out = grads[0].contiguous();
+    const auto levels = Levels(o);
+    const std::int64_t n = positions.size(0);
+    const int L = o.levels, F = o.features;
+    const std::uint32_t mask = static_cast<std::uint32_t>(o.TableSize() - 1);
+    auto grad_table = torch::zeros({L, o.TableSize(), F}, grad_out.options());
+    const float* pos = positions.data_ptr<float>();
+    const float* g = grad_out.data_ptr<float>();
+    float* gt = grad_table.data_ptr<float>();
+    const std::int64_t level_stride = o.TableSize() * F;
+    // One level per thread: scatters into a level's slice never race.
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int l = 0; l < L; ++l) {
+      std::uint32_t idx[8];
+      float w[8];
+      float* t = gt + l * level_stride;
+      for (std::int64_t i = 0; i < n; ++i) {
+        Corners(levels[l], pos + 3 * i, mask, idx, w);
+        const float* gi = g + i * L * F + l * F;
+        for (int c = 0; c < 8; ++c)
+          for (int f = 0; f < F; ++f) t[idx[c] * F + f] += w[c] * gi[f];
+      }
+    }
+    return {torch::Tensor(), grad_table, torch::Tensor()};
+  }
+};
+
+}  // namespace
+
+torch::Tensor HashEncode(const torch::Tensor& positions, const torch::Tensor& table, const HashEncodingOptions& o) {
+  o.Check();
+  TORCH_CHECK(positions.dim() == 2 && positions.size(1) == 3, "HashEncode: positions must be [N, 3]");
+  TORCH_CHECK(positions.scalar_type() == torch::kFloat32 && table.scalar_type() == torch::kFloat32, "HashEncode: float32 expected");
+  TORCH_CHECK(table.dim() == 3 && table.size(0) == o.levels && table.size(1) == o.TableSize() && table.size(2) == o.features,
+              "HashEncode: table must be [L, T, F]");
+  if (!positions.device().is_cpu()) return HashEncodeReference(positions, table, o);
+  return HashEncodingFunction::apply(positions.contiguous(), table, o);
+}
+
+torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table, const HashEncodingOptions& o) {
+  o.Check();
+  const auto levels = Levels(o);
+  const std::int64_t mask = o.TableSize() - 1;
+  std::vector<torch::Tensor> outs;
+  for (int l = 0; l < o.levels; ++l) {
+    const auto& li = levels[l];
+    const auto pos = positions.clamp(0, 1) * li.scale + 0.5;
+    const auto fl = pos.floor();
+    const auto frac = pos - fl;
+    const auto base = fl.to(torch::kInt64);
+    torch::Tensor acc;
+    for (int c = 0; c < 8; ++c) {
+      const std::int64_t dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+      const auto x = base.select(1, 0) + dx, y = base.select(1, 1) + dy, z = base.select(1, 2) + dz;
+      torch::Tensor index;
+      if (li.dense) {
+        const std::int64_t s = li.resolution + 1;
+        index = (x + y * s + z * s * s).bitwise_and(mask);
+      } else {
+        // uint32 arithmetic emulated in int64: multiply, then keep the low 32 bits.
+        const std::int64_t low32 = 0xffffffffLL;
+        index = x.bitwise_xor((y * static_cast<std::int64_t>(kPrime1)).bitwise_and(low32))
+                    .bitwise_xor((z * static_cast<std::int64_t>(kPrime2)).bitwise_and(low32))
+                    .bitwise_and(mask);
+      }
+      const auto w = (dx ? frac.select(1, 0) : 1 - frac.select(1, 0)) * (dy ? frac.select(1, 1) : 1 - frac.select(1, 1)) *
+                     (dz ? frac.select(1, 2) : 1 - frac.select(1, 2));
+      const auto values = table[l].index_select(0, index);  // [N, F]
+      const auto term = values * w.unsqueeze(1);
+      acc = c == 0 ? term : acc + term;
+    }
+    outs.push_back(acc);
+  }
+  return torch::cat(outs, 1);
+}
+
+torch::Tensor InitHashTable(const HashEncodingOptions& o, torch::Generator generator) {
+  o.Check();
+  return torch::rand({o.levels, o.TableSize(), o.features}, generator, torch::kFloat32) * 2e-4 - 1e-4;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,44 @@
+#pragma once
+// Multiresolution hash encoding (Mueller et al. 2022, instant-NGP) for points in [0, 1]^3.
+//
+// Level l has resolution N_l = floor(base * s^l); a point's 8 surrounding grid vertices are
+// looked up in that level's table of T entries x F features (directly when (N_l + 1)^3 <= T,
+// else by the spatial hash x*1 ^ y*2654435761 ^ z*805459861 mod T) and interpolated trilinearly.
+// Output: [N, L * F], level-major.
+//
+// Two implementations with one contract:
+//  - HashEncode(): a fused C++ kernel (OpenMP over points forward; over levels backward, so each
+//    thread owns a level's table slice and gradient scatters need no atomics), wrapped as a torch
+//    autograd Function. Gradients flow to the table only (positions are data, not parameters).
+//  - HashEncodeReference(): plain torch ops (index_select + products), for tests and benchmarks.
+#include <torch/torch.h>
+
+#include <cstdint>
+
+namespace nerfreg {
+
+struct HashEncodingOptions {
+  int levels = 16;              // L
+  int features = 2;             // F per level
+  int log2_table_size = 19;     // T = 2^19 entries per level
+  int base_resolution = 16;     // N_0
+  double per_level_scale = 1.4472692012786865;  // s; 16 * s^15 = 4096 (instant-NGP / DReg-NeRF)
+  void Check() const;           // throws std::invalid_argument
+  int OutputDim() const { return levels * features; }
+  std::int64_t TableSize() const { return std::int64_t(1) << log2_table_size; }
+};
+
+// Per-level resolution and whether the level is indexed densely.
+int LevelResolution(const HashEncodingOptions& options, int level);
+
+// positions: [N, 3] float32 in [0, 1] (clamped), any device (CPU kernel; CUDA falls back to the
+// reference). table: [L, T, F] float32, requires grad. Returns [N, L * F] float32.
+torch::Tensor HashEncode(const torch::Tensor& positions, const torch::Tensor& table,
+                         const HashEncodingOptions& options);
+torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table,
+                                  const HashEncodingOptions& options);
+
+// Initial table: uniform in [-1e-4, 1e-4] as in instant-NGP.
+torch::Tensor InitHashTable(const HashEncodingOptions& options, torch::Generator generator = {});
+
+}  // namespace nerfreg
