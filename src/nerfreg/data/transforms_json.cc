@@ -42,11 +42,14 @@ double Pick(double frame, double top) { return std::isnan(frame) ? top : frame; 
 }  // namespace
 
 Dataset ReadTransformsJson(const std::string& path) {
-  const Json json = ReadJsonFile(path);
+  return DatasetFromTransformsJson(ReadJsonFile(path), path, fs::path(path).parent_path().string());
+}
+
+Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, const std::string& root_dir) {
   const JsonField root(json, path);
   if (!json.is_object()) root.Fail("a JSON object with \"frames\"");
   Dataset dataset;
-  dataset.root = fs::path(path).parent_path().string();
+  dataset.root = root_dir;
 
   const std::string model = root.StringOr("camera_model", "OPENCV");
   if (model != "OPENCV" && model != "PINHOLE" && model != "SIMPLE_PINHOLE") {

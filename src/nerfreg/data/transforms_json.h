@@ -18,6 +18,8 @@ namespace nerfreg {
 // transforms_test.json / transforms_val.json gives its frames that split unless they say
 // otherwise. Throws InputError("FILE: FIELD: expected ...").
 Dataset ReadTransformsJson(const std::string& path);
+// The same from parsed JSON; `source` names it in errors, `root` is where image paths start.
+Dataset DatasetFromTransformsJson(const Json& json, const std::string& source, const std::string& root);
 
 // Writes atomically: shared intrinsics at the top level, per-frame ones otherwise.
 void WriteTransformsJson(const Dataset& dataset, const std::string& path);

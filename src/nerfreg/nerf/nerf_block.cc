@@ -1,0 +1,178 @@
+#include "nerfreg/nerf/nerf_block.h"
+
+#include "nerfreg/data/transforms_json.h"
+#include "nerfreg/geometry/rays.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+
+namespace nerfreg {
+
+NerfBlock NerfBlock::Create(const FieldOptions& fo, const OccupancyGridOptions& go, const MarchOptions& march, unsigned seed) {
+  torch::manual_seed(seed);
+  NerfBlock b;
+  b.field_options = fo;
+  b.grid_options = go;
+  b.march = march;
+  b.field = NerfField(fo);
+  b.grid = std::make_unique<OccupancyGrid>(go, fo.aabb_min, fo.aabb_max);
+  return b;
+}
+
+void CameraRays(const Camera& camera, const Rigid3d& cam_from_world, torch::Tensor* origins, torch::Tensor* dirs) {
+  Eigen::Matrix3Xd o, d;
+  GenerateRays(camera, cam_from_world, &o, &d);
+  const Eigen::Matrix3Xf of = o.cast<float>(), df = d.cast<float>();
+  *origins = torch::from_blob(const_cast<float*>(of.data()), {of.cols(), 3}, torch::kFloat32).clone();
+  *dirs = torch::from_blob(const_cast<float*>(df.data()), {df.cols(), 3}, torch::kFloat32).clone();
+}
+
+RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& origins, const torch::Tensor& dirs,
+                        const torch::Tensor& background, std::int64_t chunk) {
+  torch::NoGradGuard no_grad;
+  MarchOptions march = block.march;
+  march.perturb = false;
+  std::vector<torch::Tensor> rgbs, opacities, depths;
+  for (std::int64_t s = 0; s < origins.size(0); s += chunk) {
+    const auto o = origins.slice(0, s, s + chunk), d = dirs.slice(0, s, s + chunk);
+    const RaySamples samples = MarchRays(o, d, *block.grid, march);
+    const std::int64_t R = o.size(0);
+    if (samples.t_starts.numel() == 0) {
+      rgbs.push_back(background.expand({R, 3}).clone());
+      opacities.push_back(torch::zeros({R}));
+      depths.push_back(torch::zeros({R}));
+      continue;
+    }
+    const auto t_mid = 0.5 * (samples.t_starts + samples.t_ends);
+    const auto pos = o.index_select(0, samples.ray_ids) + d.index_select(0, samples.ray_ids) * t_mid.unsqueeze(1);
+    auto [sigma, rgb] = block.field->Forward(pos, d.index_select(0, samples.ray_ids));
+    const auto comp = Composite(sigma, rgb, samples.t_starts, samples.t_ends, samples.offsets);
+    rgbs.push_back(comp.rgb + (1 - comp.opacity).unsqueeze(1) * background);
+    opacities.push_back(comp.opacity);
+    depths.push_back(torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)));
+  }
+  return {torch::cat(rgbs), torch::cat(opacities), torch::cat(depths)};
+}
+
+Image RenderImage(NerfBlock& block, const Camera& camera, const Rigid3d& cam_from_world) {
+  torch::Tensor o, d;
+  CameraRays(camera, cam_from_world, &o, &d);
+  const auto out = RenderRays(block, o, d, torch::ones({3})).rgb.clamp(0, 1).contiguous();
+  Image im(camera.width, camera.height, 3);
+  std::memcpy(im.data.data(), out.data_ptr<float>(), im.data.size() * sizeof(float));
+  return im;
+}
+
+namespace {
+const char* kFormatTag = "nerfreg-nerf-block";
+
+torch::Tensor StringTensor(const std::string& s) {
+  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone();
+}
+std::string TensorString(const torch::Tensor& t) {
+  const auto c = t.contiguous();
+  return std::string(reinterpret_cast<const char*>(c.data_ptr<std::uint8_t>()), c.numel());
+}
+
+Json FieldOptionsToJson(const FieldOptions& f) {
+  const auto& e = f.encoding;
+  return {{"levels", e.levels}, {"features", e.features}, {"log2_table_size", e.log2_table_size},
+          {"base_resolution", e.base_resolution}, {"per_level_scale", e.per_level_scale}, {"hidden_dim", f.hidden_dim},
+          {"geo_feature_dim", f.geo_feature_dim}, {"color_hidden_layers", f.color_hidden_layers},
+          {"aabb_min", f.aabb_min}, {"aabb_max", f.aabb_max}};
+}
+
+FieldOptions FieldOptionsFromJson(const JsonField& j) {
+  FieldOptions f;
+  f.encoding.levels = j["levels"].Int();
+  f.encoding.features = j["features"].Int();
+  f.encoding.log2_table_size = j["log2_table_size"].Int();
+  f.encoding.base_resolution = j["base_resolution"].Int();
+  f.encoding.per_level_scale = j["per_level_scale"].Double();
+  f.hidden_dim = j["hidden_dim"].Int();
+  f.geo_feature_dim = j["geo_feature_dim"].Int();
+  f.color_hidden_layers = j["color_hidden_layers"].Int();
+  f.aabb_min = j["aabb_min"].Doubles();
+  f.aabb_max = j["aabb_max"].Doubles();
+  try {
+    f.Check();
+  } catch (const std::invalid_argument& e) {
+    j.Fail(std::string("valid field options (") + e.what() + ")");
+  }
+  return f;
+}
+}  // namespace
+
+void SaveNerfBlock(const NerfBlock& block, const std::string& path,
+                   const std::function<void(torch::serialize::OutputArchive&)>& extra) {
+  Json meta = {{"format", kFormatTag},
+               {"version", kNerfCheckpointVersion},
+               {"step", block.step},
+               {"field", FieldOptionsToJson(block.field_options)},
+               {"grid", {{"resolution", block.grid_options.resolution}, {"update_every", block.grid_options.update_every},
+                         {"warmup_steps", block.grid_options.warmup_steps}, {"ema_decay", block.grid_options.ema_decay},
+                         {"threshold", block.grid_options.threshold}}},
+               {"march", {{"step_size", block.march.step_size}, {"near", block.march.near},
+                          {"max_samples_per_ray", block.march.max_samples_per_ray}}},
+               {"cameras", TransformsJsonFromDataset(block.cameras)},
+               {"train_options", block.train_options}};
+  torch::serialize::OutputArchive archive;
+  archive.write("meta", StringTensor(meta.dump()));
+  torch::serialize::OutputArchive field_archive;
+  block.field->save(field_archive);
+  archive.write("field", field_archive);
+  archive.write("grid_density", block.grid->density());
+  archive.write("grid_occupied", block.grid->occupied().to(torch::kUInt8));
+  if (extra) extra(archive);
+  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+}
+
+NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch::serialize::InputArchive&)>& extra) {
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing NeRF checkpoint");
+  torch::serialize::InputArchive archive;
+  Json meta;
+  try {
+    archive.load_from(path);
+    torch::Tensor meta_tensor;
+    archive.read("meta", meta_tensor);
+    meta = Json::parse(TensorString(meta_tensor));
+  } catch (const std::exception& e) {
+    ThrowInputError(path, "", "a nerfreg NeRF checkpoint (unreadable or truncated)");
+  }
+  const JsonField m(meta, path);
+  if (m.StringOr("format", "") != kFormatTag) ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
+  if (m["version"].Int() != kNerfCheckpointVersion) {
+    ThrowInputError(path, "version", std::to_string(kNerfCheckpointVersion) + " (written by another nerfreg version)");
+  }
+  NerfBlock b;
+  b.field_options = FieldOptionsFromJson(m["field"]);
+  b.grid_options.resolution = m["grid"]["resolution"].Int();
+  b.grid_options.update_every = m["grid"]["update_every"].Int();
+  b.grid_options.warmup_steps = m["grid"]["warmup_steps"].Int();
+  b.grid_options.ema_decay = m["grid"]["ema_decay"].Double();
+  b.grid_options.threshold = m["grid"]["threshold"].Double();
+  b.march.step_size = m["march"]["step_size"].Double();
+  b.march.near = m["march"]["near"].Double();
+  b.march.max_samples_per_ray = m["march"]["max_samples_per_ray"].Int();
+  b.step = m["step"].Int();
+  b.train_options = meta.value("train_options", Json::object());
+  b.field = NerfField(b.field_options);
+  b.grid = std::make_unique<OccupancyGrid>(b.grid_options, b.field_options.aabb_min, b.field_options.aabb_max);
+  try {
+    torch::serialize::InputArchive field_archive;
+    archive.read("field", field_archive);
+    b.field->load(field_archive);
+    torch::Tensor density, occupied;
+    archive.read("grid_density", density);
+    archive.read("grid_occupied", occupied);
+    b.grid->SetState(density, occupied);
+    if (extra) extra(archive);
+  } catch (const c10::Error& e) {
+    ThrowInputError(path, "", "a complete nerfreg NeRF checkpoint (tensors missing or of the wrong shape)");
+  }
+  // The training cameras, kept as transforms.json inside the checkpoint (with sizes: no image needed).
+  Dataset d = DatasetFromTransformsJson(meta["cameras"], path + " (cameras)", ParentDir(path));
+  b.cameras = d;
+  return b;
+}
+
+}  // namespace nerfreg
