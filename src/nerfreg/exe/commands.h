@@ -11,6 +11,10 @@ void InitThreads();
 int RunRender(int argc, char** argv);
 int RunConvert(int argc, char** argv);
 // NeRF blocks (exe/nerf_commands.cc)
+int RunNerfTrain(int argc, char** argv);
+int RunNerfRender(int argc, char** argv);
+int RunNerfEval(int argc, char** argv);
+int RunNerfExport(int argc, char** argv);
 // Registration (exe/reg_commands.cc)
 // DBARF (exe/dbarf_commands.cc)
 // Reports (exe/report_command.cc)
@@ -19,4 +23,8 @@ int RunReport(int argc, char** argv);
 #define NERFREG_COMMAND_TABLE                                                            \
   {"render", RunRender, "Render a mesh or procedural object into a dataset (and blocks)"}, \
   {"convert", RunConvert, "Convert camera files: transforms.json, LLFF, COLMAP"}, \
+  {"nerf train", RunNerfTrain, "Train a NeRF block on a posed dataset"}, \
+  {"nerf render", RunNerfRender, "Render views of a trained block"}, \
+  {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
+  {"nerf export", RunNerfExport, "Export a block's occupied space as a coloured point cloud"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -1,0 +1,150 @@
+// Commands of the NeRF-block layer: nerf train | render | eval | export.
+#include <filesystem>
+#include <fstream>
+
+#include "nerfreg/data/convert.h"
+#include "nerfreg/data/transforms_json.h"
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/nerf/trainer.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/progress.h"
+
+using namespace nerfreg;
+
+int RunNerfTrain(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Train a NeRF block (instant-NGP-style field, fused CPU kernels) on a posed dataset: a transforms.json "
+                  "(or its folder), an LLFF scene or a COLMAP model. Writes BLOCK.ckpt, BLOCK.ckpt.json "
+                  "{psnr_test, seconds, iters} and the curves in BLOCK.ckpt.log.jsonl.",
+                  "nerfreg nerf train data/spider/block_0 --out runs/spider/block_0.ckpt --preset fast");
+  std::string dataset_path, out, preset = "fast";
+  int iters = 0, stop_after = 0, checkpoint_every = -1;
+  std::int64_t samples = 0;
+  unsigned seed = 0;
+  bool resume = false;
+  app.add_option("dataset", dataset_path, "Dataset: transforms.json, its folder, an LLFF scene or a COLMAP model")->required();
+  app.add_option("--out", out, "Checkpoint to write")->required();
+  app.add_option("--preset", preset, "fast (2 CPU cores) or default (the paper's settings)");
+  app.add_option("--iters", iters, "Training iterations (default: the preset's)");
+  app.add_option("--seed", seed, "Random seed");
+  app.add_option("--stop-after", stop_after, "Checkpoint and stop at this step (continue later with --resume)");
+  app.add_option("--checkpoint-every", checkpoint_every, "Checkpoint every n steps (default: the preset's)");
+  app.add_option("--samples", samples, "Target samples per batch (default: the preset's)");
+  app.add_flag("--resume", resume, "Continue the run in --out from its last checkpoint");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  NerfTrainOptions options = NerfTrainOptions::Preset(preset);
+  if (iters > 0) options.iterations = iters;
+  options.seed = seed;
+  options.stop_after = stop_after;
+  if (checkpoint_every >= 0) options.checkpoint_every = checkpoint_every;
+  if (samples > 0) options.target_samples = samples;
+  if (resume) {
+    if (!FileExists(out)) ThrowInputError(out, "", "an existing checkpoint to resume (drop --resume to start a new run)");
+  } else {
+    CheckCanWriteOutput(out, common.force);
+  }
+  const Dataset dataset = ReadCameras(dataset_path);
+  CheckImagesMatchCameras(dataset);
+  const NerfTrainResult r = TrainNerfBlock(dataset, options, out, resume);
+  if (r.iterations == options.iterations) {
+    WriteJsonFile(out + ".json", {{"psnr_test", r.psnr_test}, {"seconds", r.seconds}, {"iters", r.iterations},
+                                  {"options", options.ToJson()}});
+  }
+  std::printf("{\"psnr_test\": %.3f, \"seconds\": %.1f, \"iters\": %d}\n", r.psnr_test, r.seconds, r.iterations);
+  return 0;
+}
+
+int RunNerfRender(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app, "Render one PNG per frame of a transforms.json with a trained block (named as the frame's image).",
+                  "nerfreg nerf render runs/block_0.ckpt --transforms data/spider/block_0/transforms.json --out renders");
+  std::string ckpt, transforms, out;
+  app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
+  app.add_option("--transforms", transforms, "transforms.json with the cameras to render")->required();
+  app.add_option("--out", out, "Output folder")->required();
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force);
+  NerfBlock block = LoadNerfBlock(ckpt);
+  const Dataset cams = ReadCameras(transforms);
+  ProgressBar bar("nerf render", static_cast<std::int64_t>(cams.frames.size()), "view");
+  CreateDirectories(out);
+  for (const auto& f : cams.frames) {
+    WriteImage(JoinPaths(out, std::filesystem::path(f.name).replace_extension(".png").string()),
+               RenderImage(block, f.camera, f.cam_from_world));
+    bar.Tick();
+  }
+  bar.Finish();
+  return 0;
+}
+
+int RunNerfEval(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app, "PSNR and SSIM of a block's renders of a dataset's test views (white background).",
+                  "nerfreg nerf eval runs/block_0.ckpt data/spider/block_0");
+  std::string ckpt, dataset_path, out;
+  app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
+  app.add_option("dataset", dataset_path, "Dataset whose test split is evaluated")->required();
+  app.add_option("--out", out, "Also write the result to this JSON file");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (!out.empty()) CheckCanWriteOutput(out, common.force);
+  NerfBlock block = LoadNerfBlock(ckpt);
+  const Dataset dataset = ReadCameras(dataset_path);
+  if (dataset.IndicesOfSplit("test").empty()) ThrowInputError(dataset_path, "frames", "at least one frame with \"split\": \"test\"");
+  const NerfEvalResult r = EvaluateNerfBlock(block, dataset);
+  const Json j = {{"psnr", r.psnr}, {"ssim", r.ssim}, {"views", r.views}};
+  if (!out.empty()) WriteJsonFile(out, j);
+  std::printf("%s\n", j.dump().c_str());
+  return 0;
+}
+
+int RunNerfExport(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app, "Export a block's occupied space as a coloured point cloud (PLY).",
+                  "nerfreg nerf export runs/block_0.ckpt --points block_0.ply");
+  std::string ckpt, points;
+  double threshold = 5.0;
+  app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
+  app.add_option("--points", points, "Output PLY point cloud")->required();
+  app.add_option("--density", threshold, "Density threshold of exported points (default 5)");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(points, common.force);
+  NerfBlock block = LoadNerfBlock(ckpt);
+  torch::NoGradGuard no_grad;
+  // One jittered point per occupied cell, kept where the density is high; coloured by the field
+  // seen from above (a fixed direction: the export has no viewer).
+  const auto centres = block.grid->CellCenters();
+  const auto occ = block.grid->occupied().reshape(-1);
+  const auto cand = centres.index_select(0, occ.nonzero().squeeze(1));
+  const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
+  const auto pts = cand + (torch::rand_like(cand) - 0.5) * cell;
+  const auto dirs = torch::tensor({0.f, 0.f, -1.f}).expand({pts.size(0), 3}).contiguous();
+  auto [sigma, rgb] = block.field->Forward(pts, dirs);
+  const auto keep = (sigma > threshold).nonzero().squeeze(1);
+  const auto p = pts.index_select(0, keep).contiguous(), c = rgb.index_select(0, keep).contiguous();
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(p.size(0)) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
+                    "property uchar blue\nend_header\n";
+  const float* pp = p.data_ptr<float>();
+  const float* pc = c.data_ptr<float>();
+  char line[128];
+  for (std::int64_t i = 0; i < p.size(0); ++i) {
+    std::snprintf(line, sizeof(line), "%.5f %.5f %.5f %d %d %d\n", pp[3 * i], pp[3 * i + 1], pp[3 * i + 2],
+                  int(pc[3 * i] * 255 + 0.5f), int(pc[3 * i + 1] * 255 + 0.5f), int(pc[3 * i + 2] * 255 + 0.5f));
+    ply += line;
+  }
+  WriteFileAtomic(points, ply);
+  LOG_INFO("wrote {} points to {}", p.size(0), points);
+  return 0;
+}
