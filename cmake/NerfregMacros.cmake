@@ -44,5 +44,7 @@ function(nerfreg_add_test NAME)
   target_compile_definitions(${NAME} PRIVATE
     NERFREG_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     NERFREG_BINARY="${PROJECT_BINARY_DIR}/nerfreg")
-  gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120 PROPERTIES TIMEOUT 180)
+  # The threading environment nerfreg's main() sets for itself (see exe/main.cc).
+  gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120
+    PROPERTIES TIMEOUT 180 ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE;OPENBLAS_NUM_THREADS=1")
 endfunction()
