@@ -1,0 +1,95 @@
+#include "nerfreg/nerf/field_queries.h"
+
+#include <stdexcept>
+
+#include "nerfreg/geometry/conventions.h"
+
+namespace nerfreg {
+
+void SurfaceFieldOptions::Check() const {
+  if (max_cameras < 1 || step_size < 0 || stop_before < 0) throw std::invalid_argument("SurfaceFieldOptions: out of range");
+}
+
+torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) {
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> out;
+  for (std::int64_t s = 0; s < positions.size(0); s += 1 << 17) out.push_back(block.field->Density(positions.slice(0, s, s + (1 << 17))));
+  return out.empty() ? torch::zeros({0}) : torch::cat(out);
+}
+
+torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const SurfaceFieldOptions& options) {
+  options.Check();
+  TORCH_CHECK(points.dim() == 2 && points.size(1) == 3, "SurfaceField: points must be [N, 3]");
+  torch::NoGradGuard no_grad;
+  const auto train = block.cameras.IndicesOfSplit("train");
+  const std::int64_t n = points.size(0);
+  auto best = torch::zeros({n});
+  if (train.empty() || n == 0) return best;
+  // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
+  const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
+  const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
+  for (size_t c = 0; c < train.size(); c += stride) {
+    const Frame& f = block.cameras.frames[train[c]];
+    // Which points this camera sees (in front, inside the image).
+    const Eigen::Matrix3f r = f.cam_from_world.RotationMatrix().cast<float>();
+    const Eigen::Vector3f t = f.cam_from_world.translation.cast<float>();
+    const auto R = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, torch::kFloat32).t().clone();  // row-major
+    const auto T = torch::tensor({t.x(), t.y(), t.z()});
+    const auto pc = points.matmul(R.t()) + T;
+    const auto z = pc.select(1, 2);
+    const auto u = f.camera.fx * pc.select(1, 0) / z + f.camera.cx, v = f.camera.fy * pc.select(1, 1) / z + f.camera.cy;
+    const auto visible = (z > 0.05) & (u >= 0) & (u < f.camera.width) & (v >= 0) & (v < f.camera.height);
+    const auto idx = visible.nonzero().squeeze(1);
+    if (idx.numel() == 0) continue;
+    const Eigen::Vector3d centre = CameraCenter(f.cam_from_world);
+    const auto o = torch::tensor({float(centre.x()), float(centre.y()), float(centre.z())});
+    const auto x = points.index_select(0, idx);
+    const auto dist = (x - o).norm(2, 1);                 // [M]
+    const auto dir = (x - o) / dist.unsqueeze(1);         // [M, 3]
+    // Uniform samples from the camera to X; each ray's samples beyond X (minus stop_before) are masked.
+    const int max_steps = static_cast<int>(std::ceil(dist.max().item<double>() / step));
+    for (std::int64_t s = 0; s < idx.numel(); s += 4096) {
+      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096);
+      const std::int64_t m = d_s.size(0);
+      const auto ts = (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [K]
+      const auto valid = ts.unsqueeze(0) <= (d_s - options.stop_before).unsqueeze(1);  // [m, K]
+      const auto pos = o + dir_s.unsqueeze(1) * ts.view({1, -1, 1});                   // [m, K, 3]
+      auto sigma = QueryDensity(block, pos.reshape({-1, 3})).view({m, max_steps}) * valid.to(torch::kFloat32);
+      const auto alpha = 1 - torch::exp(-sigma * step);
+      const auto trans = torch::cat({torch::ones({m, 1}), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
+      const auto s_ray = (alpha * trans).amax(1);
+      const auto sel = idx.slice(0, s, s + 4096);
+      best.index_put_({sel}, torch::maximum(best.index_select(0, sel), s_ray));
+    }
+  }
+  return best;
+}
+
+BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned seed) {
+  torch::NoGradGuard no_grad;
+  torch::Generator gen = at::detail::createCPUGenerator(seed);
+  const auto centres = block.grid->CellCenters();
+  const auto cand = centres.index_select(0, block.grid->occupied().reshape(-1).nonzero().squeeze(1));
+  const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
+  const auto pts = cand + (torch::rand(cand.sizes(), gen) - 0.5) * cell;
+  const auto sigma = QueryDensity(block, pts);
+  const auto keep = (sigma > min_density).nonzero().squeeze(1);
+  BlockPoints out;
+  out.xyz = pts.index_select(0, keep);
+  out.sigma = sigma.index_select(0, keep);
+  out.alpha = (1 - torch::exp(-0.01 * out.sigma)).clamp(0, 1);
+  // View-averaged colour: the six axis directions.
+  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  out.rgb = torch::zeros({out.xyz.size(0), 3});
+  for (const auto& d : dirs) {
+    const auto dd = torch::tensor(d).expand({out.xyz.size(0), 3}).contiguous();
+    std::vector<torch::Tensor> parts;
+    for (std::int64_t s = 0; s < out.xyz.size(0); s += 1 << 16) {
+      parts.push_back(block.field->Forward(out.xyz.slice(0, s, s + (1 << 16)), dd.slice(0, s, s + (1 << 16))).second);
+    }
+    if (!parts.empty()) out.rgb += torch::cat(parts) / 6.0;
+  }
+  return out;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,40 @@
+#pragma once
+// What registration asks of a trained block, from its field alone (no images):
+//  - density / alpha at arbitrary points;
+//  - the surface field S(X) (spec dreg-nerf.md 3): from each training camera that sees X, march
+//    the ray towards X (stopping at it) and take max_i alpha_i T_i; OR over the cameras (a max).
+//    S is the probability that a camera ray hits a surface at X: ~1 on surfaces seen by the
+//    cameras, ~0 in empty space and behind surfaces;
+//  - the block's occupied points: one jittered point per occupied cell with density, view-averaged
+//    colour and alpha (the voxel grid DReg-NeRF feeds its network).
+#include <torch/torch.h>
+
+#include "nerfreg/nerf/nerf_block.h"
+
+namespace nerfreg {
+
+// positions [N, 3] -> sigma [N], without gradients, in chunks.
+torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions);
+
+struct SurfaceFieldOptions {
+  int max_cameras = 16;        // the training cameras used per point: the nearest in viewing direction order
+  double step_size = 0.0;      // march step; 0: the block's marching step
+  double stop_before = 0.0;    // stop this far before X (0: at X, as the spec says)
+  void Check() const;
+};
+
+// points [N, 3] -> S [N] in [0, 1].
+torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const SurfaceFieldOptions& options);
+
+struct BlockPoints {
+  torch::Tensor xyz;      // [N, 3] block frame
+  torch::Tensor rgb;      // [N, 3] colour averaged over 6 viewing directions
+  torch::Tensor sigma;    // [N]
+  torch::Tensor alpha;    // [N] clip(1 - exp(-0.01 sigma), 0, 1) (spec section 3)
+};
+
+// One jittered point per occupied cell of the block's grid whose density exceeds
+// `min_density` (spec: 0.7).
+BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density = 0.7, unsigned seed = 0);
+
+}  // namespace nerfreg
