@@ -8,20 +8,16 @@ cd "$(dirname "$0")/.."
 BIN=build/nerfreg
 OUT=${DEMO_OUT:-runs/demo}
 MESH=${DEMO_MESH:-/usr/share/assimp/models/OBJ/spider.obj}
-ITERS=${DEMO_ITERS:-}
+ITERS=${DEMO_ITERS:-500}
 
 rm -rf "$OUT"
 mkdir -p "$OUT"
 echo "== 1/4 render $MESH into two blocks"
 $BIN render --mesh "$MESH" --blocks 2 --size 100 --seed 7 --out "$OUT/data"
 
-if ! $BIN nerf train --help >/dev/null 2>&1; then
-  echo "demo: 'nerf train' is not built yet; stopping after rendering ($OUT/data)"
-  exit 0
-fi
 echo "== 2/4 train a NeRF block on each"
 for k in 0 1; do
-  $BIN nerf train "$OUT/data/block_$k" --out "$OUT/block_$k.ckpt" --preset fast ${ITERS:+--iters $ITERS}
+  $BIN nerf train "$OUT/data/block_$k" --out "$OUT/block_$k.ckpt" --preset fast --iters "$ITERS"
 done
 
 echo "== 3/4 register block 0 into block 1"
@@ -29,6 +25,9 @@ $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --out "$OUT/target_fro
 
 echo "== 4/4 errors against the ground truth, pictures, report"
 $BIN reg eval --pair "$OUT/target_from_source.json" --ground-truth "$OUT/data/ground_truth.json" \
-  --source 0 --target 1
+  --source 0 --target 1 --out "$OUT/errors.json"
+for k in 0 1; do
+  $BIN nerf render "$OUT/block_$k.ckpt" --transforms "$OUT/data/block_$k/transforms.json" --out "$OUT/renders_block_$k" --quiet
+done
 $BIN report "$OUT" --out "$OUT/report.html" --force
 echo "demo: open $OUT/report.html"

@@ -16,6 +16,8 @@ int RunNerfRender(int argc, char** argv);
 int RunNerfEval(int argc, char** argv);
 int RunNerfExport(int argc, char** argv);
 // Registration (exe/reg_commands.cc)
+int RunRegRegister(int argc, char** argv);
+int RunRegEval(int argc, char** argv);
 // DBARF (exe/dbarf_commands.cc)
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
@@ -26,5 +28,7 @@ int RunReport(int argc, char** argv);
   {"nerf train", RunNerfTrain, "Train a NeRF block on a posed dataset"}, \
   {"nerf render", RunNerfRender, "Render views of a trained block"}, \
   {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
-  {"nerf export", RunNerfExport, "Export a block's occupied space as a coloured point cloud"}, \
+  {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
+  {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
+  {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

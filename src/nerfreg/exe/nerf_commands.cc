@@ -6,6 +6,7 @@
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/nerf/mesh_export.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -111,14 +112,32 @@ int RunNerfExport(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app, "Export a block's occupied space as a coloured point cloud (PLY).",
+  DescribeCommand(app,
+                  "Export a block's occupied space as a coloured point cloud (--points) or its density iso-surface as "
+                  "a coloured triangle mesh (--mesh, marching cubes), both PLY.",
                   "nerfreg nerf export runs/block_0.ckpt --points block_0.ply");
-  std::string ckpt, points;
-  double threshold = 5.0;
+  std::string ckpt, points, mesh_path;
+  double threshold = -1;
+  MeshExportOptions mesh_options;
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
-  app.add_option("--points", points, "Output PLY point cloud")->required();
-  app.add_option("--density", threshold, "Density threshold of exported points (default 5)");
+  auto* points_opt = app.add_option("--points", points, "Output PLY point cloud");
+  auto* mesh_opt = app.add_option("--mesh", mesh_path, "Output PLY triangle mesh (marching cubes on the density)");
+  points_opt->excludes(mesh_opt);
+  app.add_option("--density", threshold, "Density threshold (default 5 for points, 2.5 for the mesh)");
+  app.add_option("--resolution", mesh_options.resolution, "Mesh: marching-cubes cells per axis (default 128)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (points.empty() && mesh_path.empty()) throw InputError("nerf export: give --points OUT.ply or --mesh OUT.ply");
+  if (!mesh_path.empty()) {
+    if (threshold > 0) mesh_options.density_threshold = threshold;
+    mesh_options.Check();
+    CheckCanWriteOutput(mesh_path, common.force);
+    NerfBlock block = LoadNerfBlock(ckpt);
+    const ColoredMesh mesh = ExtractMesh(block, mesh_options);
+    WriteMeshPly(mesh, mesh_path);
+    LOG_INFO("wrote {} vertices, {} triangles to {}", mesh.vertices.size(0), mesh.triangles.size(0), mesh_path);
+    return 0;
+  }
+  if (threshold <= 0) threshold = 5.0;
   CheckCanWriteOutput(points, common.force);
   NerfBlock block = LoadNerfBlock(ckpt);
   torch::NoGradGuard no_grad;

@@ -1,0 +1,81 @@
+#include "nerfreg/reg/baselines.h"
+
+#include <open3d/geometry/KDTreeSearchParam.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/pipelines/registration/FastGlobalRegistration.h>
+#include <open3d/pipelines/registration/Feature.h>
+#include <open3d/pipelines/registration/Registration.h>
+#include <open3d/utility/Logging.h>
+#include <open3d/utility/Random.h>
+
+#include <stdexcept>
+
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+namespace reg = open3d::pipelines::registration;
+
+void ClassicalRegistrationOptions::Check() const {
+  if ((method != "ransac" && method != "fgr") || !(voxel_size > 0) || !(normal_radius > 0) || !(feature_radius > 0) ||
+      max_correspondence_distance < 0 || ransac_iterations < 1 || !(ransac_confidence > 0 && ransac_confidence <= 1) ||
+      icp_distance < 0) {
+    throw std::invalid_argument("ClassicalRegistrationOptions: out of range (method ransac or fgr)");
+  }
+}
+
+namespace {
+
+std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pts, const ClassicalRegistrationOptions& o) {
+  open3d::geometry::PointCloud cloud;
+  for (Eigen::Index i = 0; i < pts.cols(); ++i) cloud.points_.push_back(pts.col(i));
+  auto down = cloud.VoxelDownSample(o.voxel_size);
+  down->EstimateNormals(open3d::geometry::KDTreeSearchParamHybrid(o.normal_radius, 30));
+  return down;
+}
+
+}  // namespace
+
+ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                                const ClassicalRegistrationOptions& o) {
+  o.Check();
+  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RegisterPointClouds: a cloud has fewer than 3 points");
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  open3d::utility::random::Seed(static_cast<int>(o.seed));
+  Timer timer;
+  const auto src = Prepare(source, o), tgt = Prepare(target, o);
+  const auto f_src = reg::ComputeFPFHFeature(*src, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius, 100));
+  const auto f_tgt = reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius, 100));
+  reg::RegistrationResult r;
+  if (o.method == "ransac") {
+    const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance : 1.5 * o.voxel_size;
+    reg::CorrespondenceCheckerBasedOnEdgeLength edge(0.9);
+    reg::CorrespondenceCheckerBasedOnDistance distance(dist);
+    r = reg::RegistrationRANSACBasedOnFeatureMatching(*src, *tgt, *f_src, *f_tgt, true, dist,
+                                                      reg::TransformationEstimationPointToPoint(false), 3, {edge, distance},
+                                                      reg::RANSACConvergenceCriteria(o.ransac_iterations, o.ransac_confidence));
+  } else {
+    reg::FastGlobalRegistrationOption fgr;
+    fgr.maximum_correspondence_distance_ = o.max_correspondence_distance > 0 ? o.max_correspondence_distance : 0.5;
+    r = reg::FastGlobalRegistrationBasedOnFeatureMatching(*src, *tgt, *f_src, *f_tgt, fgr);
+  }
+  if (o.icp) {
+    const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
+    r = reg::RegistrationICP(*src, *tgt, d, r.transformation_, reg::TransformationEstimationPointToPlane(),
+                             reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
+  }
+  ClassicalRegistrationResult out;
+  // Open3D may return a numerically slightly non-orthonormal rotation: project it.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d rot = svd.matrixU() * svd.matrixV().transpose();
+  if (rot.determinant() < 0) rot = -rot;
+  out.target_from_source = Rigid3d(rot, r.transformation_.topRightCorner<3, 1>());
+  out.fitness = r.fitness_;
+  out.inlier_rmse = r.inlier_rmse_;
+  out.seconds = timer.Seconds();
+  out.source_points = static_cast<int>(src->points_.size());
+  out.target_points = static_cast<int>(tgt->points_.size());
+  return out;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,38 @@
+#pragma once
+// Classical point-cloud registration through Open3D, the baselines DReg-NeRF is measured against
+// (spec dreg-nerf.md 6, landscape.md): voxel downsample -> normals -> FPFH -> RANSAC or FGR, then
+// optional point-to-plane ICP. Open3D stays behind this header: clouds are Eigen matrices.
+#include <Eigen/Core>
+#include <string>
+
+#include "nerfreg/geometry/rigid3.h"
+
+namespace nerfreg {
+
+struct ClassicalRegistrationOptions {
+  std::string method = "ransac";   // "ransac" (FPFH + RANSAC) or "fgr" (FPFH + fast global registration)
+  double voxel_size = 0.05;        // downsampling cell (the spec's FGR parameters)
+  double normal_radius = 0.1;      // normals: radius, max 30 neighbours
+  double feature_radius = 0.25;    // FPFH: radius, max 100 neighbours
+  double max_correspondence_distance = 0.0;  // 0: 1.5 x voxel for RANSAC, 0.5 for FGR (spec)
+  int ransac_iterations = 100000;
+  double ransac_confidence = 0.999;
+  bool icp = true;                 // point-to-plane ICP refinement
+  double icp_distance = 0.0;       // 0: 2 x voxel
+  unsigned seed = 0;
+  void Check() const;              // throws std::invalid_argument
+};
+
+struct ClassicalRegistrationResult {
+  Rigid3d target_from_source;
+  double fitness = 0;       // fraction of source points with a target point within the inlier distance
+  double inlier_rmse = 0;
+  double seconds = 0;
+  int source_points = 0, target_points = 0;  // after downsampling
+};
+
+// source, target: [3, N] points (block frames). Throws std::invalid_argument on empty clouds.
+ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                                const ClassicalRegistrationOptions& options);
+
+}  // namespace nerfreg

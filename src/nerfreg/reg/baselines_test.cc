@@ -1,0 +1,49 @@
+#include "nerfreg/reg/baselines.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace nerfreg {
+namespace {
+
+// Points on the surfaces of a few boxes and a sphere: a shape with distinctive local geometry.
+Eigen::Matrix3Xd SyntheticSurface(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::Matrix3Xd pts(3, n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const int kind = i % 3;
+    if (kind == 0) {  // sphere of radius 0.5 at (0.4, 0, 0)
+      p = Eigen::Vector3d(0.4, 0, 0) + 0.5 * p.normalized();
+    } else {  // faces of boxes of half-size (0.6, 0.3, 0.2) at (-0.3, 0.2, 0) or (0, -0.4, 0.3)
+      const Eigen::Vector3d h = kind == 1 ? Eigen::Vector3d(0.6, 0.3, 0.2) : Eigen::Vector3d(0.2, 0.2, 0.5);
+      const Eigen::Vector3d c = kind == 1 ? Eigen::Vector3d(-0.3, 0.2, 0) : Eigen::Vector3d(0, -0.4, 0.3);
+      const int axis = std::uniform_int_distribution<int>(0, 2)(rng);
+      p = p.cwiseProduct(h);
+      p(axis) = (u(rng) > 0 ? 1 : -1) * h(axis);
+      p += c;
+    }
+    pts.col(i) = p;
+  }
+  return pts;
+}
+
+TEST(ClassicalRegistration, RansacAndIcpRecoverAKnownTransform) {
+  const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())), Eigen::Vector3d(0.1, -0.2, 0.15));
+  Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);  // another sampling of the same surface
+  for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
+  ClassicalRegistrationOptions o;
+  o.voxel_size = 0.04;
+  o.feature_radius = 0.2;
+  const auto r = RegisterPointClouds(src, tgt, o);
+  EXPECT_LT(RotationErrorDeg(r.target_from_source.rotation, gt.rotation), 1.0);
+  EXPECT_LT((r.target_from_source.translation - gt.translation).norm(), 0.02);
+  EXPECT_GT(r.fitness, 0.5);
+  EXPECT_THROW(RegisterPointClouds(Eigen::Matrix3Xd(3, 1), tgt, o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace nerfreg
