@@ -156,8 +156,15 @@ std::string JsonTable(const Json& j) {
 void WriteRunReport(const std::string& run_dir, const std::string& out_path, const ReportOptions& options) {
   options.Check();
   if (!DirExists(run_dir)) ThrowInputError(run_dir, "", "a run directory");
-  std::vector<fs::path> pngs, jsons, logs;
+  std::vector<fs::path> pngs, jsons, logs, datasets;
   for (auto it = fs::recursive_directory_iterator(run_dir); it != fs::recursive_directory_iterator(); ++it) {
+    // Input datasets inside the run (a folder with a transforms.json) are listed, not shown: the
+    // page is about the run's results.
+    if (it->is_directory() && fs::exists(it->path() / "transforms.json")) {
+      datasets.push_back(it->path());
+      it.disable_recursion_pending();
+      continue;
+    }
     if (!it->is_regular_file()) continue;
     const fs::path& p = it->path();
     if (p.filename().string().rfind('.', 0) == 0) continue;  // temp files
@@ -166,8 +173,14 @@ void WriteRunReport(const std::string& run_dir, const std::string& out_path, con
     else if (ext == ".json") jsons.push_back(p);
     else if (ext == ".jsonl") logs.push_back(p);
   }
-  std::sort(pngs.begin(), pngs.end());
-  std::sort(jsons.begin(), jsons.end());
+  // Results first: files at the top of the run before those in sub-folders, then by name.
+  auto by_depth = [](const fs::path& a, const fs::path& b) {
+    const auto da = std::distance(a.begin(), a.end()), db = std::distance(b.begin(), b.end());
+    return da != db ? da < db : a < b;
+  };
+  std::sort(pngs.begin(), pngs.end(), by_depth);
+  std::sort(jsons.begin(), jsons.end(), by_depth);
+  std::sort(datasets.begin(), datasets.end());
   std::sort(logs.begin(), logs.end());
   const std::string title = options.title.empty() ? fs::path(run_dir).filename().string() : options.title;
 
@@ -179,6 +192,11 @@ void WriteRunReport(const std::string& run_dir, const std::string& out_path, con
     << "figcaption{font-size:11px}img{image-rendering:pixelated;max-width:320px}</style></head><body>";
   h << "<h1>" << HtmlEscape(title) << "</h1><p>Run directory: <code>" << HtmlEscape(run_dir) << "</code></p>";
 
+  if (!datasets.empty()) {
+    h << "<p>Datasets in this run (not shown):";
+    for (const auto& d : datasets) h << " <code>" << HtmlEscape(fs::relative(d, run_dir).string()) << "</code>";
+    h << "</p>";
+  }
   h << "<h2>Metrics and options</h2>";
   if (jsons.empty()) h << "<p>No JSON files.</p>";
   for (const auto& p : jsons) {
@@ -197,6 +215,7 @@ void WriteRunReport(const std::string& run_dir, const std::string& out_path, con
   for (const auto& p : logs) {
     const auto curves = ReadCurves(p.string());
     for (const auto& c : curves) {
+      if (c.x.size() < 2) continue;  // a single point is not a curve
       h << SvgLineChart(fs::relative(p, run_dir).string() + ": " + c.name, {c});
     }
   }

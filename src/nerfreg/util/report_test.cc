@@ -35,8 +35,15 @@ TEST(Report, PageEmbedsImagesMetricsAndCurves) {
   WriteImage(run + "/renders/r_000.png", Image(4, 4, 3, 0.5f));
   WriteFileAtomic(run + "/metrics.json", R"({"psnr": 27.5, "note": "<b>"})");
   WriteFileAtomic(run + "/train_log.jsonl", "{\"step\": 1, \"loss\": 1}\n{\"step\": 2, \"loss\": 0.5}\n");
+  WriteFileAtomic(run + "/data/transforms.json", R"({"frames": []})");
+  WriteImage(run + "/data/images/r_000.png", Image(4, 4, 3, 0.1f));
   WriteRunReport(run, dir.File("report.html"), ReportOptions{});
   const std::string html = ReadFileToString(dir.File("report.html"));
+  // The dataset folder is listed, its files are not embedded: one image only.
+  EXPECT_NE(html.find("<code>data</code>"), std::string::npos);
+  size_t images = 0;
+  for (size_t p = html.find("<img"); p != std::string::npos; p = html.find("<img", p + 1)) ++images;
+  EXPECT_EQ(images, 1u);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
   EXPECT_NE(html.find("27.5"), std::string::npos);
   EXPECT_NE(html.find("&lt;b&gt;"), std::string::npos);  // escaped
