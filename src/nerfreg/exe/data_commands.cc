@@ -62,7 +62,8 @@ int RunRender(int argc, char** argv) {
   TriangleMesh mesh;
   if (!mesh_path.empty()) {
     mesh = LoadMesh(mesh_path);
-    if (options.trajectory == "orbit") NormalizeMesh(&mesh, 2.5f);
+    NormalizeMesh(&mesh, 2.5f);
+    if (options.trajectory == "forward") mesh = WithBackdrop(mesh);
   } else {
     mesh = options.trajectory == "orbit" ? ProceduralObject(static_cast<unsigned>(procedural))
                                          : ProceduralForwardScene(static_cast<unsigned>(procedural));

@@ -174,6 +174,19 @@ TriangleMesh ProceduralObject(unsigned seed) {
   return object;
 }
 
+TriangleMesh WithBackdrop(const TriangleMesh& mesh, float backdrop_y) {
+  TriangleMesh scene = MakeBackdrop(12.f, 9.f, 120, 90, 2.0f);
+  TransformMesh(&scene, Eigen::Matrix3f::Identity(), {0, backdrop_y, 0});
+  TriangleMesh object = mesh;
+  if (!object.HasColors()) {
+    // Bake the procedural albedo into vertex colours so the union keeps a texture-like pattern.
+    object.vertex_colors.clear();
+    for (const auto& v : object.vertices) object.vertex_colors.push_back(ProceduralAlbedo(v, 4.0f));
+  }
+  scene.Append(object);
+  return scene;
+}
+
 TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y) {
   std::mt19937 rng(seed * 2654435761u + 91u);
   std::uniform_real_distribution<float> u(0, 1);

@@ -24,6 +24,11 @@ void TransformMesh(TriangleMesh* mesh, const Eigen::Matrix3f& rotation, const Ei
 // 3 to 8 primitives, normalised so the largest bbox side is 2.5 (the DReg-NeRF convention).
 TriangleMesh ProceduralObject(unsigned seed);
 
+// A mesh (normalised, centred at the origin) in front of a textured backdrop at y = backdrop_y:
+// a forward-facing scene of a given object. Texture and vertex colours of the mesh are dropped if
+// it has only one of them (one mesh holds one kind of albedo).
+TriangleMesh WithBackdrop(const TriangleMesh& mesh, float backdrop_y = 2.0f);
+
 // A backdrop at y = backdrop_y and 3 to 6 objects between y = -1.5 and y = 1.2.
 TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y = 2.0f);
 

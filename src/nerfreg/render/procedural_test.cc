@@ -26,5 +26,15 @@ TEST(Procedural, ForwardScenesHaveABackdropBehindTheObjects) {
   EXPECT_TRUE(s.HasColors());
 }
 
+TEST(Procedural, MeshesGetABackdropForForwardScenes) {
+  TriangleMesh box = MakeBox({0.5f, 0.5f, 0.5f}, {1, 0, 0});
+  const TriangleMesh scene = WithBackdrop(box);
+  EXPECT_EQ(scene.triangles.size(), MakeBackdrop(12.f, 9.f, 120, 90, 2.f).triangles.size() + box.triangles.size());
+  EXPECT_TRUE(scene.HasColors());
+  Eigen::Vector3f mn, mx;
+  scene.Bounds(&mn, &mx);
+  EXPECT_NEAR(mx.y(), 2.0f, 1e-5);
+}
+
 }  // namespace
 }  // namespace nerfreg
