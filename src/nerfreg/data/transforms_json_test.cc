@@ -11,15 +11,6 @@
 namespace nerfreg {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(TransformsJson, RoundTripKeepsPosesIntrinsicsSplitsAndBounds) {
   ScopedTempDir dir;
   Dataset d = MakeRingDataset(dir.path(), 6, /*distortion=*/true);
@@ -87,7 +78,7 @@ TEST(TransformsJson, BadFilesNameTheFileAndField) {
   const std::string p = dir.File("t.json");
   auto err = [&](const std::string& text) {
     WriteFileAtomic(p, text);
-    return ErrorOf([&] { ReadTransformsJson(p); });
+    return InputErrorOf([&] { ReadTransformsJson(p); });
   };
   EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png"}]})").find("t.json: frames[0].transform_matrix"), std::string::npos);
   EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0],[0,0,1]]}]})")
@@ -113,7 +104,7 @@ TEST(TransformsJson, ImageSizeDifferentFromCamerasIsNamed) {
   ScopedTempDir dir;
   Dataset d = MakeRingDataset(dir.path(), 2);
   WriteImage(d.ImagePath(d.frames[1]), Image(10, 10, 3));
-  const std::string msg = ErrorOf([&] { CheckImagesMatchCameras(d); });
+  const std::string msg = InputErrorOf([&] { CheckImagesMatchCameras(d); });
   EXPECT_NE(msg.find(d.frames[1].name + ": size: expected 24x16"), std::string::npos) << msg;
 }
 

@@ -9,23 +9,14 @@
 namespace nerfreg {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(JsonUtil, ErrorsNameFileAndFieldPath) {
   const Json j = Json::parse(R"({"frames": [{"transform_matrix": [[1,0,0],[0,1,0]]}]})");
   const JsonField root(j, "t.json");
-  const std::string msg = ErrorOf([&] { root["frames"][0]["transform_matrix"].Matrix(4, 4); });
+  const std::string msg = InputErrorOf([&] { root["frames"][0]["transform_matrix"].Matrix(4, 4); });
   EXPECT_NE(msg.find("t.json: frames[0].transform_matrix: expected a 4x4 matrix"), std::string::npos)
       << msg;
-  EXPECT_NE(ErrorOf([&] { root["camera_angle_x"]; }).find("camera_angle_x"), std::string::npos);
-  EXPECT_NE(ErrorOf([&] { root["frames"][3]; }).find("frames"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { root["camera_angle_x"]; }).find("camera_angle_x"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { root["frames"][3]; }).find("frames"), std::string::npos);
 }
 
 TEST(JsonUtil, MatrixAndOptionals) {
@@ -41,11 +32,11 @@ TEST(JsonUtil, MatrixAndOptionals) {
 TEST(JsonUtil, TruncatedFileIsAnInputError) {
   ScopedTempDir dir;
   WriteFileAtomic(dir.File("t.json"), R"({"frames": [)");
-  const std::string msg = ErrorOf([&] { ReadJsonFile(dir.File("t.json")); });
+  const std::string msg = InputErrorOf([&] { ReadJsonFile(dir.File("t.json")); });
   EXPECT_NE(msg.find("t.json: expected valid JSON"), std::string::npos) << msg;
   // A number that overflows a double (a fuzzer finding: nlohmann throws out_of_range).
   WriteFileAtomic(dir.File("n.json"), R"({"w": 6777477777777777E77777777777388888888888888})");
-  EXPECT_NE(ErrorOf([&] { ReadJsonFile(dir.File("n.json")); }).find("n.json"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { ReadJsonFile(dir.File("n.json")); }).find("n.json"), std::string::npos);
 }
 
 }  // namespace

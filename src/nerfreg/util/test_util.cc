@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "nerfreg/util/error.h"
+
 namespace nerfreg {
 
 ScopedTempDir::ScopedTempDir() {
@@ -16,6 +18,15 @@ ScopedTempDir::ScopedTempDir() {
 ScopedTempDir::~ScopedTempDir() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+}
+
+std::string InputErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace nerfreg

@@ -1,5 +1,6 @@
 #pragma once
 // Helpers for tests: a fresh temporary directory per test, removed afterwards.
+#include <functional>
 #include <string>
 
 namespace nerfreg {
@@ -14,5 +15,8 @@ class ScopedTempDir {
  private:
   std::string path_;
 };
+
+// Runs f and returns the message of the InputError it throws, or "" when it throws none.
+std::string InputErrorOf(const std::function<void()>& f);
 
 }  // namespace nerfreg
