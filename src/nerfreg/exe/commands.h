@@ -18,6 +18,7 @@ int RunNerfExport(int argc, char** argv);
 // Registration (exe/reg_commands.cc)
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
+int RunRegRegisterMany(int argc, char** argv);
 // DBARF (exe/dbarf_commands.cc)
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
@@ -30,5 +31,6 @@ int RunReport(int argc, char** argv);
   {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
   {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
   {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
+  {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -5,6 +5,7 @@
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/render/point_splat.h"
 #include "nerfreg/util/error.h"
@@ -142,5 +143,80 @@ int RunRegEval(int argc, char** argv) {
   std::printf("%-14s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
   std::printf("%-14s %10.3f %12.4f %10.4f %8s\n", p.StringOr("method", "?").c_str(), rot, trans, trans / extent,
               success ? "yes" : "no");
+  return 0;
+}
+
+int RunRegRegisterMany(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Register many NeRF blocks into one frame (block 0's): every pair is registered, pairs that agree "
+                  "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
+                  "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
+                  "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
+  std::vector<std::string> paths;
+  std::string out;
+  double min_density = 5.0, voxel = 0.05, min_confidence = 0.3;
+  unsigned seed = 0;
+  app.add_option("blocks", paths, "Block checkpoints (the first defines the world frame)")->required()->expected(2, 1000);
+  app.add_option("--out", out, "Output JSON")->required();
+  app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
+  app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
+  app.add_option("--min-confidence", min_confidence, "Pairs below this fitness are not used (default 0.3)");
+  app.add_option("--seed", seed, "Random seed");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force);
+  Timer timer;
+  const int n = static_cast<int>(paths.size());
+  std::vector<Eigen::Matrix3Xd> clouds;
+  for (const auto& p : paths) {
+    NerfBlock b = LoadNerfBlock(p);
+    clouds.push_back(ToEigen(ExtractOccupiedPoints(b, min_density, seed).xyz));
+    if (clouds.back().cols() < 100) LOG_WARN("{}: only {} occupied points", p, clouds.back().cols());
+  }
+  ClassicalRegistrationOptions options;
+  options.voxel_size = voxel;
+  options.normal_radius = 2 * voxel;
+  options.feature_radius = 5 * voxel;
+  options.seed = seed;
+  std::vector<PoseGraphEdge> edges;
+  Json edges_json = Json::array();
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
+      const ClassicalRegistrationResult r = RegisterPointClouds(clouds[i], clouds[j], options);
+      const bool used = r.fitness >= min_confidence;
+      edges_json.push_back({{"source", i}, {"target", j}, {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+                            {"confidence", r.fitness}, {"used", used}});
+      if (!used) continue;
+      PoseGraphEdge e;
+      e.i = i;
+      e.j = j;
+      e.j_from_i = r.target_from_source;
+      e.weight = r.fitness;
+      edges.push_back(e);
+    }
+  }
+  const PoseGraphResult g = OptimizePoseGraph(n, edges, PoseGraphOptions{});
+  Json world_from_block = Json::array(), connected = Json::array();
+  for (int k = 0; k < n; ++k) {
+    // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
+    world_from_block.push_back(MatrixToJson(g.world_from_node[k].ToMatrix()));
+    connected.push_back(static_cast<bool>(g.connected[k]));
+    if (!g.connected[k]) LOG_WARN("{}: no confident registration links it to block 0; left at identity", paths[k]);
+  }
+  size_t used = 0;
+  for (size_t e = 0, k = 0; e < edges_json.size(); ++e) {
+    if (!edges_json[e]["used"].get<bool>()) continue;
+    edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
+    edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
+    ++k;
+    ++used;
+  }
+  const Json result = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
+                       {"seconds", timer.Seconds()}, {"blocks", paths}};
+  WriteJsonFile(out, result);
+  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", n, used, edges_json.size(), timer.Seconds());
   return 0;
 }
