@@ -70,7 +70,9 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const 
   TORCH_CHECK(positions.dim() == 2 && positions.size(1) == 3, "NerfField: positions must be [N, 3]");
   const auto unit = (positions - aabb_min_) / aabb_size_;
   const auto inside = ((unit >= 0) & (unit <= 1)).all(1);
-  const auto h = density_mlp_->forward(HashEncode(unit.contiguous(), table, options_.encoding));
+  const auto encoded = options_.reference_kernels ? HashEncodeReference(unit, table, options_.encoding)
+                                                  : HashEncode(unit.contiguous(), table, options_.encoding);
+  const auto h = density_mlp_->forward(encoded);
   const auto sigma = TruncExp(h.select(1, 0) - 1.0) * inside.to(h.dtype());
   return {sigma, h.slice(1, 1)};
 }

@@ -17,6 +17,9 @@ struct FieldOptions {
   // Axis-aligned box the field lives in (world units of the block); outside, density is 0.
   std::vector<double> aabb_min = {-1.5, -1.5, -1.5};
   std::vector<double> aabb_max = {1.5, 1.5, 1.5};
+  // Use the torch-ops reference kernels (encoding here, compositing in the trainer) instead of
+  // the fused ones: for tests and benchmarks only, not saved in checkpoints.
+  bool reference_kernels = false;
   void Check() const;  // throws std::invalid_argument
 };
 

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
+#include <algorithm>
 
 namespace nerfreg {
 
@@ -47,15 +49,15 @@ inline std::uint32_t GridIndex(const LevelInfo& li, std::uint32_t x, std::uint32
   return (x ^ (y * kPrime1) ^ (z * kPrime2)) & mask;
 }
 
-// The 8 corners of one point at one level: table indices and trilinear weights.
+// The 8 corners of one point at one level: table indices and trilinear weights. pos >= 0.5, so
+// truncation is floor (std::floor is a libm call on baseline x86-64).
 inline void Corners(const LevelInfo& li, const float* p, std::uint32_t mask, std::uint32_t idx[8], float w[8]) {
   float frac[3];
   std::uint32_t base[3];
   for (int d = 0; d < 3; ++d) {
     const float pos = std::min(std::max(p[d], 0.f), 1.f) * li.scale + 0.5f;
-    const float fl = std::floor(pos);
-    frac[d] = pos - fl;
-    base[d] = static_cast<std::uint32_t>(fl);
+    base[d] = static_cast<std::uint32_t>(pos);
+    frac[d] = pos - static_cast<float>(base[d]);
   }
   for (int c = 0; c < 8; ++c) {
     const std::uint32_t dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
@@ -63,6 +65,11 @@ inline void Corners(const LevelInfo& li, const float* p, std::uint32_t mask, std
     idx[c] = GridIndex(li, base[0] + dx, base[1] + dy, base[2] + dz, mask);
   }
 }
+
+// Points are processed in groups: every corner of the group is located and its cache line
+// prefetched before any is read, so the fine levels' misses (tables beyond L2) overlap instead of
+// queueing one level at a time.
+constexpr int kGroup = 8;
 
 class HashEncodingFunction : public torch::autograd::Function<HashEncodingFunction> {
  public:
@@ -77,17 +84,33 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     const float* tab = table.data_ptr<float>();
     float* dst = out.data_ptr<float>();
     const std::int64_t level_stride = o.TableSize() * F;
-#pragma omp parallel for schedule(static)
-    for (std::int64_t i = 0; i < n; ++i) {
-      std::uint32_t idx[8];
-      float w[8];
-      for (int l = 0; l < L; ++l) {
-        Corners(levels[l], pos + 3 * i, mask, idx, w);
-        const float* t = tab + l * level_stride;
-        for (int f = 0; f < F; ++f) {
-          float acc = 0;
-          for (int c = 0; c < 8; ++c) acc += w[c] * t[idx[c] * F + f];
-          dst[i * L * F + l * F + f] = acc;
+#pragma omp parallel
+    {
+      std::vector<std::uint32_t> idx(std::size_t(kGroup) * L * 8);
+      std::vector<float> w(std::size_t(kGroup) * L * 8);
+#pragma omp for schedule(static)
+      for (std::int64_t i0 = 0; i0 < n; i0 += kGroup) {
+        const int g_end = static_cast<int>(std::min<std::int64_t>(kGroup, n - i0));
+        for (int g = 0; g < g_end; ++g) {
+          for (int l = 0; l < L; ++l) {
+            std::uint32_t* id = &idx[(g * L + l) * 8];
+            Corners(levels[l], pos + 3 * (i0 + g), mask, id, &w[(g * L + l) * 8]);
+            const float* t = tab + l * level_stride;
+            for (int c = 0; c < 8; c += 2) __builtin_prefetch(t + std::size_t(id[c]) * F);
+          }
+        }
+        for (int g = 0; g < g_end; ++g) {
+          float* out_row = dst + (i0 + g) * L * F;
+          for (int l = 0; l < L; ++l) {
+            const std::uint32_t* id = &idx[(g * L + l) * 8];
+            const float* wc = &w[(g * L + l) * 8];
+            const float* t = tab + l * level_stride;
+            for (int f = 0; f < F; ++f) {
+              float acc = 0;
+              for (int c = 0; c < 8; ++c) acc += wc[c] * t[std::size_t(id[c]) * F + f];
+              out_row[l * F + f] = acc;
+            }
+          }
         }
       }
     }
@@ -115,20 +138,26 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     const std::uint32_t mask = static_cast<std::uint32_t>(o.TableSize() - 1);
     auto grad_table = torch::zeros({L, o.TableSize(), F}, grad_out.options());
     const float* pos = positions.data_ptr<float>();
-    const float* g = grad_out.data_ptr<float>();
+    const float* g_out = grad_out.data_ptr<float>();
     float* gt = grad_table.data_ptr<float>();
     const std::int64_t level_stride = o.TableSize() * F;
     // One level per thread: scatters into a level's slice never race.
 #pragma omp parallel for schedule(dynamic, 1)
     for (int l = 0; l < L; ++l) {
-      std::uint32_t idx[8];
-      float w[8];
+      std::uint32_t idx[kGroup][8];
+      float w[kGroup][8];
       float* t = gt + l * level_stride;
-      for (std::int64_t i = 0; i < n; ++i) {
-        Corners(levels[l], pos + 3 * i, mask, idx, w);
-        const float* gi = g + i * L * F + l * F;
-        for (int c = 0; c < 8; ++c)
-          for (int f = 0; f < F; ++f) t[idx[c] * F + f] += w[c] * gi[f];
+      for (std::int64_t i0 = 0; i0 < n; i0 += kGroup) {
+        const int g_end = static_cast<int>(std::min<std::int64_t>(kGroup, n - i0));
+        for (int g = 0; g < g_end; ++g) {
+          Corners(levels[l], pos + 3 * (i0 + g), mask, idx[g], w[g]);
+          for (int c = 0; c < 8; c += 2) __builtin_prefetch(t + std::size_t(idx[g][c]) * F, 1);
+        }
+        for (int g = 0; g < g_end; ++g) {
+          const float* gi = g_out + (i0 + g) * L * F + l * F;
+          for (int c = 0; c < 8; ++c)
+            for (int f = 0; f < F; ++f) t[std::size_t(idx[g][c]) * F + f] += w[g][c] * gi[f];
+        }
       }
     }
     return {torch::Tensor(), grad_table, torch::Tensor()};

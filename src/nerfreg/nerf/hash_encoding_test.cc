@@ -54,6 +54,25 @@ TEST(HashEncoding, FusedBackwardEqualsReferenceAndFiniteDifferences) {
   }
 }
 
+TEST(HashEncoding, FusedHandlesAnyPointCountAndOutOfRangePositions) {
+  // The kernels work on groups of points: counts around the group size, and positions outside
+  // [0, 1] (clamped), must match the reference.
+  torch::manual_seed(5);
+  const auto o = SmallOptions();
+  const auto table = torch::randn({o.levels, o.TableSize(), o.features});
+  for (std::int64_t n : {0, 1, 7, 8, 9, 17}) {
+    const auto x = torch::rand({n, 3}) * 1.4 - 0.2;
+    auto t1 = table.clone().requires_grad_(true), t2 = table.clone().requires_grad_(true);
+    const auto a = HashEncode(x, t1, o), b = HashEncodeReference(x, t2, o);
+    ASSERT_EQ(a.sizes(), b.sizes()) << n;
+    if (n == 0) continue;
+    EXPECT_LT((a - b).abs().max().item<float>(), 1e-5) << n;
+    a.sum().backward();
+    b.sum().backward();
+    EXPECT_LT((t1.grad() - t2.grad()).abs().max().item<float>(), 1e-5) << n;
+  }
+}
+
 TEST(HashEncoding, InterpolatesGridValuesExactlyAtVertices) {
   // A point on a level-0 grid vertex reads exactly that vertex's feature.
   auto o = SmallOptions();

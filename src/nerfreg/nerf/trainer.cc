@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/nerf/sparse_adam.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image_metrics.h"
@@ -52,7 +53,7 @@ void NerfTrainOptions::Check() const {
 
 Json NerfTrainOptions::ToJson() const {
   return {{"preset", preset}, {"iterations", iterations}, {"target_samples", target_samples},
-          {"lr", lr}, {"seed", seed}, {"random_background", random_background},
+          {"lr", lr}, {"seed", seed}, {"random_background", random_background}, {"sparse_table_adam", sparse_table_adam},
           {"grid_resolution", grid.resolution}, {"step_size", march.step_size},
           {"log2_table_size", field.encoding.log2_table_size}};
 }
@@ -135,14 +136,19 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   NerfBlock block;
   torch::optim::Adam* optimizer = nullptr;
   std::unique_ptr<torch::optim::Adam> opt_holder;
+  std::unique_ptr<SparseAdam> table_adam;  // the table's optimizer when options.sparse_table_adam
   double seconds_before = 0;
   auto make_optimizer = [&] {
     std::vector<torch::optim::OptimizerParamGroup> groups;
     std::vector<torch::Tensor> mlp;
     for (const auto& p : block.field->named_parameters())
       if (p.key() != "table") mlp.push_back(p.value());
-    groups.emplace_back(std::vector<torch::Tensor>{block.field->table},
-                        std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(options.lr).eps(1e-15)));
+    if (options.sparse_table_adam) {
+      table_adam = std::make_unique<SparseAdam>(block.field->table, SparseAdamOptions{0.9, 0.999, 1e-15});
+    } else {
+      groups.emplace_back(std::vector<torch::Tensor>{block.field->table},
+                          std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(options.lr).eps(1e-15)));
+    }
     groups.emplace_back(mlp, std::make_unique<torch::optim::AdamOptions>(
                                  torch::optim::AdamOptions(options.lr).eps(1e-15).weight_decay(1e-6)));
     opt_holder = std::make_unique<torch::optim::Adam>(groups, torch::optim::AdamOptions(options.lr).eps(1e-15));
@@ -151,16 +157,19 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   int n_rays = options.initial_rays;
   if (resume) {
     torch::Tensor gen_state, rays_tensor, seconds_tensor;
-    std::unique_ptr<torch::serialize::InputArchive> opt_archive;
+    std::unique_ptr<torch::serialize::InputArchive> opt_archive, table_archive;
     block = LoadNerfBlock(ckpt, [&](torch::serialize::InputArchive& ar) {
       opt_archive = std::make_unique<torch::serialize::InputArchive>();
       ar.read("optimizer", *opt_archive);
+      table_archive = std::make_unique<torch::serialize::InputArchive>();
+      options.sparse_table_adam = ar.try_read("table_adam", *table_archive);
       ar.read("rng", gen_state);
       ar.read("n_rays", rays_tensor);
       ar.read("seconds", seconds_tensor);
     });
     make_optimizer();
     optimizer->load(*opt_archive);
+    if (table_adam) table_adam->Load(*table_archive, "table");
     gen.set_state(gen_state);
     n_rays = static_cast<int>(rays_tensor.item<std::int64_t>());
     seconds_before = seconds_tensor.item<double>();
@@ -184,6 +193,11 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       torch::serialize::OutputArchive opt_ar;
       optimizer->save(opt_ar);
       ar.write("optimizer", opt_ar);
+      if (table_adam) {
+        torch::serialize::OutputArchive table_ar;
+        table_adam->Save(table_ar, "table");
+        ar.write("table_adam", table_ar);
+      }
       ar.write("rng", GeneratorState(gen));
       ar.write("n_rays", torch::tensor(static_cast<std::int64_t>(n_rays)));
       ar.write("seconds", torch::tensor(secs, torch::kFloat64));
@@ -218,7 +232,9 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       const auto t_mid = 0.5 * (s.t_starts + s.t_ends);
       const auto pos = o.index_select(0, s.ray_ids) + d.index_select(0, s.ray_ids) * t_mid.unsqueeze(1);
       auto [sigma, rgb] = block.field->Forward(pos, d.index_select(0, s.ray_ids));
-      const auto comp = Composite(sigma, rgb, s.t_starts, s.t_ends, s.offsets);
+      const auto comp = options.field.reference_kernels
+                            ? CompositeReference(sigma, rgb, s.t_starts, s.t_ends, s.offsets)
+                            : Composite(sigma, rgb, s.t_starts, s.t_ends, s.offsets);
       const auto bg = has_alpha && options.random_background ? torch::rand({n_rays, 3}, gen) : torch::ones({n_rays, 3});
       const auto alpha = target_rgba.slice(1, 3, 4);
       const auto target = target_rgba.slice(1, 0, 3) * alpha + bg * (1 - alpha);
@@ -230,8 +246,10 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
                                  std::to_string(step) + "; the last good checkpoint " + ckpt + " was kept");
       }
       optimizer->zero_grad();
+      block.field->table.mutable_grad() = torch::Tensor();  // the encoding's backward hands over a fresh one
       loss.backward();
       optimizer->step();
+      if (table_adam) table_adam->Step(lr);
       // Keep about target_samples samples per batch.
       const double ratio = double(options.target_samples) / double(S);
       n_rays = static_cast<int>(std::clamp<double>(n_rays * ratio, 64, options.max_rays));

@@ -122,5 +122,22 @@ TEST(NerfTrainer, BadCheckpointsAndDatasetsAreNamedErrors) {
   EXPECT_THROW(TrainNerfBlock(no_train, TinyOptions(1), dir.File("x.ckpt"), false), InputError);
 }
 
+TEST(NerfTrainer, SparseTableAdamResumesExactly) {
+  torch::set_num_threads(2);
+  ScopedTempDir dir;
+  const Dataset d = TinyDataset(dir.path());
+  NerfTrainOptions o = TinyOptions(24);
+  o.sparse_table_adam = true;
+  TrainNerfBlock(d, o, dir.File("straight.ckpt"), false);
+  NerfTrainOptions half = o;
+  half.stop_after = 12;
+  TrainNerfBlock(d, half, dir.File("resumed.ckpt"), false);
+  TrainNerfBlock(d, TinyOptions(24), dir.File("resumed.ckpt"), true);  // the checkpoint's optimizer is kept
+  NerfBlock a = LoadNerfBlock(dir.File("straight.ckpt")), b = LoadNerfBlock(dir.File("resumed.ckpt"));
+  EXPECT_EQ(b.step, 24);
+  EXPECT_TRUE(b.train_options.value("sparse_table_adam", false));
+  EXPECT_LT((a.field->table - b.field->table).abs().max().item<float>(), 1e-6);
+}
+
 }  // namespace
 }  // namespace nerfreg
