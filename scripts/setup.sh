@@ -18,7 +18,8 @@ PACKAGES=(
   chromium
   # fuzzing (libFuzzer) and the sanitizer build
   clang libclang-rt-14-dev
-  # meshes used by tests and training data (libcgal-demo is reserved for independent evaluation)
+  # meshes used by tests and training data (the CGAL demo meshes are reserved for independent
+  # evaluation and are never installed or used here)
   assimp-testmodels openscad-testing-data
   # COLMAP interop tests and baselines
   colmap

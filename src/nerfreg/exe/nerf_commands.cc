@@ -6,6 +6,7 @@
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/mesh_export.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/util/error.h"
@@ -141,17 +142,9 @@ int RunNerfExport(int argc, char** argv) {
   CheckCanWriteOutput(points, common.force);
   NerfBlock block = LoadNerfBlock(ckpt);
   torch::NoGradGuard no_grad;
-  // One jittered point per occupied cell, kept where the density is high; coloured by the field
-  // seen from above (a fixed direction: the export has no viewer).
-  const auto centres = block.grid->CellCenters();
-  const auto occ = block.grid->occupied().reshape(-1);
-  const auto cand = centres.index_select(0, occ.nonzero().squeeze(1));
-  const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
-  const auto pts = cand + (torch::rand_like(cand) - 0.5) * cell;
-  const auto dirs = torch::tensor({0.f, 0.f, -1.f}).expand({pts.size(0), 3}).contiguous();
-  auto [sigma, rgb] = block.field->Forward(pts, dirs);
-  const auto keep = (sigma > threshold).nonzero().squeeze(1);
-  const auto p = pts.index_select(0, keep).contiguous(), c = rgb.index_select(0, keep).contiguous();
+  // One jittered point per occupied cell above the density threshold, view-averaged colour.
+  const BlockPoints exported = ExtractOccupiedPoints(block, threshold);
+  const auto p = exported.xyz.contiguous(), c = exported.rgb.clamp(0, 1).contiguous();
   std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(p.size(0)) +
                     "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
                     "property uchar blue\nend_header\n";
