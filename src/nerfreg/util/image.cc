@@ -11,35 +11,75 @@
 
 namespace nerfreg {
 
+namespace {
+
+// stb_image trusts PNG chunk lengths and allocates them before reading (a 100-byte file claiming
+// a 4 GB IDAT chunk asks for 4 GB; found by fuzzing). Walk the chunks first: every chunk must fit
+// in the file.
+void CheckPngChunks(const std::string& bytes, const std::string& path) {
+  static const char kSignature[] = "\x89PNG\r\n\x1a\n";
+  if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0) return;  // not a PNG
+  size_t pos = 8;
+  while (pos + 8 <= bytes.size()) {
+    const auto* u = reinterpret_cast<const unsigned char*>(bytes.data() + pos);
+    const std::uint64_t length = (std::uint64_t(u[0]) << 24) | (u[1] << 16) | (u[2] << 8) | u[3];
+    if (length > bytes.size() - pos - 8) {
+      ThrowInputError(path, "PNG chunk at byte " + std::to_string(pos), "a chunk length within the file, got " + std::to_string(length));
+    }
+    if (bytes.compare(pos + 4, 4, "IEND") == 0) return;
+    pos += 12 + length;  // length, type, data, CRC
+  }
+}
+
+Image Decode(const std::string& bytes, const std::string& path, int channels, int* w, int* h, int* c) {
+  if (!stbi_info_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), w, h, c)) {
+    ThrowInputError(path, "", std::string("a PNG or JPEG image (") + stbi_failure_reason() + ")");
+  }
+  if (*w <= 0 || *h <= 0 || static_cast<std::int64_t>(*w) * *h > kMaxImagePixels) {
+    ThrowInputError(path, "size",
+                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*w) + "x" +
+                        std::to_string(*h));
+  }
+  if (channels < 0) return Image();  // size only
+  CheckPngChunks(bytes, path);
+  unsigned char* pixels =
+      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), w, h, c, channels);
+  if (pixels == nullptr) {
+    ThrowInputError(path, "", std::string("a decodable PNG or JPEG (") + stbi_failure_reason() + ")");
+  }
+  const int out_c = channels == 0 ? *c : channels;
+  Image image(*w, *h, out_c);
+  for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = pixels[i] / 255.f;
+  stbi_image_free(pixels);
+  return image;
+}
+
+// Largest image file read (a 16384^2 RGBA PNG compresses far below this).
+constexpr std::int64_t kMaxImageFileBytes = std::int64_t(1) << 30;
+
+}  // namespace
+
 void ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
   if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
+  // Only the header is needed: stbi_info reads a few hundred bytes from the file.
   if (!stbi_info(path.c_str(), width, height, channels)) {
     ThrowInputError(path, "", std::string("a PNG or JPEG image (") + stbi_failure_reason() + ")");
   }
-  if (*width <= 0 || *height <= 0 ||
-      static_cast<std::int64_t>(*width) * *height > kMaxImagePixels) {
+  if (*width <= 0 || *height <= 0 || static_cast<std::int64_t>(*width) * *height > kMaxImagePixels) {
     ThrowInputError(path, "size",
-                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " +
-                        std::to_string(*width) + "x" + std::to_string(*height));
+                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*width) + "x" +
+                        std::to_string(*height));
   }
 }
 
 Image ReadImage(const std::string& path, int channels) {
-  int w = 0, h = 0, c = 0;
-  ReadImageSize(path, &w, &h, &c);
   if (channels != 0 && channels != 1 && channels != 3 && channels != 4) {
     throw std::invalid_argument("ReadImage: channels must be 0, 1, 3 or 4");
   }
-  unsigned char* pixels = stbi_load(path.c_str(), &w, &h, &c, channels);
-  if (pixels == nullptr) {
-    ThrowInputError(path, "", std::string("a decodable PNG or JPEG (") + stbi_failure_reason() + ")");
-  }
-  const int out_c = channels == 0 ? c : channels;
-  Image image(w, h, out_c);
-  const size_t n = image.data.size();
-  for (size_t i = 0; i < n; ++i) image.data[i] = pixels[i] / 255.f;
-  stbi_image_free(pixels);
-  return image;
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
+  const std::string bytes = ReadFileToString(path, kMaxImageFileBytes);
+  int w = 0, h = 0, c = 0;
+  return Decode(bytes, path, channels, &w, &h, &c);
 }
 
 void WriteImage(const std::string& path, const Image& image) {

@@ -55,6 +55,24 @@ TEST(Image, HugeHeaderRefusedBeforeDecoding) {
   EXPECT_THROW(ReadImage(dir.File("huge.png")), InputError);
 }
 
+TEST(Image, PngChunkLongerThanTheFileIsRefusedBeforeAllocating) {
+  // A 4x3 PNG whose IDAT chunk claims 0xFFFFFFFF bytes (a fuzzer finding: stb allocated them).
+  ScopedTempDir dir;
+  Image tiny(4, 3, 3, 0.5f);
+  WriteImage(dir.File("t.png"), tiny);
+  std::string bytes = ReadFileToString(dir.File("t.png"));
+  const size_t idat = bytes.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  for (int k = 0; k < 4; ++k) bytes[idat - 4 + k] = '\xff';
+  WriteFileAtomic(dir.File("hostile.png"), bytes);
+  try {
+    ReadImage(dir.File("hostile.png"));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("hostile.png: PNG chunk"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Image, CompositeOverWhite) {
   Image rgba(1, 1, 4);
   rgba.data = {1.f, 0.f, 0.f, 0.25f};
