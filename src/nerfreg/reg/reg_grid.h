@@ -1,0 +1,60 @@
+#pragma once
+// The voxel grid DReg-NeRF registers (spec dreg-nerf.md 3): what one NeRF block looks like to the
+// registration network, extracted once from the block's field (reg/grid_extraction.h) or
+// synthesised from a mesh for extra training data, and cached on disk.
+//
+// Layout: a cubic grid of D^3 voxels over [aabb_min, aabb_max] in the block's frame. Tensor index
+// [..., i, j, k] is the voxel whose centre is aabb_min + (i + 0.5, j + 0.5, k + 0.5) * cell along
+// (x, y, z), the same order as nerf/occupancy_grid.h. (To sample with torch::grid_sample, whose
+// last grid coordinate indexes dim 2 of a [N, C, D, H, W] input, pass normalised (z, y, x).)
+#include <torch/torch.h>
+
+#include <Eigen/Core>
+#include <string>
+
+namespace nerfreg {
+
+constexpr int kRegGridVersion = 1;
+
+struct RegGrid {
+  // [4, D, D, D] float32: RGB averaged over view directions and alpha = clip(1 - exp(-0.01 sigma),
+  // 0, 1) at each voxel's sample point; zero where the voxel is not occupied. The CNN's input.
+  torch::Tensor rgba;
+  // [D, D, D, 3] float32: each voxel's (jittered) sample point in the block's frame. The
+  // keypoints' coordinates come from here, not from the voxel centres.
+  torch::Tensor xyz;
+  // [D, D, D] float32 in [0, 1]: the surface field S (probability that a training camera's ray
+  // hits a surface at the voxel). The confidence and correspondence labels.
+  torch::Tensor surface;
+  // [D, D, D] bool: the voxels the network sees: density > threshold AND S >= 0.5 (the paper's
+  // mask), or density alone for the "df" variant.
+  torch::Tensor mask;
+  Eigen::Vector3d aabb_min = Eigen::Vector3d::Constant(-1.5);
+  Eigen::Vector3d aabb_max = Eigen::Vector3d::Constant(1.5);
+  // Where the grid came from: "nerf" (a trained block) or "mesh" (synthesised), and the variant
+  // ("surface" or "df"); written next to results so a table says what it measured.
+  std::string source = "nerf";
+  std::string variant = "surface";
+
+  int Resolution() const { return static_cast<int>(surface.size(0)); }
+  double CellSize() const { return (aabb_max.x() - aabb_min.x()) / Resolution(); }
+  // [M, 3] keypoints, [M] surface labels, [M, 4] rgba at the mask, in mask.nonzero() order.
+  torch::Tensor MaskedXyz() const;
+  torch::Tensor MaskedSurface() const;
+  // Throws std::invalid_argument when shapes, dtypes or the box are inconsistent.
+  void Check() const;
+};
+
+// Grids are torch archives with a format tag and version; written atomically. Load throws
+// InputError naming the file when it is missing, truncated, not a grid, or of another version.
+void SaveRegGrid(const RegGrid& grid, const std::string& path);
+RegGrid LoadRegGrid(const std::string& path);
+
+// The grid moved by a rigid transform: xyz -> R xyz + t, box and voxel contents unchanged in
+// index space is NOT possible for an arbitrary rotation, so this resamples: the result covers the
+// transformed occupied points with the same resolution and cell size (nearest-voxel splatting of
+// the masked voxels). Used to augment training pairs and to test that register recovers a known
+// transform of the same grid.
+RegGrid TransformRegGrid(const RegGrid& grid, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
+
+}  // namespace nerfreg
