@@ -2,6 +2,8 @@
 // Every subcommand's entry point. Each layer's commands live in exe/<layer>_commands.cc.
 // To add a command: declare it here and add a row to NERFREG_COMMAND_TABLE.
 
+#include <string>
+
 namespace nerfreg {
 // Sets torch's intra-op thread count from the hardware (Debian's LibTorch defaults to 1).
 void InitThreads();
@@ -19,6 +21,13 @@ int RunNerfExport(int argc, char** argv);
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
 int RunRegRegisterMany(int argc, char** argv);
+// Registration data and training (exe/reg_data_commands.cc)
+int RunRegExtract(int argc, char** argv);
+int RunRegMakeData(int argc, char** argv);
+int RunRegTrain(int argc, char** argv);
+// The shipped DReg-NeRF weights (NERFREG_WEIGHTS overrides) and the default method (dreg when they exist).
+std::string DefaultDregWeights();
+std::string DefaultRegistrationMethod();
 // DBARF (exe/dbarf_commands.cc)
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
@@ -32,5 +41,8 @@ int RunReport(int argc, char** argv);
   {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
   {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
   {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
+  {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \
+  {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"}, \
+  {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"}, \
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -7,6 +7,9 @@
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg/grid_extraction.h"
+#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg/training_data.h"
 #include "nerfreg/render/point_splat.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -25,11 +28,35 @@ Eigen::Matrix3Xd ToEigen(const torch::Tensor& xyz) {
   return m;
 }
 
-Eigen::Matrix3Xd Transform(const Rigid3d& t, const Eigen::Matrix3Xd& p) {
-  return (t.RotationMatrix() * p).colwise() + t.translation;
+// Before / after: source in orange, target in blue, from three fixed viewpoints, beside `out`.
+void WriteOverlays(const std::string& out, const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
+                   const Sim3d& target_from_source) {
+  const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
+  auto subsample = [](const Eigen::Matrix3Xd& m) {
+    const Eigen::Index step = std::max<Eigen::Index>(1, m.cols() / 20000);
+    Eigen::Matrix3Xd s(3, (m.cols() + step - 1) / step);
+    for (Eigen::Index i = 0, k = 0; i < m.cols(); i += step, ++k) s.col(k) = m.col(i);
+    return s;
+  };
+  const Eigen::Matrix3Xd s_small = subsample(src), t_small = subsample(tgt);
+  Eigen::Matrix3Xd moved(3, s_small.cols());
+  for (Eigen::Index i = 0; i < s_small.cols(); ++i) moved.col(i) = target_from_source * Eigen::Vector3d(s_small.col(i));
+  const Eigen::Vector3d centre = t_small.cols() ? Eigen::Vector3d(t_small.rowwise().mean()) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3f orange(0.95f, 0.5f, 0.1f), blue(0.1f, 0.35f, 0.9f);
+  WriteImage(stem + "_before.png", ThreeViewOverlay({{s_small, orange}, {t_small, blue}}, centre, 5.0));
+  WriteImage(stem + "_after.png", ThreeViewOverlay({{moved, orange}, {t_small, blue}}, centre, 5.0));
 }
 
 }  // namespace
+
+// The shipped weights: NERFREG_WEIGHTS overrides; else models/dreg_cpu.pt of the source tree.
+std::string DefaultDregWeights() {
+  if (const char* env = std::getenv("NERFREG_WEIGHTS")) return env;
+  return std::string(NERFREG_MODELS_DIR) + "/dreg_cpu.pt";
+}
+
+// dreg when its weights are there, else FPFH + RANSAC.
+std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "dreg" : "ransac"; }
 
 int RunRegRegister(int argc, char** argv) {
   CLI::App app;
@@ -41,7 +68,8 @@ int RunRegRegister(int argc, char** argv) {
                   "registration), each with optional ICP refinement; dreg (the learned DReg-NeRF network) needs "
                   "trained weights. Writes T.json and before/after overlay pictures beside it.",
                   "nerfreg reg register runs/block_0.ckpt runs/block_1.ckpt --out runs/target_from_source.json");
-  std::string source_path, target_path, out, method = "ransac", refine = "icp", weights;
+  std::string source_path, target_path, out, method = DefaultRegistrationMethod(), refine = "icp", weights = DefaultDregWeights();
+  GridExtractionOptions grid_options;
   double min_density = 5.0, voxel = 0.05;
   unsigned seed = 0;
   app.add_option("source", source_path, "Source block checkpoint")->required();
@@ -49,17 +77,44 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("--out", out, "Output JSON")->required();
   app.add_option("--method", method, "ransac, fgr or dreg")->check(CLI::IsMember({"ransac", "fgr", "dreg"}));
   app.add_option("--refine", refine, "none or icp")->check(CLI::IsMember({"none", "icp"}));
-  app.add_option("--weights", weights, "DReg-NeRF weights (method dreg)");
+  app.add_option("--weights", weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
+  app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 64, as trained)");
   app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
   app.add_option("--seed", seed, "Random seed");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force);
-  if (method == "dreg") {
-    throw InputError("--method dreg: no trained DReg-NeRF weights are shipped yet; use --method ransac or fgr");
-  }
   Timer timer;
   NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
+  if (method == "dreg") {
+    if (weights.empty() || !FileExists(weights)) {
+      ThrowInputError(weights.empty() ? "--weights" : weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
+    }
+    DregModelOptions model_options;
+    DregNet net = LoadDregWeights(weights, &model_options);
+    Timer t_grid;
+    grid_options.seed = seed;
+    const RegGrid gs = ExtractRegGrid(source, grid_options), gt = ExtractRegGrid(target, grid_options);
+    const double grid_seconds = t_grid.Seconds();
+    GridRegistrationOptions ro;
+    ro.method = "dreg";
+    ro.icp = refine == "icp";
+    ro.voxel = voxel;
+    ro.seed = seed;
+    const GridRegistrationResult r = RegisterGrids(gs, gt, ro, &net);
+    if (r.source_points < 100 || r.target_points < 100) {
+      LOG_WARN("{}: few surface voxels (source {}, target {}): is a block empty?", out, r.source_points, r.target_points);
+    }
+    if (r.confidence < 0.3) LOG_WARN("{}: low confidence {:.2f}: the blocks may not overlap; do not trust this pose", out, r.confidence);
+    const Json result = {{"target_from_source", MatrixToJson(r.target_from_source)}, {"scale", r.scale},
+                         {"confidence", r.confidence}, {"seconds", timer.Seconds()}, {"register_seconds", r.seconds},
+                         {"grid_seconds", grid_seconds}, {"method", r.method}, {"weights", weights},
+                         {"source_points", r.source_points}, {"target_points", r.target_points}};
+    WriteJsonFile(out, result);
+    WriteOverlays(out, ToEigen(gs.MaskedXyz()), ToEigen(gt.MaskedXyz()), Sim3d::FromMatrix(r.target_from_source, 1e-3));
+    std::printf("%s\n", result.dump().c_str());
+    return 0;
+  }
   const BlockPoints ps = ExtractOccupiedPoints(source, min_density, seed), pt = ExtractOccupiedPoints(target, min_density, seed);
   const Eigen::Matrix3Xd src = ToEigen(ps.xyz), tgt = ToEigen(pt.xyz);
   Json result;
@@ -86,42 +141,150 @@ int RunRegRegister(int argc, char** argv) {
             {"source_points", src.cols()},
             {"target_points", tgt.cols()}};
   WriteJsonFile(out, result);
-  // Before / after: source in orange, target in blue, from three fixed viewpoints.
-  const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
-  auto subsample = [](const Eigen::Matrix3Xd& m) {
-    const Eigen::Index step = std::max<Eigen::Index>(1, m.cols() / 20000);
-    Eigen::Matrix3Xd s(3, (m.cols() + step - 1) / step);
-    for (Eigen::Index i = 0, k = 0; i < m.cols(); i += step, ++k) s.col(k) = m.col(i);
-    return s;
-  };
-  const Eigen::Matrix3Xd s_small = subsample(src), t_small = subsample(tgt);
-  const Eigen::Vector3d centre = t_small.cols() ? Eigen::Vector3d(t_small.rowwise().mean()) : Eigen::Vector3d::Zero();
-  const Eigen::Vector3f orange(0.95f, 0.5f, 0.1f), blue(0.1f, 0.35f, 0.9f);
-  WriteImage(stem + "_before.png", ThreeViewOverlay({{s_small, orange}, {t_small, blue}}, centre, 5.0));
-  WriteImage(stem + "_after.png",
-             ThreeViewOverlay({{Transform(r.target_from_source, s_small), orange}, {t_small, blue}}, centre, 5.0));
+  WriteOverlays(out, src, tgt, Sim3d(r.target_from_source));
   std::printf("%s\n", result.dump().c_str());
   return 0;
 }
+
+namespace {
+
+struct EvalRow {
+  std::string pair, method;
+  double rotation_deg = 0, translation = 0, seconds = 0, confidence = 0, overlap = 0;
+};
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+// Errors of an estimate against the truth: geodesic rotation angle (deg) and the full norm of
+// the translation difference (scene units).
+void Errors(const Eigen::Matrix4d& est_m, const Eigen::Matrix4d& gt_m, double* rot, double* trans) {
+  const Sim3d est = Sim3d::FromMatrix(est_m, 1e-3), gt = Sim3d::FromMatrix(gt_m, 1e-3);
+  *rot = RotationErrorDeg(est.rotation, gt.rotation);
+  *trans = TranslationError(est.translation, gt.translation);
+}
+
+// `reg eval --pairs`: every method on every pair's grids, one table.
+int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
+              const std::string& split, const std::string& weights, double voxel, int max_pairs, const std::string& out) {
+  std::vector<PairRecord> pairs;
+  for (const auto& p : ReadPairs(pairs_path))
+    if (split == "all" || p.split == split) pairs.push_back(p);
+  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
+  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
+  std::unique_ptr<DregNet> net;
+  for (const auto& m : methods) {
+    if (m == "dreg" && !net) {
+      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
+      DregModelOptions mo;
+      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
+    }
+  }
+  std::vector<EvalRow> rows;
+  std::printf("%-32s %-12s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+  for (const auto& p : pairs) {
+    const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
+    for (const auto& m : methods) {
+      for (const auto& rf : refines) {
+        GridRegistrationOptions o;
+        o.method = m;
+        o.icp = rf == "icp";
+        o.voxel = voxel;
+        const GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
+        EvalRow row;
+        row.pair = p.name;
+        row.method = r.method;
+        row.seconds = r.seconds;
+        row.confidence = r.confidence;
+        row.overlap = p.overlap;
+        Errors(r.target_from_source, p.target_from_source, &row.rotation_deg, &row.translation);
+        rows.push_back(row);
+        std::printf("%-32s %-12s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
+                    row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
+        std::fflush(stdout);
+      }
+    }
+  }
+  // Summary per method: mean, median, success at (5 deg, 0.05 extent) and (10 deg, 0.1 extent).
+  Json summary = Json::object();
+  std::printf("\n%-12s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
+              "succ 5/.05", "succ 10/.1", "med time");
+  std::vector<std::string> names;
+  for (const auto& r : rows)
+    if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
+  for (const auto& name : names) {
+    std::vector<double> rot, trans, secs;
+    int s5 = 0, s10 = 0;
+    for (const auto& r : rows) {
+      if (r.method != name) continue;
+      rot.push_back(r.rotation_deg);
+      trans.push_back(r.translation / 2.5);
+      secs.push_back(r.seconds);
+      s5 += r.rotation_deg <= 5 && r.translation / 2.5 <= 0.05;
+      s10 += r.rotation_deg <= 10 && r.translation / 2.5 <= 0.1;
+    }
+    double mean = 0;
+    for (double x : rot) mean += x / rot.size();
+    const double n = static_cast<double>(rot.size());
+    summary[name] = {{"pairs", rot.size()}, {"mean_rotation_deg", mean}, {"median_rotation_deg", Median(rot)},
+                     {"median_translation_fraction", Median(trans)}, {"success_5deg_0.05", s5 / n},
+                     {"success_10deg_0.1", s10 / n}, {"median_seconds", Median(secs)}};
+    std::printf("%-12s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean, Median(rot),
+                Median(trans), 100 * s5 / n, 100 * s10 / n, Median(secs));
+  }
+  if (!out.empty()) {
+    Json table = Json::array();
+    for (const auto& r : rows) {
+      table.push_back({{"pair", r.pair}, {"method", r.method}, {"rotation_error_deg", r.rotation_deg},
+                       {"translation_error", r.translation}, {"translation_error_fraction", r.translation / 2.5},
+                       {"confidence", r.confidence}, {"overlap", r.overlap}, {"seconds", r.seconds}});
+    }
+    WriteJsonFile(out, {{"pairs_file", pairs_path}, {"split", split}, {"rows", table}, {"summary", summary}});
+  }
+  return 0;
+}
+
+}  // namespace
 
 int RunRegEval(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Errors of an estimated target_from_source against a rendered dataset's ground truth: rotation "
-                  "(geodesic, degrees) and translation (full norm, scene units and as a fraction of the object extent "
-                  "2.5). Success: <= 5 deg and <= 0.05 of the extent.",
-                  "nerfreg reg eval --pair runs/t.json --ground-truth data/spider/ground_truth.json --source 0 --target 1");
-  std::string pair, gt_path, out;
-  int source = 0, target = 1;
-  app.add_option("--pair", pair, "Registration output (reg register)")->required();
-  app.add_option("--ground-truth", gt_path, "ground_truth.json of the rendered dataset")->required();
+                  "Registration errors against the ground truth: rotation (geodesic, degrees) and translation (full "
+                  "norm, also as a fraction of the object extent 2.5). Either one result (--pair + --ground-truth) or a "
+                  "table of every method on every pair of a reg make-data folder (--pairs), with mean, median and "
+                  "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
+                  "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
+  std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights();
+  std::vector<std::string> methods = {"ransac"}, refines = {"icp"};
+  int source = 0, target = 1, max_pairs = 0;
+  double voxel = 0.05;
+  app.add_option("--pair", pair, "Registration output (reg register)");
+  app.add_option("--ground-truth", gt_path, "ground_truth.json of the rendered dataset");
   app.add_option("--source", source, "Source block index (default 0)");
   app.add_option("--target", target, "Target block index (default 1)");
+  app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
+  app.add_option("--methods", methods, "With --pairs: dreg, ransac, fgr (comma separated)")->delimiter(',');
+  app.add_option("--refine", refines, "With --pairs: none, icp or both (comma separated)")->delimiter(',');
+  app.add_option("--split", split, "With --pairs: the pairs of this split (train, val or all; default val)");
+  app.add_option("--max-pairs", max_pairs, "With --pairs: at most this many pairs");
+  app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
+  app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!out.empty()) CheckCanWriteOutput(out, common.force);
+  if (!pairs_path.empty()) {
+    for (const auto& m : methods)
+      if (m != "dreg" && m != "ransac" && m != "fgr") ThrowInputError("--methods", "", "dreg, ransac or fgr, got " + m);
+    for (const auto& r : refines)
+      if (r != "none" && r != "icp") ThrowInputError("--refine", "", "none or icp, got " + r);
+    return EvalPairs(pairs_path, methods, refines, split, weights, voxel, max_pairs, out);
+  }
+  if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);
   const JsonField p(pj, pair), g(gj, gt_path);
   Sim3d est, src_from_world, tgt_from_world;

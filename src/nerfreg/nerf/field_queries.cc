@@ -8,6 +8,7 @@ namespace nerfreg {
 
 void SurfaceFieldOptions::Check() const {
   if (max_cameras < 1 || step_size < 0 || stop_before < 0) throw std::invalid_argument("SurfaceFieldOptions: out of range");
+  if (mode != "max_weight" && mode != "opacity") throw std::invalid_argument("SurfaceFieldOptions: mode must be max_weight or opacity");
 }
 
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) {
@@ -28,6 +29,10 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
   const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
   const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
+  const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32);
+  const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32);
+  const auto& occupied = block.grid->occupied();  // [G, G, G] bool
+  const std::int64_t g = block.grid->resolution();
   for (size_t c = 0; c < train.size(); c += stride) {
     const Frame& f = block.cameras.frames[train[c]];
     // Which points this camera sees (in front, inside the image).
@@ -46,18 +51,30 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
     const auto x = points.index_select(0, idx);
     const auto dist = (x - o).norm(2, 1);                 // [M]
     const auto dir = (x - o) / dist.unsqueeze(1);         // [M, 3]
-    // Uniform samples from the camera to X; each ray's samples beyond X (minus stop_before) are masked.
-    const int max_steps = static_cast<int>(std::ceil(dist.max().item<double>() / step));
+    // Each ray starts where it enters the field's box (density is zero outside it), so only the
+    // stretch inside the box is marched.
+    const auto inv = 1.0 / torch::where(dir.abs() < 1e-9, torch::full_like(dir, 1e-9), dir);
+    const auto t_a = (aabb_min - o) * inv, t_b = (aabb_max - o) * inv;
+    const auto t_enter = torch::clamp_min(torch::minimum(t_a, t_b).amax(1), 0.0);  // [M]
     for (std::int64_t s = 0; s < idx.numel(); s += 4096) {
-      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096);
+      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096), t0 = t_enter.slice(0, s, s + 4096);
       const std::int64_t m = d_s.size(0);
-      const auto ts = (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [K]
-      const auto valid = ts.unsqueeze(0) <= (d_s - options.stop_before).unsqueeze(1);  // [m, K]
-      const auto pos = o + dir_s.unsqueeze(1) * ts.view({1, -1, 1});                   // [m, K, 3]
-      auto sigma = QueryDensity(block, pos.reshape({-1, 3})).view({m, max_steps}) * valid.to(torch::kFloat32);
+      const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>()) / step)));
+      const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [m, K]
+      const auto valid = ts <= (d_s - options.stop_before).unsqueeze(1);                            // [m, K]
+      const auto pos = o + dir_s.unsqueeze(1) * ts.unsqueeze(2);                                    // [m, K, 3]
+      // Density only where the sample is valid and its occupancy cell is occupied.
+      const auto cell = ((pos - aabb_min) / (aabb_max - aabb_min) * g).floor().to(torch::kInt64);  // [m, K, 3]
+      const auto in_box = ((cell >= 0) & (cell < g)).all(2);
+      const auto cc = cell.clamp(0, g - 1);
+      const auto occ = occupied.index({cc.select(2, 0), cc.select(2, 1), cc.select(2, 2)});
+      const auto query = (valid & in_box & occ).reshape(-1).nonzero().squeeze(1);
+      auto sigma = torch::zeros({m * max_steps});
+      if (query.numel() > 0) sigma.index_copy_(0, query, QueryDensity(block, pos.reshape({-1, 3}).index_select(0, query)));
+      sigma = sigma.view({m, max_steps});
       const auto alpha = 1 - torch::exp(-sigma * step);
       const auto trans = torch::cat({torch::ones({m, 1}), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
-      const auto s_ray = (alpha * trans).amax(1);
+      const auto s_ray = options.mode == "opacity" ? (alpha * trans).sum(1) : (alpha * trans).amax(1);
       const auto sel = idx.slice(0, s, s + 4096);
       best.index_put_({sel}, torch::maximum(best.index_select(0, sel), s_ray));
     }

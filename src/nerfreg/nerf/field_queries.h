@@ -9,6 +9,8 @@
 //    colour and alpha (the voxel grid DReg-NeRF feeds its network).
 #include <torch/torch.h>
 
+#include <string>
+
 #include "nerfreg/nerf/nerf_block.h"
 
 namespace nerfreg {
@@ -20,6 +22,11 @@ struct SurfaceFieldOptions {
   int max_cameras = 16;        // the training cameras used per point: the nearest in viewing direction order
   double step_size = 0.0;      // march step; 0: the block's marching step
   double stop_before = 0.0;    // stop this far before X (0: at X, as the spec says)
+  // Per ray: "max_weight" is the spec's max_i alpha_i T_i; "opacity" is the opacity accumulated
+  // up to X, 1 - T(X) = sum_i alpha_i T_i. On a sharp surface both are ~1; on the blurrier blocks
+  // a CPU trains in minutes a surface spreads its weight over several samples, so the maximum
+  // weight stays below the 0.5 threshold while the accumulated opacity still reaches it.
+  std::string mode = "max_weight";
   void Check() const;
 };
 

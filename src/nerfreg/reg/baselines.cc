@@ -34,6 +34,22 @@ std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pt
   return down;
 }
 
+ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t source_points, size_t target_points,
+                                     double seconds) {
+  ClassicalRegistrationResult out;
+  // Open3D may return a numerically slightly non-orthonormal rotation: project it.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d rot = svd.matrixU() * svd.matrixV().transpose();
+  if (rot.determinant() < 0) rot = -rot;
+  out.target_from_source = Rigid3d(rot, r.transformation_.topRightCorner<3, 1>());
+  out.fitness = r.fitness_;
+  out.inlier_rmse = r.inlier_rmse_;
+  out.seconds = seconds;
+  out.source_points = static_cast<int>(source_points);
+  out.target_points = static_cast<int>(target_points);
+  return out;
+}
+
 }  // namespace
 
 ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
@@ -64,18 +80,20 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
     r = reg::RegistrationICP(*src, *tgt, d, r.transformation_, reg::TransformationEstimationPointToPlane(),
                              reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
   }
-  ClassicalRegistrationResult out;
-  // Open3D may return a numerically slightly non-orthonormal rotation: project it.
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d rot = svd.matrixU() * svd.matrixV().transpose();
-  if (rot.determinant() < 0) rot = -rot;
-  out.target_from_source = Rigid3d(rot, r.transformation_.topRightCorner<3, 1>());
-  out.fitness = r.fitness_;
-  out.inlier_rmse = r.inlier_rmse_;
-  out.seconds = timer.Seconds();
-  out.source_points = static_cast<int>(src->points_.size());
-  out.target_points = static_cast<int>(tgt->points_.size());
-  return out;
+  return ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
+}
+
+ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                          const Rigid3d& initial, const ClassicalRegistrationOptions& o) {
+  o.Check();
+  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  Timer timer;
+  const auto src = Prepare(source, o), tgt = Prepare(target, o);
+  const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
+  const auto r = reg::RegistrationICP(*src, *tgt, d, initial.ToMatrix(), reg::TransformationEstimationPointToPlane(),
+                                      reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
+  return ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
 }
 
 }  // namespace nerfreg

@@ -35,4 +35,11 @@ struct ClassicalRegistrationResult {
 ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                                 const ClassicalRegistrationOptions& options);
 
+// Point-to-plane ICP alone from an initial estimate (the refinement of a learned registration),
+// on the same downsampled clouds and normals as RegisterPointClouds. Uses voxel_size,
+// normal_radius and icp_distance of `options`.
+ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                          const Rigid3d& initial_target_from_source,
+                                          const ClassicalRegistrationOptions& options);
+
 }  // namespace nerfreg

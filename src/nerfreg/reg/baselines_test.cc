@@ -45,5 +45,20 @@ TEST(ClassicalRegistration, RansacAndIcpRecoverAKnownTransform) {
   EXPECT_THROW(RegisterPointClouds(Eigen::Matrix3Xd(3, 1), tgt, o), std::invalid_argument);
 }
 
+TEST(ClassicalRegistration, IcpRefinesANearbyEstimate) {
+  const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized())), Eigen::Vector3d(0.2, 0, -0.1));
+  Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);
+  for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
+  // 4 degrees and 0.05 off, as a coarse learned estimate might be.
+  const Rigid3d init = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d::UnitX())), Eigen::Vector3d(0.05, 0, 0)) * gt;
+  ClassicalRegistrationOptions o;
+  o.voxel_size = 0.04;
+  const auto r = RefineWithIcp(src, tgt, init, o);
+  EXPECT_GT(RotationErrorDeg(init.rotation, gt.rotation), 3.9);
+  EXPECT_LT(RotationErrorDeg(r.target_from_source.rotation, gt.rotation), 0.5);
+  EXPECT_LT((r.target_from_source.translation - gt.translation).norm(), 0.01);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -50,11 +50,11 @@ struct RegGrid {
 void SaveRegGrid(const RegGrid& grid, const std::string& path);
 RegGrid LoadRegGrid(const std::string& path);
 
-// The grid moved by a rigid transform: xyz -> R xyz + t, box and voxel contents unchanged in
-// index space is NOT possible for an arbitrary rotation, so this resamples: the result covers the
-// transformed occupied points with the same resolution and cell size (nearest-voxel splatting of
-// the masked voxels). Used to augment training pairs and to test that register recovers a known
-// transform of the same grid.
+// The grid seen from another frame: new_from_old = (rotation, translation). The box keeps its
+// size and follows its centre; the content is resampled (each new voxel takes the old voxel its
+// centre maps back into; sample points are jittered in their new cells), so the masked surface is
+// the same surface in the new frame. Used to augment training pairs (the CNN sees a rotated grid)
+// and to test that registration recovers a known transform of the same grid.
 RegGrid TransformRegGrid(const RegGrid& grid, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
 
 }  // namespace nerfreg

@@ -1,0 +1,132 @@
+// Commands that make and use the registration network's data: reg extract | reg make-data | reg train.
+#include <thread>
+
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/reg/dreg_trainer.h"
+#include "nerfreg/reg/grid_extraction.h"
+#include "nerfreg/reg/training_data.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+using namespace nerfreg;
+
+namespace {
+
+void AddGridOptions(CLI::App& app, GridExtractionOptions* g) {
+  app.add_option("--grid-resolution", g->resolution, "Voxels per side of the grid (default 64; the paper 128)");
+  app.add_option("--grid-side", g->side, "Side of the grid's cube, block units (default 3.6)");
+  app.add_option("--min-density", g->min_density, "Density mask threshold (default 0.7, the paper's)");
+  app.add_option("--variant", g->variant, "surface (density AND surface field) or df (density only)")
+      ->check(CLI::IsMember({"surface", "df"}));
+  app.add_option("--surface-cameras", g->surface.max_cameras, "Training cameras the surface field marches from (default 16)");
+}
+
+}  // namespace
+
+int RunRegExtract(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Extract the voxel grid DReg-NeRF registers from a trained block (spec dreg-nerf.md 3): jittered "
+                  "points, density mask, surface field, view-averaged colour and alpha. Writes a .grid file.",
+                  "nerfreg reg extract runs/block_0.ckpt --out runs/block_0.grid");
+  std::string block_path, out;
+  GridExtractionOptions g;
+  app.add_option("block", block_path, "Block checkpoint (nerf train)")->required();
+  app.add_option("--out", out, "Output grid file")->required();
+  AddGridOptions(app, &g);
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force);
+  Timer timer;
+  NerfBlock block = LoadNerfBlock(block_path);
+  const RegGrid grid = ExtractRegGrid(block, g);
+  const std::int64_t masked = grid.mask.sum().item<std::int64_t>();
+  if (masked < 100) LOG_WARN("{}: only {} voxels in the mask: is the block trained / its occupancy grid empty?", block_path, masked);
+  SaveRegGrid(grid, out);
+  std::printf("%s\n", Json({{"grid", out}, {"masked_voxels", masked}, {"seconds", timer.Seconds()}}).dump().c_str());
+  return 0;
+}
+
+int RunRegMakeData(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Make registration training / evaluation pairs, one object at a time (resumable: objects already in "
+                  "OUT/pairs.json are skipped). Each object gives --mesh-pairs pairs synthesised from the mesh with "
+                  "NeRF-like artefacts (cheap) and, for the first --nerf-objects objects, pairs of real NeRF blocks "
+                  "(rendered, trained, grids extracted; ~3 min a block on 2 cores). Never use libcgal-demo's meshes: "
+                  "they are reserved for independent evaluation.",
+                  "nerfreg reg make-data --meshes /usr/share/assimp/models/OBJ/spider.obj --procedural 20 --out data/reg");
+  std::string out;
+  MakeDataOptions o;
+  o.nerf = NerfTrainOptions::Preset("fast");
+  o.nerf.iterations = 500;
+  std::string preset = "fast";
+  int nerf_iters = 500;
+  app.add_option("--out", out, "Output folder (pairs.json + grids)")->required();
+  app.add_option("--meshes", o.meshes, "Mesh files")->expected(0, 10000);
+  app.add_option("--procedural", o.procedural, "Number of procedural objects");
+  app.add_option("--procedural-seed", o.procedural_seed, "Seed of the first procedural object (default 1000)");
+  app.add_option("--mesh-pairs", o.mesh_pairs, "Synthesised pairs per object (default 4)");
+  app.add_option("--nerf-objects", o.nerf_objects, "The first N objects also get real trained NeRF blocks (default 0)");
+  app.add_option("--blocks", o.blocks, "Blocks per object: 2 (the paper) or 4 (adjacent pairs: low overlap)");
+  app.add_option("--split", o.split, "Split written for every pair: train or val")->check(CLI::IsMember({"train", "val"}));
+  app.add_option("--image-size", o.image_size, "NeRF render size, pixels (default 100)");
+  app.add_option("--nerf-preset", preset, "Block training preset (default fast)");
+  app.add_option("--nerf-iters", nerf_iters, "Block training iterations (default 500)");
+  app.add_option("--seed", o.seed, "Random seed");
+  AddGridOptions(app, &o.grid);
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  o.nerf = NerfTrainOptions::Preset(preset);
+  o.nerf.iterations = nerf_iters;
+  o.nerf.eval_every = 0;
+  o.synthetic.resolution = o.grid.resolution;
+  o.synthetic.side = o.grid.side;
+  const MakeDataSummary s = MakeRegistrationData(o, out);
+  std::printf("%s\n", Json({{"pairs_json", JoinPaths(out, "pairs.json")}, {"objects_done", s.objects_done},
+                            {"objects_skipped", s.objects_skipped}, {"pairs", s.pairs}, {"seconds", s.seconds}})
+                          .dump()
+                          .c_str());
+  return 0;
+}
+
+int RunRegTrain(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Train the DReg-NeRF network on pairs made by reg make-data (split train; split val validates). "
+                  "Writes OUT (the weights, small), OUT.train (the state --resume continues), OUT.log.jsonl and "
+                  "OUT.json (summary).",
+                  "nerfreg reg train data/reg/pairs.json --out runs/dreg_cpu.pt --iters 20000");
+  std::vector<std::string> data;
+  std::string out;
+  DregTrainOptions o;
+  bool resume = false;
+  app.add_option("data", data, "pairs.json files")->required()->expected(1, 100);
+  app.add_option("--out", out, "Output weights")->required();
+  app.add_option("--config", o.config, "Network size: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
+  app.add_option("--iters", o.iterations, "Iterations (default 20000)");
+  app.add_option("--lr", o.lr, "AdamW learning rate (default 1e-4)");
+  app.add_option("--lr-step", o.lr_step, "StepLR period (default 8000)");
+  app.add_option("--val-every", o.val_every, "Validate every n steps (default 500)");
+  app.add_option("--checkpoint-every", o.checkpoint_every, "Checkpoint every n steps (default 100)");
+  app.add_option("--stop-after", o.stop_after, "Checkpoint and stop at this step (train in slices)");
+  app.add_option("--nerf-fraction", o.nerf_fraction, "Chance per step of a real-NeRF pair (default 0: by count)");
+  app.add_option("--seed", o.seed, "Random seed");
+  app.add_flag("--resume", resume, "Continue from OUT.train");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (!resume) CheckCanWriteOutput(out, common.force);
+  const DregTrainResult r = TrainDreg(data, o, out, resume);
+  std::printf("%s\n", Json({{"weights", out}, {"iterations", r.iterations}, {"seconds", r.seconds}, {"final_loss", r.final_loss},
+                            {"val_median_rotation_deg", r.val.median_rotation_deg}, {"val_success_rate", r.val.success_rate},
+                            {"val_pairs", r.val.pairs}})
+                          .dump()
+                          .c_str());
+  return 0;
+}

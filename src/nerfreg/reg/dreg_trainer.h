@@ -1,0 +1,63 @@
+#pragma once
+// Training the DReg-NeRF network (`nerfreg reg train`, spec dreg-nerf.md 5): one pair per step
+// (batch 1, as the paper), AdamW, StepLR, gradient-norm clipping, augmentation (random source /
+// target swap, keypoint jitter, a small rigid move of one grid with the ground truth updated);
+// validation on the held-out ("val") pairs by registration error; checkpoints written
+// atomically with the optimizer and RNG state so `--resume` continues the same run.
+//
+// Files: OUT (the weights alone: small, what `reg register --weights` reads and what the repo
+// ships), OUT.train (weights + optimizer + step + RNG: what --resume reads), OUT.log.jsonl (the
+// curves), OUT.json (the summary: options, data, steps, seconds, validation table).
+#include <string>
+#include <vector>
+
+#include "nerfreg/reg/dreg_loss.h"
+#include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct DregTrainOptions {
+  std::string config = "cpu";       // "cpu" or "paper" (DregModelOptions)
+  int iterations = 20000;
+  double lr = 1e-4;                 // AdamW (paper)
+  double weight_decay = 1e-4;
+  int lr_step = 8000;               // StepLR period (paper: 34k of 131k iterations)
+  double lr_gamma = 0.5;
+  double grad_clip = 0.1;           // gradient-norm clip (paper)
+  double jitter = 0.005;            // keypoint xyz noise, scene units (paper)
+  double move_probability = 0.5;    // chance of moving one grid rigidly (resampled) per step
+  double move_deg = 10, move_translation = 0.06;  // its size (paper: ~10 deg, 0.06)
+  bool swap = true;                 // random source / target swap
+  double nerf_fraction = 0.0;       // chance per step of drawing a real-NeRF pair (when any): 0 = by count
+  int val_every = 500;              // validation every n steps (0: only at the end)
+  int max_val_pairs = 24;
+  int checkpoint_every = 100;
+  int stop_after = 0;               // > 0: checkpoint and return at this step
+  double inlier_radius = 0.1;       // Register's confidence radius, scene units
+  unsigned seed = 0;
+  DregLossOptions loss;
+  void Check() const;  // throws InputError naming the option
+  Json ToJson() const;
+};
+
+struct DregValResult {
+  double median_rotation_deg = 0, mean_rotation_deg = 0, median_translation = 0;
+  double success_rate = 0;  // <= 5 deg and <= 0.05 of the extent 2.5
+  int pairs = 0;
+};
+
+struct DregTrainResult {
+  int iterations = 0;
+  double seconds = 0;
+  double final_loss = 0;
+  DregValResult val;
+};
+
+// pairs_files: one or more pairs.json of `reg make-data`; pairs of split "train" are trained on,
+// "val" ones validate. Throws InputError on bad data; std::runtime_error on a NaN loss (the last
+// good checkpoint is kept).
+DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const DregTrainOptions& options,
+                          const std::string& out, bool resume);
+
+}  // namespace nerfreg

@@ -1,0 +1,73 @@
+#include "nerfreg/reg/grid_extraction.h"
+
+#include "nerfreg/util/error.h"
+
+namespace nerfreg {
+
+void GridExtractionOptions::Check() const {
+  if (resolution < 8 || resolution > 512) ThrowInputError("--grid-resolution", "", "8..512");
+  if (!(side > 0)) ThrowInputError("--grid-side", "", "> 0");
+  if (!(min_density >= 0)) ThrowInputError("--min-density", "", ">= 0");
+  if (variant != "surface" && variant != "df") ThrowInputError("--variant", "", "surface or df");
+  try {
+    surface.Check();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("surface field options: ") + e.what());
+  }
+}
+
+RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
+  options.Check();
+  torch::NoGradGuard no_grad;
+  const int d = options.resolution;
+  const auto& fmin = block.field_options.aabb_min;
+  const auto& fmax = block.field_options.aabb_max;
+  const Eigen::Vector3d centre(0.5 * (fmin[0] + fmax[0]), 0.5 * (fmin[1] + fmax[1]), 0.5 * (fmin[2] + fmax[2]));
+  RegGrid g;
+  g.source = "nerf";
+  g.variant = options.variant;
+  g.aabb_min = centre - Eigen::Vector3d::Constant(0.5 * options.side);
+  g.aabb_max = centre + Eigen::Vector3d::Constant(0.5 * options.side);
+  const float cell = static_cast<float>(options.side / d);
+
+  torch::Generator gen = at::detail::createCPUGenerator(options.seed);
+  const auto idx = torch::arange(d, torch::kFloat32);
+  const auto ijk = torch::meshgrid({idx, idx, idx}, "ij");
+  const auto mn = torch::tensor({float(g.aabb_min.x()), float(g.aabb_min.y()), float(g.aabb_min.z())});
+  g.xyz = mn + (torch::stack({ijk[0], ijk[1], ijk[2]}, -1) + torch::rand({d, d, d, 3}, gen)) * cell;  // [D, D, D, 3]
+
+  const auto points = g.xyz.reshape({-1, 3});
+  const auto sigma = QueryDensity(block, points);                     // [D^3]
+  const auto dense = sigma > options.min_density;                     // [D^3]
+  const auto dense_idx = dense.nonzero().squeeze(1);
+  const auto dense_pts = points.index_select(0, dense_idx);
+
+  // Colour averaged over the six axis directions, at the dense points only.
+  auto rgb = torch::zeros({dense_pts.size(0), 3});
+  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (const auto& dir : dirs) {
+    for (std::int64_t s = 0; s < dense_pts.size(0); s += 1 << 16) {
+      const auto p = dense_pts.slice(0, s, s + (1 << 16));
+      const auto dd = torch::tensor(dir).expand({p.size(0), 3}).contiguous();
+      rgb.slice(0, s, s + (1 << 16)) += block.field->Forward(p, dd).second / 6.0;
+    }
+  }
+  auto rgba = torch::zeros({d * d * d, 4});
+  rgba.index_copy_(0, dense_idx,
+                   torch::cat({rgb, (1 - torch::exp(-0.01 * sigma.index_select(0, dense_idx))).clamp(0, 1).unsqueeze(1)}, 1));
+  g.rgba = rgba.t().reshape({4, d, d, d}).contiguous();
+
+  auto surface = torch::zeros({d * d * d});
+  if (dense_pts.size(0) > 0) {
+    if (block.cameras.IndicesOfSplit("train").empty()) {
+      ThrowInputError("block", "cameras", "training cameras in the checkpoint (the surface field marches from them)");
+    }
+    surface.index_copy_(0, dense_idx, SurfaceField(block, dense_pts, options.surface));
+  }
+  g.surface = surface.reshape({d, d, d});
+  g.mask = options.variant == "df" ? dense.reshape({d, d, d}) : (dense & (surface >= options.surface_threshold)).reshape({d, d, d});
+  g.Check();
+  return g;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,35 @@
+#pragma once
+// From a trained NeRF block to the voxel grid DReg-NeRF registers (spec dreg-nerf.md 3), using the
+// field alone (no images):
+//  1. one uniformly jittered sample point per voxel of a cube of fixed side around the block's
+//     box (a fixed side, so both blocks of a pair have the same cell size: the CNN is not scale
+//     invariant);
+//  2. sigma at the points; density mask = sigma > min_density;
+//  3. the surface field S (nerf/field_queries.h) at the density-masked points, marching from the
+//     block's training cameras;
+//  4. channels: view-averaged RGB and alpha = clip(1 - exp(-0.01 sigma), 0, 1);
+//     mask = density AND S >= 0.5 (variant "surface"), or density alone (variant "df").
+#include <string>
+
+#include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/reg/reg_grid.h"
+
+namespace nerfreg {
+
+struct GridExtractionOptions {
+  int resolution = 64;              // D (the paper: 128 over a side of 3)
+  double side = 3.6;                // cube side, block units; centred on the centre of the field's box
+  double min_density = 0.7;         // density mask threshold (spec)
+  double surface_threshold = 0.5;   // S >= this joins the mask (variant "surface")
+  std::string variant = "surface";  // "surface" or "df" (density only)
+  SurfaceFieldOptions surface;      // cameras and marching of the surface field
+  unsigned seed = 0;                // the jitter
+  void Check() const;               // throws InputError naming the option
+};
+
+// Throws InputError when the block has no training cameras and the variant needs the surface
+// field. An empty occupancy grid gives an empty mask (the caller warns), not an error.
+RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options);
+
+}  // namespace nerfreg

@@ -1,0 +1,140 @@
+#include "nerfreg/reg/reg_grid.h"
+
+#include <Eigen/Geometry>
+
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+namespace {
+
+constexpr const char* kFormatTag = "nerfreg-reg-grid";
+
+torch::Tensor StringTensor(const std::string& s) {
+  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone();
+}
+std::string TensorString(const torch::Tensor& t) {
+  const auto c = t.contiguous();
+  return std::string(reinterpret_cast<const char*>(c.data_ptr<std::uint8_t>()), c.numel());
+}
+
+Json VectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+torch::Tensor RegGrid::MaskedXyz() const { return xyz.index({mask}); }
+torch::Tensor RegGrid::MaskedSurface() const { return surface.index({mask}); }
+
+void RegGrid::Check() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("RegGrid: " + what); };
+  if (!surface.defined() || surface.dim() != 3) fail("surface must be [D, D, D]");
+  const std::int64_t d = surface.size(0);
+  if (d < 2 || surface.size(1) != d || surface.size(2) != d) fail("surface must be cubic [D, D, D]");
+  if (!rgba.defined() || rgba.sizes() != torch::IntArrayRef({4, d, d, d})) fail("rgba must be [4, D, D, D]");
+  if (!xyz.defined() || xyz.sizes() != torch::IntArrayRef({d, d, d, 3})) fail("xyz must be [D, D, D, 3]");
+  if (!mask.defined() || mask.sizes() != torch::IntArrayRef({d, d, d}) || mask.scalar_type() != torch::kBool) {
+    fail("mask must be [D, D, D] bool");
+  }
+  if (rgba.scalar_type() != torch::kFloat32 || xyz.scalar_type() != torch::kFloat32 ||
+      surface.scalar_type() != torch::kFloat32) {
+    fail("rgba, xyz and surface must be float32");
+  }
+  const Eigen::Vector3d side = aabb_max - aabb_min;
+  if (!(side.minCoeff() > 0) || std::abs(side.x() - side.y()) > 1e-6 * side.x() || std::abs(side.x() - side.z()) > 1e-6 * side.x()) {
+    fail("the box must be a non-empty cube");
+  }
+}
+
+void SaveRegGrid(const RegGrid& grid, const std::string& path) {
+  grid.Check();
+  const Json meta = {{"format", kFormatTag}, {"version", kRegGridVersion}, {"aabb_min", VectorJson(grid.aabb_min)},
+                     {"aabb_max", VectorJson(grid.aabb_max)}, {"source", grid.source}, {"variant", grid.variant}};
+  torch::serialize::OutputArchive archive;
+  archive.write("meta", StringTensor(meta.dump()));
+  archive.write("rgba", grid.rgba.contiguous());
+  archive.write("xyz", grid.xyz.contiguous());
+  archive.write("surface", grid.surface.contiguous());
+  archive.write("mask", grid.mask.to(torch::kUInt8).contiguous());
+  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+}
+
+RegGrid LoadRegGrid(const std::string& path) {
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing registration grid (reg make-data / reg extract)");
+  torch::serialize::InputArchive archive;
+  Json meta;
+  try {
+    archive.load_from(path);
+    torch::Tensor meta_tensor;
+    archive.read("meta", meta_tensor);
+    meta = Json::parse(TensorString(meta_tensor));
+  } catch (const std::exception&) {
+    ThrowInputError(path, "", "a nerfreg registration grid (unreadable or truncated)");
+  }
+  const JsonField m(meta, path);
+  if (m.StringOr("format", "") != kFormatTag) ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
+  if (m["version"].Int() != kRegGridVersion) {
+    ThrowInputError(path, "version", std::to_string(kRegGridVersion) + " (written by another nerfreg version)");
+  }
+  RegGrid g;
+  const auto mn = m["aabb_min"].Doubles(), mx = m["aabb_max"].Doubles();
+  if (mn.size() != 3 || mx.size() != 3) ThrowInputError(path, "aabb_min/aabb_max", "3 numbers each");
+  g.aabb_min = Eigen::Vector3d(mn[0], mn[1], mn[2]);
+  g.aabb_max = Eigen::Vector3d(mx[0], mx[1], mx[2]);
+  g.source = m.StringOr("source", "nerf");
+  g.variant = m.StringOr("variant", "surface");
+  try {
+    archive.read("rgba", g.rgba);
+    archive.read("xyz", g.xyz);
+    archive.read("surface", g.surface);
+    archive.read("mask", g.mask);
+    g.mask = g.mask.to(torch::kBool);
+    g.Check();
+  } catch (const std::exception& e) {
+    ThrowInputError(path, "", std::string("a complete registration grid (") + e.what() + ")");
+  }
+  return g;
+}
+
+RegGrid TransformRegGrid(const RegGrid& grid, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
+  grid.Check();
+  torch::NoGradGuard no_grad;
+  const std::int64_t d = grid.Resolution();
+  const double cell = grid.CellSize();
+  const Eigen::Vector3d centre = 0.5 * (grid.aabb_min + grid.aabb_max);
+  RegGrid out;
+  out.source = grid.source;
+  out.variant = grid.variant;
+  // The same box size, centred on the moved centre.
+  const Eigen::Vector3d new_centre = rotation * centre + translation;
+  out.aabb_min = new_centre - 0.5 * (grid.aabb_max - grid.aabb_min);
+  out.aabb_max = new_centre + 0.5 * (grid.aabb_max - grid.aabb_min);
+  out.rgba = torch::zeros_like(grid.rgba);
+  out.surface = torch::zeros_like(grid.surface);
+  out.mask = torch::zeros_like(grid.mask);
+  // Pull resampling: every voxel of the new grid takes the content of the source voxel its centre
+  // comes from (nearest neighbour), so a rotation leaves no holes; its sample point is its own
+  // centre jittered within the cell, as extraction does (a different sample of the same surface).
+  const auto idx = torch::arange(d, torch::kFloat32);
+  const auto mesh = torch::meshgrid({idx, idx, idx}, "ij");
+  const auto mn = torch::tensor({float(out.aabb_min.x()), float(out.aabb_min.y()), float(out.aabb_min.z())});
+  torch::Generator gen = at::detail::createCPUGenerator(0);
+  out.xyz = mn + (torch::stack({mesh[0], mesh[1], mesh[2]}, -1) + torch::rand({d, d, d, 3}, gen)) * float(cell);
+  const auto centres = (mn + (torch::stack({mesh[0], mesh[1], mesh[2]}, -1) + 0.5) * float(cell)).reshape({-1, 3});
+  const Eigen::Matrix3f rt = rotation.transpose().cast<float>();  // source_from_new rotation
+  const auto Rinv = torch::from_blob(const_cast<float*>(rt.data()), {3, 3}, torch::kFloat32).t().clone();  // row-major
+  const auto t = torch::tensor({float(translation.x()), float(translation.y()), float(translation.z())});
+  const auto back = (centres - t).matmul(Rinv.t());  // [D^3, 3] in the source frame
+  const auto src_mn = torch::tensor({float(grid.aabb_min.x()), float(grid.aabb_min.y()), float(grid.aabb_min.z())});
+  const auto ijk = ((back - src_mn) / float(cell)).floor().to(torch::kInt64);
+  const auto inside = ((ijk >= 0) & (ijk < d)).all(1);
+  const auto keep = inside.nonzero().squeeze(1);
+  const auto s = ijk.index_select(0, keep);
+  const auto flat_src = (s.select(1, 0) * d + s.select(1, 1)) * d + s.select(1, 2);
+  out.surface.view({-1}).index_copy_(0, keep, grid.surface.reshape(-1).index_select(0, flat_src));
+  out.mask.view({-1}).index_copy_(0, keep, grid.mask.reshape(-1).index_select(0, flat_src));
+  out.rgba.view({4, -1}).index_copy_(1, keep, grid.rgba.reshape({4, -1}).index_select(1, flat_src));
+  return out;
+}
+
+}  // namespace nerfreg

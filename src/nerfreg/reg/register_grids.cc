@@ -1,0 +1,74 @@
+#include "nerfreg/reg/register_grids.h"
+
+#include <cstring>
+
+#include "nerfreg/reg/baselines.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+void GridRegistrationOptions::Check() const {
+  if (method != "dreg" && method != "ransac" && method != "fgr") ThrowInputError("--method", "", "dreg, ransac or fgr");
+  if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
+  if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
+}
+
+namespace {
+
+Eigen::Matrix3Xd ToEigen(const torch::Tensor& xyz) {
+  const auto c = xyz.to(torch::kFloat64).contiguous();
+  Eigen::Matrix3Xd m(3, c.size(0));
+  if (c.size(0) > 0) std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
+  return m;
+}
+
+}  // namespace
+
+GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
+                                     DregNet* net) {
+  o.Check();
+  Timer timer;
+  GridRegistrationResult r;
+  r.method = o.Name();
+  const Eigen::Matrix3Xd src = ToEigen(source.MaskedXyz()), tgt = ToEigen(target.MaskedXyz());
+  r.source_points = static_cast<int>(src.cols());
+  r.target_points = static_cast<int>(tgt.cols());
+  if (src.cols() < 8 || tgt.cols() < 8) {
+    r.seconds = timer.Seconds();
+    return r;  // nothing to register: identity, confidence 0
+  }
+  ClassicalRegistrationOptions c;
+  c.voxel_size = o.voxel;
+  c.normal_radius = 2 * o.voxel;
+  c.feature_radius = 5 * o.voxel;
+  c.seed = o.seed;
+  Rigid3d estimate;
+  if (o.method == "dreg") {
+    if (!net) throw std::logic_error("RegisterGrids: method dreg needs the network");
+    const DregRegistration d = Register(*net, source, target, o.inlier_radius);
+    r.scale = d.scale;
+    r.confidence = d.confidence;
+    const Eigen::Matrix3d sr = d.target_from_source.topLeftCorner<3, 3>() / d.scale;
+    estimate = Rigid3d(sr, d.target_from_source.topRightCorner<3, 1>());
+    if (o.icp) {
+      // ICP refines a rigid pose: with a scale estimate, refine in the scaled source frame.
+      Eigen::Matrix3Xd scaled = src * d.scale;
+      estimate = RefineWithIcp(scaled, tgt, estimate, c).target_from_source;
+      r.target_from_source = estimate.ToMatrix();
+      r.target_from_source.topLeftCorner<3, 3>() *= d.scale;
+    } else {
+      r.target_from_source = d.target_from_source;
+    }
+  } else {
+    c.method = o.method;
+    c.icp = o.icp;
+    const ClassicalRegistrationResult cr = RegisterPointClouds(src, tgt, c);
+    r.target_from_source = cr.target_from_source.ToMatrix();
+    r.confidence = cr.fitness;
+  }
+  r.seconds = timer.Seconds();
+  return r;
+}
+
+}  // namespace nerfreg

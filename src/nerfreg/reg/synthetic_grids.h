@@ -1,0 +1,52 @@
+#pragma once
+// Registration training pairs synthesised from a mesh without training any NeRF: what a block's
+// NeRF would see, with NeRF-like artefacts. Training enough real blocks costs ~3 minutes each on
+// 2 CPU cores; these cost well under a second per pair, so they are the bulk of the training data,
+// while evaluation always uses real trained blocks (reg make-data --nerf-objects).
+//
+// Per block (the DReg-NeRF data pipeline, spec dreg-nerf.md 2): the orbit trajectory is split by
+// k-means on camera centres; every view of the block is ray-cast (depth + colour), its surface
+// pixels are back-projected, moved into the block's random frame and voxelised on the same grid
+// as reg/grid_extraction.h (a cube of fixed side around the object's box in the block frame):
+//  - seen surface voxels: density, S = 1, colour = mean seen colour, alpha from a NeRF-like
+//    density distribution;
+//  - blur: surface voxels dilated by one cell with probability `blur`, with a partial S;
+//  - floaters: small clusters of density in the free space in front of the block's cameras;
+//  - unseen regions: nothing (a NeRF knows nothing there), as in real blocks.
+#include <Eigen/Core>
+#include <random>
+
+#include "nerfreg/reg/reg_grid.h"
+#include "nerfreg/render/blocks.h"
+#include "nerfreg/render/mesh.h"
+
+namespace nerfreg {
+
+struct SyntheticPairOptions {
+  int resolution = 64;         // D, as GridExtractionOptions
+  double side = 3.6;           // cube side, as GridExtractionOptions
+  int views = 120;             // orbit views (the DReg-NeRF trajectory)
+  int image_size = 96;         // ray-cast resolution of each view (the back-projected points)
+  int blocks = 2;              // k-means blocks; the pair is (source_block, target_block)
+  int source_block = 0, target_block = 1;
+  BlockFrameOptions frames;    // random block frames (DReg-NeRF: arbitrary rotations)
+  double blur = 0.25;          // probability that a surface voxel spreads to a 6-neighbour
+  int floaters = 12;           // floater clusters per block
+  double min_sigma = 5, max_sigma = 400;  // log-uniform density of occupied voxels (alpha channel)
+  void Check() const;          // throws std::invalid_argument
+};
+
+struct GridPair {
+  RegGrid source, target;
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
+  double overlap = 0;  // fraction of the source mask within one cell of the target mask (true pose)
+};
+
+// `mesh` is normalised (largest side 2.5, centred), as `nerfreg render` does.
+GridPair SyntheticGridPair(const TriangleMesh& mesh, const SyntheticPairOptions& options, unsigned seed);
+
+// The overlap of a pair under a transform: the fraction of source mask points that land within
+// one cell of a target mask voxel.
+double GridOverlap(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source);
+
+}  // namespace nerfreg

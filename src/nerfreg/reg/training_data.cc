@@ -1,0 +1,271 @@
+#include "nerfreg/reg/training_data.h"
+
+#include <filesystem>
+#include <set>
+
+#include "nerfreg/data/transforms_json.h"
+#include "nerfreg/render/mesh.h"
+#include "nerfreg/render/procedural.h"
+#include "nerfreg/render/render_dataset.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/progress.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+namespace fs = std::filesystem;
+
+Json PairRecord::ToJson() const {
+  return {{"name", name}, {"object", object}, {"kind", kind}, {"split", split}, {"source", source}, {"target", target},
+          {"target_from_source", MatrixToJson(target_from_source)}, {"overlap", overlap},
+          {"source_block", source_block}, {"target_block", target_block}, {"blocks", blocks}};
+}
+
+PairRecord PairRecord::FromJson(const JsonField& j) {
+  PairRecord p;
+  p.name = j["name"].String();
+  p.object = j.StringOr("object", p.name);
+  p.kind = j.StringOr("kind", "mesh");
+  p.split = j.StringOr("split", "train");
+  p.source = j["source"].String();
+  p.target = j["target"].String();
+  p.target_from_source = j["target_from_source"].Matrix(4, 4);
+  p.overlap = j.DoubleOr("overlap", 0);
+  p.source_block = j.IntOr("source_block", 0);
+  p.target_block = j.IntOr("target_block", 1);
+  p.blocks = j.IntOr("blocks", 2);
+  return p;
+}
+
+std::vector<PairRecord> ReadPairs(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  const JsonField f(j, path);
+  std::vector<PairRecord> out;
+  const JsonField pairs = f["pairs"];
+  for (size_t i = 0; i < pairs.ArraySize(); ++i) {
+    PairRecord p = PairRecord::FromJson(pairs[i]);
+    p.source = JoinPaths(ParentDir(path), p.source);
+    p.target = JoinPaths(ParentDir(path), p.target);
+    out.push_back(p);
+  }
+  return out;
+}
+
+void MakeDataOptions::Check() const {
+  if (meshes.empty() && procedural <= 0) ThrowInputError("reg make-data", "objects", "--meshes or --procedural N > 0");
+  for (const auto& m : meshes) {
+    // The CGAL demo meshes are reserved for independent evaluation of this project.
+    if (m.find("cgal") != std::string::npos) ThrowInputError(m, "", "a mesh outside libcgal-demo (reserved for independent evaluation)");
+    if (!FileExists(m)) ThrowInputError(m, "", "an existing mesh file");
+  }
+  if (mesh_pairs < 0 || nerf_objects < 0) ThrowInputError("--mesh-pairs/--nerf-objects", "", ">= 0");
+  if (blocks < 2 || blocks > 8) ThrowInputError("--blocks", "", "2..8");
+  if (split != "train" && split != "val") ThrowInputError("--split", "", "train or val");
+  if (image_size < 16) ThrowInputError("--image-size", "", ">= 16");
+  nerf.Check();
+  grid.Check();
+  if (synthetic.resolution != grid.resolution || synthetic.side != grid.side) {
+    ThrowInputError("--grid-resolution", "", "the same grid for synthesised and NeRF pairs");
+  }
+  try {
+    synthetic.Check();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("reg make-data: ") + e.what());
+  }
+}
+
+Json MakeDataOptions::ToJson() const {
+  return {{"meshes", meshes}, {"procedural", procedural}, {"procedural_seed", procedural_seed}, {"mesh_pairs", mesh_pairs},
+          {"nerf_objects", nerf_objects}, {"blocks", blocks}, {"split", split}, {"image_size", image_size},
+          {"nerf", nerf.ToJson()}, {"grid_resolution", grid.resolution}, {"grid_side", grid.side},
+          {"variant", grid.variant}, {"min_density", grid.min_density}, {"seed", seed}};
+}
+
+namespace {
+
+struct ObjectSpec {
+  std::string name;
+  std::string mesh_path;  // empty: procedural
+  unsigned procedural_seed = 0;
+};
+
+TriangleMesh LoadObject(const ObjectSpec& o) {
+  TriangleMesh m = o.mesh_path.empty() ? ProceduralObject(o.procedural_seed) : LoadMesh(o.mesh_path);
+  NormalizeMesh(&m, 2.5f);
+  return m;
+}
+
+// Synthesised pairs of one object.
+std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& mesh, const MakeDataOptions& o,
+                                  const std::string& out_dir) {
+  std::vector<PairRecord> out;
+  for (int k = 0; k < o.mesh_pairs; ++k) {
+    SyntheticPairOptions so = o.synthetic;
+    so.blocks = o.blocks;
+    // With more than two blocks, walk the pairs of neighbouring blocks.
+    so.source_block = k % o.blocks;
+    so.target_block = (k + 1) % o.blocks;
+    const GridPair p = SyntheticGridPair(mesh, so, o.seed * 1000003u + std::hash<std::string>{}(spec.name) % 100000u + k);
+    if (p.overlap < o.min_overlap) continue;
+    PairRecord r;
+    r.name = spec.name + "/mesh_" + std::to_string(k);
+    r.object = spec.name;
+    r.kind = "mesh";
+    r.split = o.split;
+    r.source = spec.name + "/mesh_" + std::to_string(k) + "_source.grid";
+    r.target = spec.name + "/mesh_" + std::to_string(k) + "_target.grid";
+    r.target_from_source = p.target_from_source;
+    r.overlap = p.overlap;
+    r.source_block = so.source_block;
+    r.target_block = so.target_block;
+    r.blocks = o.blocks;
+    SaveRegGrid(p.source, JoinPaths(out_dir, r.source));
+    SaveRegGrid(p.target, JoinPaths(out_dir, r.target));
+    out.push_back(r);
+  }
+  return out;
+}
+
+// Real blocks: render, train every block, extract grids, pair the blocks that overlap.
+std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& mesh, const MakeDataOptions& o,
+                                  const std::string& out_dir, Json* cost) {
+  const std::string rel = spec.name + "/nerf";
+  const std::string dir = JoinPaths(out_dir, rel);
+  const std::string data = JoinPaths(dir, "data");
+  Timer timer;
+  if (!FileExists(JoinPaths(data, "ground_truth.json"))) {
+    RenderDatasetOptions r;
+    r.blocks = o.blocks;
+    r.width = r.height = o.image_size;
+    r.seed = o.seed + std::hash<std::string>{}(spec.name) % 100000u;
+    r.force = true;
+    RenderDataset(mesh, r, data);
+  }
+  (*cost)["render_seconds"] = timer.Seconds();
+  const Json gt = ReadJsonFile(JoinPaths(data, "ground_truth.json"));
+  const JsonField g(gt, JoinPaths(data, "ground_truth.json"));
+  std::vector<RegGrid> grids;
+  std::vector<Sim3d> from_world;
+  Json psnr = Json::array();
+  double train_seconds = 0, grid_seconds = 0;
+  for (int k = 0; k < o.blocks; ++k) {
+    const std::string block_dir = JoinPaths(data, "block_" + std::to_string(k));
+    const std::string ckpt = JoinPaths(dir, "block_" + std::to_string(k) + ".ckpt");
+    const std::string grid_path = JoinPaths(dir, "block_" + std::to_string(k) + ".grid");
+    from_world.push_back(Sim3d::FromMatrix(g["blocks"][k]["block_from_world"].Matrix(4, 4)));
+    if (!FileExists(grid_path)) {
+      Timer t;
+      const Dataset d = ReadTransformsJson(JoinPaths(block_dir, "transforms.json"));
+      bool resume = false;
+      if (FileExists(ckpt)) resume = LoadNerfBlock(ckpt).step < o.nerf.iterations;
+      NerfTrainOptions no = o.nerf;
+      no.seed = o.seed + k;
+      const NerfTrainResult tr = (FileExists(ckpt) && !resume) ? NerfTrainResult{} : TrainNerfBlock(d, no, ckpt, resume);
+      train_seconds += t.Seconds();
+      psnr.push_back(tr.psnr_test);
+      Timer te;
+      NerfBlock block = LoadNerfBlock(ckpt);
+      GridExtractionOptions go = o.grid;
+      go.seed = o.seed + k;
+      SaveRegGrid(ExtractRegGrid(block, go), grid_path);
+      grid_seconds += te.Seconds();
+    }
+    grids.push_back(LoadRegGrid(grid_path));
+  }
+  (*cost)["train_seconds"] = train_seconds;
+  (*cost)["grid_seconds"] = grid_seconds;
+  (*cost)["psnr_test"] = psnr;
+  std::vector<PairRecord> out;
+  for (int a = 0; a < o.blocks; ++a) {
+    for (int b = a + 1; b < o.blocks; ++b) {
+      PairRecord r;
+      r.name = spec.name + "/nerf_" + std::to_string(a) + "_" + std::to_string(b);
+      r.object = spec.name;
+      r.kind = "nerf";
+      r.split = o.split;
+      r.source = rel + "/block_" + std::to_string(a) + ".grid";
+      r.target = rel + "/block_" + std::to_string(b) + ".grid";
+      r.target_from_source = (from_world[b] * from_world[a].Inverse()).ToMatrix();
+      r.overlap = GridOverlap(grids[a], grids[b], r.target_from_source);
+      r.source_block = a;
+      r.target_block = b;
+      r.blocks = o.blocks;
+      if (r.overlap >= o.min_overlap) out.push_back(r);
+    }
+  }
+  return out;
+}
+
+std::string UniqueName(const std::string& base, std::set<std::string>* used) {
+  std::string name = base;
+  for (int k = 2; used->count(name); ++k) name = base + "_" + std::to_string(k);
+  used->insert(name);
+  return name;
+}
+
+}  // namespace
+
+MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string& out_dir) {
+  o.Check();
+  Timer timer;
+  CreateDirectories(out_dir);
+  const std::string index_path = JoinPaths(out_dir, "pairs.json");
+  Json index = {{"pairs", Json::array()}, {"objects", Json::object()}};
+  if (FileExists(index_path)) index = ReadJsonFile(index_path);
+  index["options"] = o.ToJson();
+
+  std::vector<ObjectSpec> objects;
+  std::set<std::string> used;
+  for (const auto& m : o.meshes) objects.push_back({UniqueName(fs::path(m).stem().string(), &used), m, 0});
+  for (int k = 0; k < o.procedural; ++k) {
+    const unsigned s = o.procedural_seed + k;
+    objects.push_back({UniqueName("procedural_" + std::to_string(s), &used), "", s});
+  }
+  MakeDataSummary summary;
+  ProgressBar bar("reg make-data", static_cast<std::int64_t>(objects.size()), "obj");
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const ObjectSpec& spec = objects[i];
+    if (index["objects"].contains(spec.name)) {
+      ++summary.objects_skipped;
+      bar.Tick();
+      continue;
+    }
+    Timer t;
+    TriangleMesh mesh;
+    try {
+      mesh = LoadObject(spec);
+    } catch (const InputError& e) {
+      LOG_WARN("{}: skipped ({})", spec.mesh_path, e.what());
+      index["objects"][spec.name] = {{"skipped", e.what()}};
+      WriteJsonFile(index_path, index);
+      bar.Tick();
+      continue;
+    }
+    CreateDirectories(JoinPaths(out_dir, spec.name));
+    std::vector<PairRecord> pairs = MeshPairs(spec, mesh, o, out_dir);
+    Json cost = {{"mesh_pairs_seconds", t.Seconds()}};
+    if (static_cast<int>(i) < o.nerf_objects) {
+      const auto np = NerfPairs(spec, mesh, o, out_dir, &cost);
+      pairs.insert(pairs.end(), np.begin(), np.end());
+    }
+    for (const auto& p : pairs) index["pairs"].push_back(p.ToJson());
+    cost["seconds"] = t.Seconds();
+    cost["pairs"] = pairs.size();
+    cost["mesh"] = spec.mesh_path;
+    cost["split"] = o.split;
+    index["objects"][spec.name] = cost;
+    // After every object, so an interrupted run resumes after the last finished object.
+    WriteJsonFile(index_path, index);
+    summary.pairs += static_cast<int>(pairs.size());
+    ++summary.objects_done;
+    LOG_INFO("{}: {} pairs in {:.1f} s", spec.name, pairs.size(), t.Seconds());
+    bar.Tick();
+  }
+  bar.Finish();
+  summary.seconds = timer.Seconds();
+  return summary;
+}
+
+}  // namespace nerfreg
