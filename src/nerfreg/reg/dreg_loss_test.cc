@@ -31,7 +31,7 @@ class DregLossTest : public ::testing::Test {
 
   // A hand-built DregOutput with `layers` identical layers: keypoints are every 8th masked voxel
   // of each grid; `perfect` predictions put each match at its ground-truth position, give
-  // confidence logits +8 and make matched features equal one-hot codes (by nearest GT point);
+  // confidence = S (the BCE optimum) and make matched features equal one-hot codes (by nearest GT point);
   // wrong ones scatter the matches, give logits -8 and random features.
   DregOutput Build(bool perfect, int layers = 2) {
     DregOutput out;
@@ -51,8 +51,8 @@ class DregLossTest : public ::testing::Test {
       if (perfect) {
         out.src_corr.push_back(src_in_tgt.clone().requires_grad_(true));
         out.tgt_corr.push_back(tgt_in_src.clone().requires_grad_(true));
-        out.src_conf_logits.push_back(torch::full({ks}, 8.0));
-        out.tgt_conf_logits.push_back(torch::full({kt}, 8.0));
+        out.src_conf_logits.push_back(torch::logit(out.src_surface, 1e-4));
+        out.tgt_conf_logits.push_back(torch::logit(out.tgt_surface, 1e-4));
         out.src_features.push_back(codes.index_select(0, nearest));
         out.tgt_features.push_back(codes.clone());
       } else {
@@ -111,7 +111,12 @@ TEST_F(DregLossTest, SampleSurfaceReadsVoxelCentresAndIsZeroOutside) {
 TEST_F(DregLossTest, PerfectPredictionsScoreLowerOnEveryTerm) {
   const DregLossTerms good = DregLoss(Build(true), src_, tgt_, gt_);
   const DregLossTerms bad = DregLoss(Build(false), src_, tgt_, gt_);
-  EXPECT_LT(good.confidence.item<double>(), 0.01);
+  // Soft labels: the BCE optimum is the labels' entropy, 2 layers x mean H(S).
+  const torch::Tensor s = torch::cat({src_.surface.index({src_.mask}).index({Slice(None, None, 8)}),
+                                      tgt_.surface.index({tgt_.mask}).index({Slice(None, None, 8)})})
+                              .clamp(1e-4, 1 - 1e-4);
+  const double entropy = -(s * s.log() + (1 - s) * (1 - s).log()).mean().item<double>();
+  EXPECT_NEAR(good.confidence.item<double>(), 2.0 * entropy, 1e-4);
   EXPECT_GT(bad.confidence.item<double>(), 10.0);  // 2 layers x ~8 nats
   EXPECT_LT(good.correspondence.item<double>(), 1e-6);
   EXPECT_GT(bad.correspondence.item<double>(), 1.0);
@@ -166,6 +171,8 @@ TEST_F(DregLossTest, ConfidenceLossFollowsTheLabelNotTheOtherWayRound) {
   DregOutput out = Build(true, 1);
   out.src_surface = torch::zeros_like(out.src_surface);
   out.tgt_surface = torch::zeros_like(out.tgt_surface);
+  out.src_conf_logits[0] = torch::full_like(out.src_conf_logits[0], 8.0);
+  out.tgt_conf_logits[0] = torch::full_like(out.tgt_conf_logits[0], 8.0);
   const double confident = DregLoss(out, src_, tgt_, gt_).confidence.item<double>();
   out.src_conf_logits[0] = torch::full_like(out.src_conf_logits[0], -8.0);
   out.tgt_conf_logits[0] = torch::full_like(out.tgt_conf_logits[0], -8.0);
