@@ -257,8 +257,9 @@ TEST_F(DregModelTest, LoadRejectsBadFilesAndOtherConfigs) {
 }
 
 // The key test: the network can learn one pair. The target block is the same shape rotated by
-// 75 degrees and translated; a few hundred AdamW steps must bring the rotation error from the
-// untrained network's (> 30 deg) to < 10 deg.
+// 75 degrees and translated; 100 AdamW steps must bring the rotation error from the untrained
+// network's (> 30 deg) to < 10 deg. Measured: 50 -> ~3.5 deg (it is ~1 deg by step 40), 12 s of
+// CPU time on 2 cores.
 TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   const Eigen::Matrix3d r =
       Eigen::AngleAxisd(75.0 * kPi / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
@@ -278,7 +279,7 @@ TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
                        gt_rot);
   torch::optim::AdamW opt(net->parameters(), torch::optim::AdamWOptions(1e-3).weight_decay(1e-4));
   const auto start = std::chrono::steady_clock::now();
-  const int steps = 200;
+  const int steps = 100;
   double first_loss = 0, last_loss = 0;
   for (int step = 0; step < steps; ++step) {
     const DregOutput out = net->forward(src, tgt);
