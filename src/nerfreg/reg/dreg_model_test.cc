@@ -148,7 +148,8 @@ TEST_F(DregModelTest, ScoreRegistrationIsHighOnlyForConfidentAgreeingMatches) {
   EXPECT_LT(unrelated.inlier_fraction, 0.1);
   EXPECT_LT(unrelated.confidence, 0.1);
   // Soft attention over a cloud it does not match collapses onto the other cloud's centre.
-  const RegistrationAgreement collapsed = solve_and_score(x, torch::zeros({200, 3}, torch::kDouble) + 0.01 * torch::randn({200, 3}, torch::kDouble), high);
+  const RegistrationAgreement collapsed =
+      solve_and_score(x, torch::zeros({200, 3}, torch::kDouble) + 0.01 * torch::randn({200, 3}, torch::kDouble), high);
   EXPECT_LT(collapsed.inlier_fraction, 0.05);
   // Half right, half scattered: confidence-weighted fraction ~ 0.5 when all are equally sure,
   // ~ 0.9 when the scattered half is given 1/9 of the weight.
@@ -293,14 +294,29 @@ TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const DregRegistration reg = Register(net, src, tgt, 0.15);
-  const torch::Tensor m = torch::from_blob(const_cast<double*>(reg.target_from_source.data()), {4, 4}, torch::kDouble).t();
+  const torch::Tensor m =
+      torch::from_blob(const_cast<double*>(reg.target_from_source.data()), {4, 4}, torch::kDouble).t();
   const double final_deg = RotationErrorDeg(m.slice(0, 0, 3).slice(1, 0, 3), gt_rot);
-  const double trans_err = (m.slice(0, 0, 3).select(1, 3) - gt.slice(0, 0, 3).select(1, 3).to(torch::kDouble)).norm().item<double>();
-  std::printf("[overfit] %d steps in %.1f s; loss %.3f -> %.3f; rotation error %.1f -> %.1f deg; translation error %.3f; "
-              "confidence %.3f (inliers %.2f)\n",
-              steps, seconds, first_loss, last_loss, initial_deg, final_deg, trans_err, reg.confidence, reg.inlier_fraction);
+  const double trans_err =
+      (m.slice(0, 0, 3).select(1, 3) - gt.slice(0, 0, 3).select(1, 3).to(torch::kDouble)).norm().item<double>();
+  std::printf(
+      "[overfit] %d steps in %.1f s; loss %.3f -> %.3f; rotation error %.1f -> %.1f deg; translation error %.3f; "
+      "confidence %.3f (inliers %.2f)\n",
+      steps, seconds, first_loss, last_loss, initial_deg, final_deg, trans_err, reg.confidence, reg.inlier_fraction);
+  // Blocks that see disjoint halves of the shape (source x > 0.25, target x < -0.25 in the shape
+  // frame): no overlap, so the registration confidence must drop.
+  RegGrid src_half = src, tgt_half = tgt;
+  src_half.mask = src.mask & (src.xyz.select(3, 0) > 0.25);
+  const torch::Tensor rt = torch::from_blob(const_cast<double*>(r.data()), {3, 3}, torch::kDouble).to(torch::kFloat);
+  // Column-major Eigen data read row-major is R^T: x_shape = R^T (p - t) = (p - t) @ R.
+  const torch::Tensor tgt_in_shape = torch::matmul(tgt.xyz.view({-1, 3}) - gt.slice(0, 0, 3).select(1, 3), rt.t());
+  tgt_half.mask = tgt.mask & (tgt_in_shape.select(1, 0) < -0.25).view_as(tgt.mask);
+  const DregRegistration disjoint = Register(net, src_half, tgt_half, 0.15);
+  std::printf("[overfit] disjoint halves: confidence %.3f (inliers %.2f, mean confidence %.2f)\n", disjoint.confidence,
+              disjoint.inlier_fraction, disjoint.mean_confidence);
   EXPECT_GT(initial_deg, 30.0);
   EXPECT_LT(final_deg, 10.0);
+  EXPECT_LT(disjoint.confidence, 0.6 * reg.confidence);  // measured 0.13 vs 0.30
   EXPECT_LT(last_loss, 0.5 * first_loss);
 }
 
