@@ -85,9 +85,9 @@ TEST_F(DregLossTest, BarronLossValues) {
   EXPECT_NEAR(rho[0].item<double>(), 0.0, 1e-12);
   EXPECT_NEAR(rho[1].item<double>(), std::sqrt(2.0) - 1.0, 1e-12);
   EXPECT_NEAR(rho[2].item<double>(), std::sqrt(5.0) - 1.0, 1e-12);
-  EXPECT_NEAR(BarronLoss(x, 2.0, 0.5)[2].item<double>(), 2.0, 1e-12);             // 0.5 (x / c)^2
-  EXPECT_NEAR(BarronLoss(x, 0.0, 0.5)[2].item<double>(), std::log(3.0), 1e-12);   // log(0.5 (x/c)^2 + 1)
-  EXPECT_NEAR(BarronLoss(x, 1.999999, 0.5)[2].item<double>(), 2.0, 1e-4);         // continuous at 2
+  EXPECT_NEAR(BarronLoss(x, 2.0, 0.5)[2].item<double>(), 2.0, 1e-12);            // 0.5 (x / c)^2
+  EXPECT_NEAR(BarronLoss(x, 0.0, 0.5)[2].item<double>(), std::log(3.0), 1e-12);  // log(0.5 (x/c)^2 + 1)
+  EXPECT_NEAR(BarronLoss(x, 1.999999, 0.5)[2].item<double>(), 2.0, 1e-4);        // continuous at 2
 }
 
 TEST_F(DregLossTest, SampleSurfaceReadsVoxelCentresAndIsZeroOutside) {
@@ -179,6 +179,42 @@ TEST_F(DregLossTest, ConfidenceLossFollowsTheLabelNotTheOtherWayRound) {
   const double unsure = DregLoss(out, src_, tgt_, gt_).confidence.item<double>();
   EXPECT_GT(confident, 7.0);
   EXPECT_LT(unsure, 0.01);
+}
+
+TEST_F(DregLossTest, InfoNceIgnoresNeighboursInsideTheNegativeRadius) {
+  // One source keypoint at the origin; target keypoints: its positive (0.05 away), a neighbour at
+  // `neighbour_x` with the anchor's own feature, and a far point with an orthogonal feature.
+  // Identity ground truth, W = I. Inside r_n = 0.4 the neighbour is left out of the denominator;
+  // beyond it, it is a negative as strong as the positive (+ ~log 2 on the anchor's term).
+  auto feature_loss = [&](double neighbour_x) {
+    DregOutput out;
+    out.src_xyz = torch::zeros({1, 3});
+    out.tgt_xyz =
+        torch::tensor({{0.05f, 0.0f, 0.0f}, {static_cast<float>(neighbour_x), 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f}});
+    out.src_surface = torch::ones({1});
+    out.tgt_surface = torch::ones({3});
+    const torch::Tensor a = torch::tensor({{2.0f, 0.0f}}), b = torch::tensor({{0.0f, 2.0f}});
+    out.src_features = {a};
+    out.tgt_features = {torch::cat({a, a, b})};
+    out.src_corr = {out.src_xyz};
+    out.tgt_corr = {out.tgt_xyz};
+    out.src_conf_logits = {torch::zeros({1})};
+    out.tgt_conf_logits = {torch::zeros({3})};
+    out.src_conf = {torch::full({1}, 0.5)};
+    out.tgt_conf = {torch::full({3}, 0.5)};
+    out.rotation = {torch::eye(3)};
+    out.translation = {torch::zeros({3})};
+    out.scale = {torch::ones({})};
+    out.pose_valid = {torch::ones({}, torch::kBool)};
+    out.feature_w = torch::eye(2);
+    return DregLoss(out, src_, tgt_, torch::eye(4)).feature.item<double>();
+  };
+  const double ignored = feature_loss(0.3);
+  const double negative = feature_loss(0.6);
+  // Anchors: the source point and the target positive (the other target points have no source
+  // point within r_p). With the neighbour ignored both terms are ~0 (e^-4 residue).
+  EXPECT_LT(ignored, 0.02);
+  EXPECT_NEAR(negative, 0.5 * std::log(2.0), 0.02);
 }
 
 }  // namespace
