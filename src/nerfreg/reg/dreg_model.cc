@@ -378,9 +378,12 @@ DregNet LoadDregWeights(const std::string& path, DregModelOptions* options) {
 }
 
 void CheckDregOptionsMatch(const DregModelOptions& stored, const DregModelOptions& wanted, const std::string& path) {
+  // Only the fields that shape the tensors; the label, point budget and scale solve may differ.
   Json a = wanted.ToJson(), b = stored.ToJson();
-  a.erase("name");
-  b.erase("name");
+  for (const char* key : {"name", "downsample", "estimate_scale"}) {
+    a.erase(key);
+    b.erase(key);
+  }
   const std::string field = FirstDifference(a, b, "");
   if (field.empty()) return;
   const Json* w = At(a, field);

@@ -171,8 +171,9 @@ void SaveDregWeights(DregNet& net, const DregModelOptions& options, const std::s
 // version, or holds tensors that do not fit its stored options. *options receives the stored ones.
 DregNet LoadDregWeights(const std::string& path, DregModelOptions* options);
 // For --weights next to an explicit config: throws InputError("PATH: FIELD: expected ...")
-// naming the first architecture field where the stored options differ from `wanted` (the name
-// label is ignored).
+// naming the first architecture field (backbone, d_model, heads, layers, ffn) where the stored
+// options differ from `wanted`; the name label, the downsampling budget and estimate_scale may
+// differ (they change no tensor).
 void CheckDregOptionsMatch(const DregModelOptions& stored, const DregModelOptions& wanted, const std::string& path);
 
 }  // namespace nerfreg
