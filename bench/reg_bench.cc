@@ -1,0 +1,62 @@
+// DReg-NeRF network timings on 2 CPU threads, Cpu() configuration, D = 64 grid pair (untrained
+// weights: the cost does not depend on them):
+//   build/bench/nerfreg_reg_bench --benchmark_counters_tabular=true
+#include <benchmark/benchmark.h>
+#include <torch/torch.h>
+
+#include <Eigen/Geometry>
+
+#include "nerfreg/reg/dreg_loss.h"
+#include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/reg/test_grids.h"
+
+namespace nerfreg {
+namespace {
+
+struct Pair {
+  RegGrid src, tgt;
+  torch::Tensor target_from_source;
+};
+
+Pair MakePair(int resolution) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(1.3, Eigen::Vector3d(1, 2, 0.5).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t(0.15, -0.1, 0.1);
+  return {MakeShapeGrid(resolution, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1),
+          MakeShapeGrid(resolution, r, t, 2), RigidMatrix(r, t)};
+}
+
+void BM_DregRegisterCpu(benchmark::State& state) {
+  torch::set_num_threads(2);
+  torch::manual_seed(1);
+  const Pair pair = MakePair(static_cast<int>(state.range(0)));
+  DregNet net(DregModelOptions::Cpu());
+  int points = 0;
+  for (auto _ : state) {
+    const DregRegistration reg = Register(net, pair.src, pair.tgt, 0.1);
+    points = reg.src_points + reg.tgt_points;
+  }
+  state.counters["keypoints"] = points;
+}
+BENCHMARK(BM_DregRegisterCpu)->Arg(64)->Arg(32)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One training step: forward, DregLoss, backward, AdamW.
+void BM_DregTrainStepCpu(benchmark::State& state) {
+  torch::set_num_threads(2);
+  torch::manual_seed(1);
+  const Pair pair = MakePair(static_cast<int>(state.range(0)));
+  DregNet net(DregModelOptions::Cpu());
+  torch::optim::AdamW opt(net->parameters(), torch::optim::AdamWOptions(1e-4).weight_decay(1e-4));
+  for (auto _ : state) {
+    const DregOutput out = net->forward(pair.src, pair.tgt);
+    const DregLossTerms loss = DregLoss(out, pair.src, pair.tgt, pair.target_from_source);
+    opt.zero_grad();
+    loss.total.backward();
+    opt.step();
+  }
+}
+BENCHMARK(BM_DregTrainStepCpu)->Arg(64)->Arg(32)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace nerfreg
+
+BENCHMARK_MAIN();
