@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Makes the DReg-NeRF training and held-out evaluation data used for the shipped weights
+# (models/dreg_cpu.pt). Resumable: re-running skips finished objects. Never uses libcgal-demo's
+# meshes (reserved for independent evaluation).
+#   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
+#          meshes (reg/synthetic_grids.h);
+#   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs AND
+#          pairs of real trained NeRF blocks (2-block split; 4-block split for low overlap).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BIN=${BIN:-build/nerfreg}
+OUT=${OUT:-data/reg}
+RES=${RES:-32}
+PROCEDURAL=${PROCEDURAL:-60}
+A=/usr/share/assimp/models
+S=/usr/share/openscad/testdata
+TRAIN_MESHES=(
+  $A/OBJ/WusonOBJ.obj $A/OBJ/regr01.obj $A/STL/3DSMaxExport.STL $A/STL/sphereWithHole.stl
+  $S/scad/misc/bad-stl-tardis.stl $S/scad/misc/bad-stl-wing.stl $S/scad/misc/bad-stl-pcbvicebar.stl
+  $S/stl/adns2610_dev_circuit_inv.stl $S/scad/bugs/issue945e.stl $A/glTF/TwoBoxes/TwoBoxes.gltf
+)
+VAL_MESHES=($A/OBJ/spider.obj $A/glTF/CesiumMilkTruck/CesiumMilkTruck.gltf)
+common=(--grid-resolution "$RES" --quiet)
+# Training pairs: 4 per object (synthesised, different random frames).
+"$BIN" reg make-data --meshes "${TRAIN_MESHES[@]}" --procedural "$PROCEDURAL" --procedural-seed 1000 \
+  --mesh-pairs 4 --split train --out "$OUT/train" "${common[@]}"
+# Held-out pairs, synthesised: 2 per object.
+"$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 \
+  --split val --out "$OUT/val_mesh" "${common[@]}"
+# Held-out pairs of real NeRF blocks (the slow part: ~3 min a block on 2 cores).
+[ "${SKIP_NERF:-0}" = 1 ] && exit 0
+"$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
+  --out "$OUT/val_nerf" "${common[@]}"
+# Low overlap: adjacent blocks of a 4-block split.
+"$BIN" reg make-data --meshes "$A/OBJ/spider.obj" --mesh-pairs 0 --nerf-objects 100 --blocks 4 --split val \
+  --out "$OUT/val_nerf4" "${common[@]}"
