@@ -3,22 +3,23 @@
 namespace nerfreg {
 namespace {
 
-void CheckCameras(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world) {
+void CheckCameras(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world,
+                  torch::ScalarType dtype) {
   TORCH_CHECK(intrinsics.dim() == 3 && intrinsics.size(1) == 3 && intrinsics.size(2) == 3,
               "intrinsics must be [V,3,3], got ", intrinsics.sizes());
   TORCH_CHECK(cam_from_world.dim() == 3 && cam_from_world.size(1) == 4 &&
                   cam_from_world.size(2) == 4 && cam_from_world.size(0) == intrinsics.size(0),
               "cam_from_world must be [V,4,4] with V = ", intrinsics.size(0), ", got ",
               cam_from_world.sizes());
-  TORCH_CHECK(intrinsics.scalar_type() == torch::kFloat &&
-                  cam_from_world.scalar_type() == torch::kFloat,
-              "cameras must be float32");
+  TORCH_CHECK(intrinsics.scalar_type() == dtype && cam_from_world.scalar_type() == dtype,
+              "cameras must have the points' dtype ", dtype);
 }
 
 void CheckPoints(const torch::Tensor& points) {
   TORCH_CHECK(points.dim() == 3 && points.size(2) == 3, "points must be [R,S,3], got ",
               points.sizes());
-  TORCH_CHECK(points.scalar_type() == torch::kFloat, "points must be float32");
+  TORCH_CHECK(points.scalar_type() == torch::kFloat || points.scalar_type() == torch::kDouble,
+              "points must be float32 (or float64)");
 }
 
 torch::Tensor Unit(const torch::Tensor& v, double eps) {
@@ -30,7 +31,7 @@ torch::Tensor Unit(const torch::Tensor& v, double eps) {
 ProjectedPoints ProjectToViews(const torch::Tensor& points, const torch::Tensor& intrinsics,
                                const torch::Tensor& cam_from_world, int64_t height, int64_t width) {
   CheckPoints(points);
-  CheckCameras(intrinsics, cam_from_world);
+  CheckCameras(intrinsics, cam_from_world, points.scalar_type());
   TORCH_CHECK(height > 0 && width > 0, "image size must be positive");
   const int64_t v = intrinsics.size(0), r = points.size(0), s = points.size(1);
   const torch::Tensor x = points.reshape({1, r * s, 3});
@@ -51,8 +52,10 @@ ProjectedPoints ProjectToViews(const torch::Tensor& points, const torch::Tensor&
 
 torch::Tensor SampleViews(const torch::Tensor& maps, const torch::Tensor& uv, int64_t height,
                           int64_t width) {
-  TORCH_CHECK(maps.dim() == 4 && maps.scalar_type() == torch::kFloat,
-              "maps must be float32 [V,C,h,w], got ", maps.sizes());
+  TORCH_CHECK(maps.dim() == 4 && (maps.scalar_type() == torch::kFloat ||
+                                  maps.scalar_type() == torch::kDouble),
+              "maps must be float32 (or float64) [V,C,h,w], got ", maps.sizes());
+  TORCH_CHECK(uv.scalar_type() == maps.scalar_type(), "uv must have the maps' dtype");
   TORCH_CHECK(uv.dim() == 4 && uv.size(0) == maps.size(0) && uv.size(3) == 2,
               "uv must be [V,R,S,2] with V = ", maps.size(0), ", got ", uv.sizes());
   const torch::Tensor scale =

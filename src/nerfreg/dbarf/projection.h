@@ -9,6 +9,8 @@
 // (2u / W - 1, 2v / H - 1). This replaces the original's integer-pixel / align_corners = True
 // convention. A feature map at 1/4 resolution covers the same extent, so the same normalised
 // coordinates sample it.
+//
+// Tensors are float32; float64 throughout is accepted too (for finite-difference gradient checks).
 #pragma once
 
 #include <torch/torch.h>

@@ -139,5 +139,40 @@ TEST(Projection, GradientsReachPointsAndPoses) {
   EXPECT_GT(pts.grad().abs().sum().item<double>(), 0.0);
 }
 
+TEST(Projection, PoseAndPointGradientsEqualFiniteDifferences) {
+  // In float64: d/d(pose, points) of sum(c * sampled image) + sum(c' * ray difference).
+  torch::manual_seed(12);
+  const torch::Tensor k = Intrinsics(10, 8, 6).to(torch::kDouble);
+  const torch::Tensor pose0 = CamFromWorld({0.995, -0.0998, 0, 0.0998, 0.995, 0, 0, 0, 1}, {0.1, 0, -1}).to(torch::kDouble);
+  const torch::Tensor pts0 = torch::rand({3, 4, 3}, torch::kDouble) * 0.5 + torch::tensor({0.0, 0.0, 1.0}, torch::kDouble);
+  const torch::Tensor image = torch::rand({1, 2, 12, 16}, torch::kDouble);
+  const torch::Tensor c = torch::rand({1, 3, 4, 2}, torch::kDouble), c2 = torch::rand({1, 3, 4, 4}, torch::kDouble);
+  const torch::Tensor query = torch::tensor({0.3, -0.2, -0.5}, torch::kDouble).expand({3, 3});
+  auto objective = [&](const torch::Tensor& pose, const torch::Tensor& pts) {
+    const ProjectedPoints p = ProjectToViews(pts, k, pose, 12, 16);
+    const torch::Tensor diff = RayDifference(pts, query, CameraCenters(pose));
+    return (SampleViews(image, p.uv, 12, 16) * c).sum() + (diff * c2).sum();
+  };
+  const torch::Tensor pose = pose0.clone().requires_grad_(true), pts = pts0.clone().requires_grad_(true);
+  objective(pose, pts).backward();
+  const double eps = 1e-6;
+  for (int64_t i = 0; i < 3; ++i) {
+    for (int64_t j = 0; j < 4; ++j) {
+      torch::Tensor plus = pose0.clone(), minus = pose0.clone();
+      plus[0][i][j] += eps;
+      minus[0][i][j] -= eps;
+      const double fd = (objective(plus, pts0) - objective(minus, pts0)).item<double>() / (2 * eps);
+      EXPECT_NEAR(pose.grad()[0][i][j].item<double>(), fd, 1e-5 * (1 + std::abs(fd))) << i << "," << j;
+    }
+  }
+  for (int64_t d = 0; d < 3; ++d) {
+    torch::Tensor plus = pts0.clone(), minus = pts0.clone();
+    plus[1][2][d] += eps;
+    minus[1][2][d] -= eps;
+    const double fd = (objective(pose0, plus) - objective(pose0, minus)).item<double>() / (2 * eps);
+    EXPECT_NEAR(pts.grad()[1][2][d].item<double>(), fd, 1e-5 * (1 + std::abs(fd))) << d;
+  }
+}
+
 }  // namespace
 }  // namespace nerfreg
