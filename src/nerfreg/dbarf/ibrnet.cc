@@ -78,9 +78,9 @@ IbrNetImpl::IbrNetImpl(const IbrNetOptions& options) : options_(options) {
       nn::Sequential(Linear(kModelWidth, 16), nn::ELU(), Linear(16, 1), nn::ReLU()));
   rgb_fc_ = register_module("rgb_fc", nn::Sequential(Linear(kBaseWidth + 1 + 4, 16), nn::ELU(),
                                                      Linear(16, 8), nn::ELU(), Linear(8, 1)));
-  // Kaiming-normal weights, zero biases, for the MLPs (the attention keeps torch's defaults).
-  for (auto* seq : {&ray_dir_fc_, &base_fc_, &vis_fc_, &vis_fc2_, &geometry_fc_,
-                    &out_geometry_fc_, &rgb_fc_}) {
+  // Kaiming-normal weights, zero biases, on the MLPs the original initialises so; ray_dir_fc,
+  // out_geometry_fc and the attention keep torch's default initialisation, as there.
+  for (auto* seq : {&base_fc_, &vis_fc_, &vis_fc2_, &geometry_fc_, &rgb_fc_}) {
     for (auto& module : (*seq)->modules(/*include_self=*/false)) {
       if (auto* linear = module->as<nn::Linear>()) {
         torch::NoGradGuard no_grad;

@@ -15,8 +15,10 @@
 //    hard-codes a 64-row table, spec 9.4).
 //  - The transformer masks KEYS (samples with < 2 valid views are not attended to). The original's
 //    mask broadcasts over the keys and so only blanks whole query rows, which then average every
-//    sample of the ray. Dropout (0.1 in the original's attention) is left out.
-// All activations ELU; Linear layers Kaiming-normal with zero biases.
+//    sample of the ray.
+// No dropout (DBARF comments it out). All activations ELU. Linear layers of base_fc, vis_fc,
+// vis_fc2, geometry_fc and rgb_fc are Kaiming-normal with zero biases; ray_dir_fc,
+// out_geometry_fc and the attention keep torch's defaults (as the original).
 #pragma once
 
 #include <torch/torch.h>

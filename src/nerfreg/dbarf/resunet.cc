@@ -125,9 +125,9 @@ torch::Tensor ResUNetImpl::forward(const torch::Tensor& images) {
   const torch::Tensor x2 = layers_[1]->forward(x1);  // 1/8
   const torch::Tensor x3 = layers_[2]->forward(x2);  // 1/16
   torch::Tensor x = up3_->forward(UpsampleTo(x3, x2));
-  x = fuse3_->forward(torch::cat({x, x2}, 1));
+  x = fuse3_->forward(torch::cat({x2, x}, 1));
   x = up2_->forward(UpsampleTo(x, x1));
-  x = fuse2_->forward(torch::cat({x, x1}, 1));
+  x = fuse2_->forward(torch::cat({x1, x}, 1));
   return out_conv_->forward(x);
 }
 

@@ -8,6 +8,7 @@
 // and a batch of V source views is V independent images. Convolutions pad by reflection.
 // Upsampling is bilinear with align_corners (as the original); the upsampled map is resized to the
 // skip's exact size, so image sizes that are not multiples of 16 work (the original pads instead).
+// The skip comes first in each concatenation, as in the original.
 #pragma once
 
 #include <torch/torch.h>
