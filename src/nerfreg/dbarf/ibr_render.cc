@@ -50,7 +50,7 @@ IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_fro
               "TargetRays: intrinsics must be [3,3] and cam_from_world [4,4]");
   torch::Tensor idx = pixel_indices.defined()
                           ? pixel_indices
-                          : torch::arange(height * width, torch::kLong);
+                          : torch::arange(height * width, intrinsics.options().dtype(torch::kLong));
   TORCH_CHECK(idx.dim() == 1 && idx.scalar_type() == torch::kLong,
               "TargetRays: pixel_indices must be int64 [R]");
   const torch::Tensor u = idx.remainder(width).to(torch::kFloat) + 0.5;
@@ -65,10 +65,10 @@ IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_fro
 }
 
 torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far,
-                                  bool stratified) {
+                                  bool stratified, torch::Device device) {
   TORCH_CHECK(near > 0 && far > near, "InverseDepthSamples: need 0 < near < far");
   TORCH_CHECK(num_samples >= 2, "InverseDepthSamples: need >= 2 samples");
-  const torch::Tensor inv = torch::linspace(1.0 / near, 1.0 / far, num_samples);
+  const torch::Tensor inv = torch::linspace(1.0 / near, 1.0 / far, num_samples, torch::TensorOptions().device(device));
   torch::Tensor z = (1.0 / inv).unsqueeze(0).expand({num_rays, num_samples}).contiguous();
   if (!stratified) return z;
   const torch::Tensor mid = 0.5 * (z.narrow(1, 1, num_samples - 1) + z.narrow(1, 0, num_samples - 1));
@@ -104,7 +104,7 @@ IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const 
               "RenderIbrRays: rays must be [R,3]");
   const int64_t r = rays.origins.size(0), s = options.num_samples;
   const int64_t height = sources.images.size(2), width = sources.images.size(3);
-  const torch::Tensor z = InverseDepthSamples(r, s, near, far, training);  // [R,S]
+  const torch::Tensor z = InverseDepthSamples(r, s, near, far, training, rays.origins.device());  // [R,S]
   const torch::Tensor points =
       rays.origins.unsqueeze(1) + z.unsqueeze(2) * rays.directions.unsqueeze(1);  // [R,S,3]
 

@@ -63,9 +63,9 @@ IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_fro
 
 // Sample depths [num_rays, num_samples] float32, increasing, uniform in inverse depth from near to
 // far (0 < near < far). Stratified: each sample jittered uniformly within its bin (bins bounded by
-// midpoints, the first and last half-bins clamped to near and far).
+// midpoints, the first and last half-bins clamped to near and far). On `device`.
 torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far,
-                                  bool stratified);
+                                  bool stratified, torch::Device device = torch::kCPU);
 
 // Volume rendering of per-sample rgb [R, S, 3] and sigma [R, S] at depths [R, S]:
 // alpha = 1 - exp(-sigma), T_i = prod_{j<i} (1 - alpha_j + 1e-10), weights = alpha * T.
