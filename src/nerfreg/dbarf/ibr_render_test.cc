@@ -148,6 +148,34 @@ TEST(IbrRender, RaysOutsideEverySourceViewAreInvalid) {
   EXPECT_LT((image.depth - ahead.depth).abs().max().item<double>(), 1e-4);
 }
 
+TEST(IbrRender, GradientsReachNetworksAndSourcePoses) {
+  // DBARF's joint stage: the NeRF loss reaches the pose network through the source cameras.
+  torch::manual_seed(13);
+  ResUNet fnet(ResUNetOptions::Cpu());
+  IbrNet net(IbrNetOptions::Cpu());
+  const torch::Tensor eye = torch::eye(3);
+  IbrSourceViews src;
+  src.images = torch::stack({RenderPlanes({-0.2, 0, 0}).first, RenderPlanes({0.2, 0, 0}).first});
+  src.intrinsics = K().expand({2, 3, 3});
+  src.cam_from_world =
+      torch::stack({CamFromWorld(eye, {-0.2, 0, 0}), CamFromWorld(eye, {0.2, 0, 0})}).requires_grad_(true);
+  src.features = fnet->NerfFeatures(src.images);
+  const IbrRays rays = TargetRays(K(), CamFromWorld(eye, {0, 0, 0}), kH, kW, torch::arange(5 * kW + 4, 5 * kW + 28));
+  const IbrRenderOutput o = RenderIbrRays(net, src, rays, 1.5, 6.0, IbrRenderOptions::Cpu(), true);
+  ASSERT_EQ(o.rgb.sizes(), torch::IntArrayRef({24, 3}));
+  (o.rgb.sum() + 0.1 * o.depth.sum()).backward();
+  const torch::Tensor g = src.cam_from_world.grad();
+  ASSERT_TRUE(g.defined());
+  EXPECT_TRUE(torch::isfinite(g).all().item<bool>());
+  EXPECT_GT(g.narrow(1, 0, 3).abs().sum().item<double>(), 0.0);
+  for (auto* module : {static_cast<torch::nn::Module*>(fnet.get()), static_cast<torch::nn::Module*>(net.get())}) {
+    for (const auto& p : module->parameters()) {
+      ASSERT_TRUE(p.grad().defined());
+      EXPECT_TRUE(torch::isfinite(p.grad()).all().item<bool>());
+    }
+  }
+}
+
 // The tiny training test: ResUNet + IBRNet (CPU sizes) learn to render a held-out view of the
 // two-plane scene from 4 source views (the target between them, 0.05 off-centre); the held-out
 // image's colour error and expected-depth error must fall.
