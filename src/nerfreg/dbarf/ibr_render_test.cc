@@ -209,7 +209,8 @@ TEST(IbrRender, TrainingOnATwoPlaneSceneReducesHeldOutError) {
   };
   const auto [mse0, depth_err0] = held_out();
 
-  // 60 Adam steps of 128 random target rays (measured: mse / 20, depth error / 2.5 after 40).
+  // 60 Adam steps of 128 random target rays. Measured over seeds 10, 1, 2, 3: mse falls 30-80x,
+  // depth error 2.7-5x (the bounds below leave room).
   const int steps = 60;
   const int64_t nrays = 128;
   const double lr = 2e-3;
