@@ -1,0 +1,167 @@
+#include "nerfreg/dbarf/generalizable_nerf.h"
+
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+
+namespace nerfreg {
+namespace {
+
+const char* kFormatTag = "nerfreg-generalizable-nerf";
+
+torch::Tensor StringTensor(const std::string& s) {
+  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<int64_t>(s.size())},
+                          torch::kUInt8)
+      .clone();
+}
+
+std::string TensorString(const torch::Tensor& t) {
+  TORCH_CHECK(t.scalar_type() == torch::kUInt8 && t.dim() == 1, "meta must be uint8 [N]");
+  const torch::Tensor c = t.contiguous();
+  return std::string(reinterpret_cast<const char*>(c.data_ptr<uint8_t>()), c.numel());
+}
+
+std::vector<int64_t> Int64s(const JsonField& j) {
+  std::vector<int64_t> out;
+  for (size_t i = 0; i < j.ArraySize(); ++i) out.push_back(j[i].Int());
+  return out;
+}
+
+}  // namespace
+
+GeneralizableNerfOptions GeneralizableNerfOptions::Paper() {
+  return {ResUNetOptions::Paper(), IbrNetOptions::Paper(), IbrRenderOptions::Paper()};
+}
+
+GeneralizableNerfOptions GeneralizableNerfOptions::Cpu() {
+  return {ResUNetOptions::Cpu(), IbrNetOptions::Cpu(), IbrRenderOptions::Cpu()};
+}
+
+bool GeneralizableNerfOptions::Check() const {
+  if (!features.Check() || !ibrnet.Check() || !render.Check()) return false;
+  if (features.nerf_channels != ibrnet.feature_channels) {
+    LOG_ERROR("GeneralizableNerfOptions: features.nerf_channels ({}) != ibrnet.feature_channels ({})",
+              features.nerf_channels, ibrnet.feature_channels);
+    return false;
+  }
+  return true;
+}
+
+Json GeneralizableNerfOptionsToJson(const GeneralizableNerfOptions& o) {
+  const auto& f = o.features;
+  return {{"features",
+           {{"in_channels", f.in_channels},
+            {"stem_channels", f.stem_channels},
+            {"layer_channels", f.layer_channels},
+            {"layer_blocks", f.layer_blocks},
+            {"out_channels", f.out_channels},
+            {"nerf_channels", f.nerf_channels}}},
+          {"ibrnet",
+           {{"feature_channels", o.ibrnet.feature_channels},
+            {"anti_alias_pooling", o.ibrnet.anti_alias_pooling},
+            {"anti_alias_init", o.ibrnet.anti_alias_init},
+            {"attention_heads", o.ibrnet.attention_heads}}},
+          {"render",
+           {{"num_samples", o.render.num_samples},
+            {"valid_sample_fraction", o.render.valid_sample_fraction},
+            {"chunk_rays", o.render.chunk_rays}}}};
+}
+
+GeneralizableNerfOptions GeneralizableNerfOptionsFromJson(const JsonField& j) {
+  GeneralizableNerfOptions o;
+  const JsonField f = j["features"];
+  o.features.in_channels = f["in_channels"].Int();
+  o.features.stem_channels = f["stem_channels"].Int();
+  o.features.layer_channels = Int64s(f["layer_channels"]);
+  o.features.layer_blocks = Int64s(f["layer_blocks"]);
+  o.features.out_channels = f["out_channels"].Int();
+  o.features.nerf_channels = f["nerf_channels"].Int();
+  const JsonField n = j["ibrnet"];
+  o.ibrnet.feature_channels = n["feature_channels"].Int();
+  o.ibrnet.anti_alias_pooling = n["anti_alias_pooling"].Bool();
+  o.ibrnet.anti_alias_init = n["anti_alias_init"].Double();
+  o.ibrnet.attention_heads = n["attention_heads"].Int();
+  const JsonField r = j["render"];
+  o.render.num_samples = r["num_samples"].Int();
+  o.render.valid_sample_fraction = r["valid_sample_fraction"].Double();
+  o.render.chunk_rays = r["chunk_rays"].Int();
+  if (!o.Check()) j.Fail("valid generalizable NeRF options (see the log)");
+  return o;
+}
+
+GeneralizableNerf::GeneralizableNerf(const GeneralizableNerfOptions& opts) : options(opts) {
+  TORCH_CHECK(options.Check(), "GeneralizableNerf: invalid options");
+  feature_net = ResUNet(options.features);
+  ibrnet = IbrNet(options.ibrnet);
+}
+
+IbrSourceViews GeneralizableNerf::PrepareSources(const torch::Tensor& images,
+                                                 const torch::Tensor& intrinsics,
+                                                 const torch::Tensor& cam_from_world) {
+  IbrSourceViews s{images, intrinsics, cam_from_world, feature_net->NerfFeatures(images)};
+  s.CheckShapes();
+  return s;
+}
+
+IbrRenderOutput GeneralizableNerf::RenderRays(const IbrSourceViews& sources, const IbrRays& rays,
+                                              double near, double far, bool training) {
+  return RenderIbrRays(ibrnet, sources, rays, near, far, options.render, training);
+}
+
+void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& path) {
+  const Json meta = {{"format", kFormatTag},
+                     {"version", kGeneralizableNerfCheckpointVersion},
+                     {"options", GeneralizableNerfOptionsToJson(model.options)}};
+  torch::serialize::OutputArchive archive, features, ibrnet;
+  archive.write("meta", StringTensor(meta.dump()));
+  model.feature_net->save(features);
+  model.ibrnet->save(ibrnet);
+  archive.write("feature_net", features);
+  archive.write("ibrnet", ibrnet);
+  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+}
+
+GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
+                                        const GeneralizableNerfOptions* expected) {
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing generalizable NeRF checkpoint");
+  torch::serialize::InputArchive archive;
+  Json meta;
+  try {
+    archive.load_from(path);
+    torch::Tensor meta_tensor;
+    archive.read("meta", meta_tensor);
+    meta = Json::parse(TensorString(meta_tensor));
+  } catch (const std::exception&) {
+    ThrowInputError(path, "", "a nerfreg generalizable NeRF checkpoint (unreadable or truncated)");
+  }
+  const JsonField m(meta, path);
+  if (m.StringOr("format", "") != kFormatTag) {
+    ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
+  }
+  if (m["version"].Int() != kGeneralizableNerfCheckpointVersion) {
+    ThrowInputError(path, "version",
+                    std::to_string(kGeneralizableNerfCheckpointVersion) +
+                        " (written by another nerfreg version)");
+  }
+  const GeneralizableNerfOptions options = GeneralizableNerfOptionsFromJson(m["options"]);
+  if (expected != nullptr &&
+      GeneralizableNerfOptionsToJson(*expected) != GeneralizableNerfOptionsToJson(options)) {
+    ThrowInputError(path, "options",
+                    "the configuration " + GeneralizableNerfOptionsToJson(*expected).dump() +
+                        " (the checkpoint has another configuration)");
+  }
+  GeneralizableNerf model(options);
+  try {
+    torch::serialize::InputArchive features, ibrnet;
+    archive.read("feature_net", features);
+    archive.read("ibrnet", ibrnet);
+    model.feature_net->load(features);
+    model.ibrnet->load(ibrnet);
+  } catch (const c10::Error&) {
+    ThrowInputError(path, "",
+                    "a complete generalizable NeRF checkpoint (tensors missing or of the wrong shape)");
+  }
+  return model;
+}
+
+}  // namespace nerfreg
