@@ -8,6 +8,8 @@ namespace {
 namespace F = torch::nn::functional;
 
 constexpr double kMinDepth = 1e-4;
+// Rounding slack (pixels) on the valid region, so that an identity warp is valid everywhere.
+constexpr double kHullSlack = 1e-3;
 
 void CheckIntrinsics(const torch::Tensor& k, const char* name) {
   TORCH_CHECK((k.dim() == 2 || k.dim() == 3) && k.size(-1) == 3 && k.size(-2) == 3, name,
@@ -70,8 +72,10 @@ InverseWarpResult InverseWarp(const torch::Tensor& source, const torch::Tensor& 
   const torch::Tensor in_front = z > kMinDepth;
   const torch::Tensor z_safe = torch::where(in_front, z, torch::full_like(z, kMinDepth));
   const torch::Tensor u = uvw.select(-1, 0) / z_safe, v = uvw.select(-1, 1) / z_safe;
-  const torch::Tensor inside = in_front & (u >= 0) & (u <= static_cast<double>(ws)) & (v >= 0) &
-                               (v <= static_cast<double>(hs));
+  // Inside the hull of the source pixel centres, where bilinear sampling reads no padding.
+  const double lo = 0.5 - kHullSlack;
+  const torch::Tensor inside = in_front & (u >= lo) & (u <= static_cast<double>(ws) - lo) & (v >= lo) &
+                               (v <= static_cast<double>(hs) - lo);
   // Far outside points are clamped so that grid_sample stays well-conditioned (they are invalid).
   const torch::Tensor gx = (2.0 * u / static_cast<double>(ws) - 1.0).clamp(-2.0, 2.0);
   const torch::Tensor gy = (2.0 * v / static_cast<double>(hs) - 1.0).clamp(-2.0, 2.0);

@@ -30,8 +30,8 @@ torch::Tensor BackProject(const torch::Tensor& tgt_inv_depth, const torch::Tenso
 struct InverseWarpResult {
   // [N, C, H, W]: source sampled where each target pixel lands (border padding).
   torch::Tensor warped;
-  // [N, 1, H, W] float 0/1: the point lies in front of source i (z > min_depth) and projects
-  // inside its image domain [0, W_src] x [0, H_src].
+  // [N, 1, H, W] float 0/1: the point lies in front of source i (z > 1e-4) and projects inside
+  // the hull of its pixel centres [0.5, Ws - 0.5] x [0.5, Hs - 0.5] (no padding is read).
   torch::Tensor valid;
   // [N, H, W, 2]: the normalised grid_sample coordinates used.
   torch::Tensor grid;

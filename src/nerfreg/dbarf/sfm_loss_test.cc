@@ -1,0 +1,139 @@
+#include "nerfreg/dbarf/sfm_loss.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "nerfreg/dbarf/se3.h"
+#include "nerfreg/dbarf/test_scene.h"
+#include "nerfreg/util/logging.h"
+
+namespace nerfreg {
+namespace {
+
+using testing_scene::PlaneScene;
+
+constexpr double kPi = 3.14159265358979323846;
+
+class SfmLossTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    torch::set_num_threads(1);
+    torch::manual_seed(11);
+    scene_ = PlaneScene::Tilted(2.0);
+    src_from_tgt_ = testing_scene::SourcePoses(2);
+    target_ = scene_.Render(torch::eye(4));
+    sources_ = torch::cat({scene_.Render(src_from_tgt_[0]), scene_.Render(src_from_tgt_[1])}, 0);
+    inv_depth_ = scene_.TargetInverseDepth();
+  }
+  PlaneScene scene_;
+  torch::Tensor src_from_tgt_, target_, sources_, inv_depth_;
+};
+
+TEST_F(SfmLossTest, SsimAndErrorMapBehave) {
+  const torch::Tensor x = torch::rand({2, 3, 16, 20});
+  EXPECT_LT((Ssim(x, x) - 1.0).abs().max().item<double>(), 1e-5);
+  EXPECT_LT(PhotometricErrorMap(x, x).abs().max().item<double>(), 1e-5);
+  const torch::Tensor small = PhotometricErrorMap(x + 0.02 * torch::randn_like(x), x);
+  const torch::Tensor large = PhotometricErrorMap(x + 0.2 * torch::randn_like(x), x);
+  EXPECT_EQ(small.sizes(), (std::vector<int64_t>{2, 1, 16, 20}));
+  EXPECT_GT(large.mean().item<double>(), 2.0 * small.mean().item<double>());
+  // Pure L1 when ssim_weight = 0.
+  const torch::Tensor y = x + 0.1;
+  EXPECT_NEAR(PhotometricErrorMap(y, x, 0.0).mean().item<double>(), 0.1, 1e-5);
+}
+
+TEST_F(SfmLossTest, ClippingCapsEachMapAtMeanPlusHalfStd) {
+  const torch::Tensor e = torch::rand({3, 1, 8, 8});
+  const torch::Tensor c = ClipErrorMaps(e, 0.5);
+  for (int64_t b = 0; b < 3; ++b) {
+    const double limit = (e[b].mean() + 0.5 * e[b].std()).item<double>();
+    EXPECT_NEAR(c[b].max().item<double>(), limit, 1e-6);
+  }
+  EXPECT_TRUE(torch::equal(ClipErrorMaps(e, -1.0), e));
+}
+
+TEST_F(SfmLossTest, SmoothnessIsZeroForConstantDepthAndScaleInvariant) {
+  const torch::Tensor image = torch::rand({1, 3, 12, 12});
+  EXPECT_NEAR(EdgeAwareSmoothness(torch::full({1, 1, 12, 12}, 0.3f), image).item<double>(), 0.0, 1e-7);
+  const torch::Tensor d = torch::rand({1, 1, 12, 12}) + 0.1;
+  EXPECT_GT(EdgeAwareSmoothness(d, image).item<double>(), 0.05);
+  EXPECT_NEAR(EdgeAwareSmoothness(d, image).item<double>(), EdgeAwareSmoothness(5.0 * d, image).item<double>(), 1e-5);
+  // Depth edges where the image has edges cost less than where it is flat.
+  torch::Tensor step = torch::full({1, 1, 12, 12}, 0.5f);
+  step.slice(3, 6, 12) = 1.0f;
+  torch::Tensor edge_image = torch::zeros({1, 3, 12, 12});
+  edge_image.slice(3, 6, 12) = 1.0f;
+  EXPECT_LT(EdgeAwareSmoothness(step, edge_image).item<double>(),
+            0.5 * EdgeAwareSmoothness(step, torch::zeros({1, 3, 12, 12})).item<double>());
+}
+
+TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
+  const SfmLossOptions options;
+  const double at_truth = PhotometricLoss(target_, sources_, inv_depth_, src_from_tgt_, scene_.intrinsics, options)
+                              .loss.item<double>();
+  const torch::Tensor rot = torch::tensor({{0.0, 0.0, 0.0, 0.0, 0.03, 0.0}, {0.0, 0.0, 0.0, 0.02, 0.0, 0.01}},
+                                          torch::kFloat);
+  const torch::Tensor trans = torch::tensor({{0.08, 0.0, 0.0, 0.0, 0.0, 0.0}, {0.0, -0.08, 0.0, 0.0, 0.0, 0.0}},
+                                            torch::kFloat);
+  const double at_rot = PhotometricLoss(target_, sources_, inv_depth_, Se3Update(rot, src_from_tgt_),
+                                        scene_.intrinsics, options).loss.item<double>();
+  const double at_trans = PhotometricLoss(target_, sources_, inv_depth_, Se3Update(trans, src_from_tgt_),
+                                          scene_.intrinsics, options).loss.item<double>();
+  const double at_depth = PhotometricLoss(target_, sources_, 1.4 * inv_depth_, src_from_tgt_,
+                                          scene_.intrinsics, options).loss.item<double>();
+  EXPECT_LT(at_truth, 0.01);
+  EXPECT_GT(at_rot, 3.0 * at_truth);
+  EXPECT_GT(at_trans, 3.0 * at_truth);
+  EXPECT_GT(at_depth, 3.0 * at_truth);
+
+  // The full loss over K = 2 predictions is the documented weighted sum.
+  const auto full = SfmLoss(target_, sources_, {1.4 * inv_depth_, inv_depth_},
+                            {Se3Update(rot, src_from_tgt_), src_from_tgt_}, scene_.intrinsics, options);
+  const double first = PhotometricLoss(target_, sources_, 1.4 * inv_depth_, Se3Update(rot, src_from_tgt_),
+                                       scene_.intrinsics, options).loss.item<double>();
+  EXPECT_NEAR(full.photometric[0].item<double>(), first, 1e-6);
+  const double expected = 0.85 * first + 1.0 * at_truth + 0.01 * full.smoothness[0].item<double>() +
+                          0.005 * full.smoothness[1].item<double>();
+  EXPECT_NEAR(full.total.item<double>(), expected, 1e-6);
+  EXPECT_NEAR(full.photometric[1].item<double>(), at_truth, 1e-6);
+  EXPECT_GT(full.photometric[0].item<double>(), full.photometric[1].item<double>());
+}
+
+TEST_F(SfmLossTest, OptimisingAPoseDeltaByThePhotometricLossRecoversThePose) {
+  // Perturb both relative poses by ~3 degrees and 6 cm, then optimise left deltas by Adam on the
+  // photometric loss with the true depth.
+  const torch::Tensor perturb = torch::tensor({{0.04, -0.03, 0.02, 0.03, -0.035, 0.02},
+                                               {-0.03, 0.04, 0.03, -0.025, 0.03, 0.035}}, torch::kFloat);
+  const torch::Tensor start = Se3Update(perturb, src_from_tgt_);
+  const auto errors = [&](const torch::Tensor& est) {
+    const double rot = So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / kPi;
+    const double trans = (est.slice(1, 0, 3).select(2, 3) - src_from_tgt_.slice(1, 0, 3).select(2, 3))
+                             .norm(2, 1).max().item<double>();
+    return std::make_pair(rot, trans);
+  };
+  const auto [rot0, trans0] = errors(start);
+  torch::Tensor delta = torch::zeros({2, 6}, torch::requires_grad());
+  torch::optim::Adam adam({delta}, torch::optim::AdamOptions(3e-3));
+  SfmLossOptions options;
+  double first_loss = 0, last_loss = 0;
+  for (int step = 0; step < 150; ++step) {
+    adam.zero_grad();
+    const torch::Tensor loss =
+        PhotometricLoss(target_, sources_, inv_depth_, Se3Update(delta, start), scene_.intrinsics, options).loss;
+    loss.backward();
+    adam.step();
+    if (step == 0) first_loss = loss.item<double>();
+    last_loss = loss.item<double>();
+  }
+  const auto [rot1, trans1] = errors(Se3Update(delta.detach(), start));
+  LOG_INFO("pose refinement: rotation {:.3f} -> {:.3f} deg, translation {:.4f} -> {:.4f}, loss {:.4f} -> {:.4f}",
+           rot0, rot1, trans0, trans1, first_loss, last_loss);
+  EXPECT_GT(rot0, 2.5);
+  EXPECT_LT(rot1, 0.25 * rot0) << "rotation error " << rot0 << " -> " << rot1 << " deg";
+  EXPECT_LT(trans1, 0.35 * trans0) << "translation error " << trans0 << " -> " << trans1;
+  EXPECT_LT(last_loss, 0.5 * first_loss);
+}
+
+}  // namespace
+}  // namespace nerfreg
