@@ -174,6 +174,10 @@ torch::Tensor Se3Apply(const torch::Tensor& b_from_a, const torch::Tensor& x_in_
   return torch::matmul(x_in_a, r.transpose(-1, -2)) + t.unsqueeze(-2);
 }
 
+torch::Tensor RelativeTransform(const torch::Tensor& b_from_world, const torch::Tensor& a_from_world) {
+  return Se3Compose(b_from_world, Se3Inverse(a_from_world));
+}
+
 torch::Tensor Se3Update(const torch::Tensor& delta, const torch::Tensor& transform) {
   CheckTransform(transform, "Se3Update");
   return torch::matmul(Se3Exp(delta.to(transform.scalar_type())), transform);

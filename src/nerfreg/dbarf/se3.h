@@ -42,6 +42,10 @@ torch::Tensor Se3Inverse(const torch::Tensor& b_from_a);
 // b_from_a [..., 4, 4] applied to x_in_a [..., P, 3] -> x_in_b [..., P, 3].
 torch::Tensor Se3Apply(const torch::Tensor& b_from_a, const torch::Tensor& x_in_a);
 
+// b_from_a = b_from_world * a_from_world^-1 for cameras posed as cam_from_world [..., 4, 4]: the
+// src_from_tgt of a pair is RelativeTransform(src_from_world, tgt_from_world).
+torch::Tensor RelativeTransform(const torch::Tensor& b_from_world, const torch::Tensor& a_from_world);
+
 // The left update Exp(delta) * transform: delta [..., 6], transform [..., 4, 4] -> [..., 4, 4].
 torch::Tensor Se3Update(const torch::Tensor& delta, const torch::Tensor& transform);
 

@@ -113,6 +113,13 @@ TEST_F(Se3Test, ComposeInverseApplyAndGeodesicAngleAgree) {
   const torch::Tensor direct = Se3Apply(a_from_b, Se3Apply(b_from_c, x_in_c));
   const torch::Tensor composed = Se3Apply(Se3Compose(a_from_b, b_from_c), x_in_c);
   EXPECT_LT((direct - composed).abs().max().item<double>(), 1e-12);
+  // Relative transform of two cameras posed as cam_from_world.
+  const torch::Tensor& cam1_from_world = a_from_b;
+  const torch::Tensor& cam2_from_world = b_from_c;
+  const torch::Tensor cam1_from_cam2 = RelativeTransform(cam1_from_world, cam2_from_world);
+  const torch::Tensor x_in_world = torch::randn({5, 4, 3}, torch::kDouble);
+  EXPECT_LT((Se3Apply(cam1_from_cam2, Se3Apply(cam2_from_world, x_in_world)) -
+             Se3Apply(cam1_from_world, x_in_world)).abs().max().item<double>(), 1e-12);
   // The geodesic angle between R and Exp(w) R is |w| (w below pi).
   const torch::Tensor w = torch::tensor({{0.0, 0.0, 0.0}, {1e-4, 0.0, 0.0}, {0.3, -0.2, 0.1}, {0.0, 3.0, 0.0}},
                                         torch::kDouble);

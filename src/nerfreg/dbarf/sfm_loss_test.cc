@@ -100,6 +100,40 @@ TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
   EXPECT_GT(full.photometric[0].item<double>(), full.photometric[1].item<double>());
 }
 
+TEST_F(SfmLossTest, PhotometricLossGradientsMatchFiniteDifferences) {
+  SfmLossOptions options;
+  options.auto_mask = false;      // the per-pixel minimum and
+  options.clip_std_factor = -1.0; // the clipping are piecewise; test the smooth core
+  const torch::Tensor tgt = target_.to(torch::kDouble), src = sources_.to(torch::kDouble);
+  const torch::Tensor k = scene_.intrinsics.to(torch::kDouble);
+  const torch::Tensor inv = inv_depth_.to(torch::kDouble);
+  const torch::Tensor start = Se3Update(
+      torch::tensor({{0.02, -0.01, 0.01, 0.01, -0.02, 0.01}, {-0.01, 0.02, 0.0, -0.01, 0.01, 0.02}}, torch::kDouble),
+      src_from_tgt_.to(torch::kDouble));
+  const auto loss_of = [&](const torch::Tensor& delta, const torch::Tensor& depth_scale) {
+    return PhotometricLoss(tgt, src, inv * depth_scale, Se3Update(delta, start), k, options).loss;
+  };
+  const torch::Tensor delta = torch::zeros({2, 6}, torch::dtype(torch::kDouble).requires_grad(true));
+  const torch::Tensor scale = torch::ones({}, torch::dtype(torch::kDouble).requires_grad(true));
+  loss_of(delta, scale).backward();
+  const double eps = 1e-7;
+  torch::NoGradGuard no_grad;
+  torch::Tensor fd = torch::zeros({2, 6}, torch::kDouble);
+  for (int64_t i = 0; i < 2; ++i) {
+    for (int64_t j = 0; j < 6; ++j) {
+      torch::Tensor e = torch::zeros({2, 6}, torch::kDouble);
+      e[i][j] = eps;
+      fd[i][j] = (loss_of(e, scale) - loss_of(-e, scale)) / (2 * eps);
+    }
+  }
+  const torch::Tensor grad = delta.grad();
+  EXPECT_GT(grad.abs().max().item<double>(), 1e-3);
+  EXPECT_LT((grad - fd).abs().max().item<double>(), 1e-3 * grad.abs().max().item<double>())
+      << "autograd " << grad << " finite differences " << fd;
+  const double fd_scale = ((loss_of(delta, scale + eps) - loss_of(delta, scale - eps)) / (2 * eps)).item<double>();
+  EXPECT_NEAR(scale.grad().item<double>(), fd_scale, 1e-3 * std::abs(fd_scale) + 1e-9);
+}
+
 TEST_F(SfmLossTest, OptimisingAPoseDeltaByThePhotometricLossRecoversThePose) {
   // Perturb both relative poses by ~3 degrees and 6 cm, then optimise left deltas by Adam on the
   // photometric loss with the true depth.
