@@ -74,6 +74,26 @@ TEST_F(InverseWarpTest, WarpedSourceEqualsTargetOnAnAnalyticPlane) {
   }
 }
 
+TEST_F(InverseWarpTest, SourcesWithTheirOwnIntrinsicsAndSize) {
+  const PlaneScene target_scene = PlaneScene::Tilted(2.0);
+  PlaneScene source_scene = PlaneScene::Tilted(2.0, 40, 56);  // another camera: size, focal, centre
+  source_scene.intrinsics = torch::tensor({{44.0f, 0.0f, 27.0f}, {0.0f, 46.0f, 21.0f}, {0.0f, 0.0f, 1.0f}});
+  const torch::Tensor src_from_tgt = testing_scene::SourcePoses(2);
+  const torch::Tensor sources =
+      torch::cat({source_scene.Render(src_from_tgt[0]), source_scene.Render(src_from_tgt[1])}, 0);
+  const torch::Tensor target = target_scene.Render(torch::eye(4));
+  const auto res = InverseWarp(sources, target_scene.TargetInverseDepth(), src_from_tgt, target_scene.intrinsics,
+                               source_scene.intrinsics);
+  EXPECT_EQ(res.warped.sizes(), (std::vector<int64_t>{2, 3, 48, 64}));
+  EXPECT_GT(res.valid.mean().item<double>(), 0.4);
+  const torch::Tensor err = (res.warped - target).abs() * res.valid;
+  EXPECT_LT((err.sum() / (3 * res.valid.sum())).item<double>(), 3e-3);
+  // With the target's intrinsics assumed for the sources the warp is wrong.
+  const auto wrong = InverseWarp(sources, target_scene.TargetInverseDepth(), src_from_tgt, target_scene.intrinsics);
+  const torch::Tensor err_wrong = (wrong.warped - target).abs() * wrong.valid;
+  EXPECT_GT((err_wrong.sum() / (3 * wrong.valid.sum())).item<double>(), 0.02);
+}
+
 TEST_F(InverseWarpTest, PointsBehindTheSourceAreInvalid) {
   const torch::Tensor k = torch::tensor({{10.0f, 0.0f, 4.0f}, {0.0f, 10.0f, 4.0f}, {0.0f, 0.0f, 1.0f}});
   torch::Tensor src_from_tgt = torch::eye(4).unsqueeze(0).clone();

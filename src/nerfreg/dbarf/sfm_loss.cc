@@ -82,7 +82,8 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
                                       const torch::Tensor& tgt_inv_depth,
                                       const torch::Tensor& src_from_tgt,
                                       const torch::Tensor& intrinsics,
-                                      const SfmLossOptions& options) {
+                                      const SfmLossOptions& options,
+                                      const torch::Tensor& src_intrinsics) {
   TORCH_CHECK(target.dim() == 4 && target.size(0) == 1, "PhotometricLoss: target must be [1, C, H, W], got ",
               target.sizes());
   TORCH_CHECK(sources.dim() == 4 && sources.sizes().slice(1) == target.sizes().slice(1),
@@ -91,7 +92,8 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
                   tgt_inv_depth.size(2) == target.size(2) && tgt_inv_depth.size(3) == target.size(3),
               "PhotometricLoss: inverse depth must be [1, 1, H, W] at the image size, got ",
               tgt_inv_depth.sizes());
-  const InverseWarpResult warp = InverseWarp(sources, tgt_inv_depth, src_from_tgt, intrinsics);
+  const InverseWarpResult warp = InverseWarp(sources, tgt_inv_depth, src_from_tgt, intrinsics,
+                                             src_intrinsics.defined() ? src_intrinsics : intrinsics);
   torch::Tensor warped_err = ClipErrorMaps(PhotometricErrorMap(warp.warped, target, options.ssim_weight),
                                            options.clip_std_factor);
   warped_err = torch::where(warp.valid > 0.5, warped_err, torch::full_like(warped_err, kInvalidError));

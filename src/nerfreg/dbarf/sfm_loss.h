@@ -68,12 +68,14 @@ constexpr double kInvalidError = 1e3;
 //  sources:       [N, C, H, W] float.
 //  tgt_inv_depth: [1, 1, H, W] float, > 0.
 //  src_from_tgt:  [N, 4, 4] float.
-//  intrinsics:    [3, 3] or [N, 3, 3] float, pixels of the H x W images (shared by all views).
+//  intrinsics:    [3, 3] or [N, 3, 3] float, pixels of the H x W images (the target's camera).
+//  src_intrinsics: undefined (the sources share `intrinsics`) or [3, 3] / [N, 3, 3] float.
 PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::Tensor& sources,
                                       const torch::Tensor& tgt_inv_depth,
                                       const torch::Tensor& src_from_tgt,
                                       const torch::Tensor& intrinsics,
-                                      const SfmLossOptions& options = {});
+                                      const SfmLossOptions& options = {},
+                                      const torch::Tensor& src_intrinsics = {});
 
 struct SfmLossResult {
   torch::Tensor total;        // scalar: sum_k w_k photometric_k + s_k smoothness_k

@@ -171,3 +171,52 @@ TEST_F(SfmLossTest, OptimisingAPoseDeltaByThePhotometricLossRecoversThePose) {
 
 }  // namespace
 }  // namespace nerfreg
+
+namespace nerfreg {
+namespace {
+
+// The downstream use: refine perturbed relative poses and an unknown inverse-depth map together
+// (a coarse log-inverse-depth grid, bilinearly upsampled), from a constant-depth start.
+TEST_F(SfmLossTest, JointPoseAndDepthRefinementFromAConstantDepth) {
+  namespace F = torch::nn::functional;
+  const torch::Tensor perturb = torch::tensor({{0.03, -0.02, 0.01, 0.025, -0.03, 0.015},
+                                               {-0.02, 0.03, 0.02, -0.02, 0.025, 0.03}}, torch::kFloat);
+  const torch::Tensor start = Se3Update(perturb, src_from_tgt_);
+  const auto rot_error = [&](const torch::Tensor& est) {
+    return So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / kPi;
+  };
+  torch::Tensor delta = torch::zeros({2, 6}, torch::requires_grad());
+  torch::Tensor log_inv = torch::full({1, 1, 12, 16}, std::log(0.5), torch::requires_grad());
+  torch::optim::Adam adam({delta, log_inv}, torch::optim::AdamOptions(5e-3));
+  const auto inv_depth_of = [&]() {
+    return F::interpolate(torch::exp(log_inv), F::InterpolateFuncOptions()
+                                                   .size(std::vector<int64_t>{scene_.height, scene_.width})
+                                                   .mode(torch::kBilinear)
+                                                   .align_corners(false));
+  };
+  const auto depth_error = [&]() {
+    // Relative inverse-depth error after the best scale (scale is a gauge of the problem).
+    const torch::Tensor est = inv_depth_of().detach();
+    const double s = (inv_depth_.sum() / est.sum()).item<double>();
+    return ((s * est - inv_depth_).abs() / inv_depth_).mean().item<double>();
+  };
+  const double rot0 = rot_error(start), depth0 = depth_error();
+  SfmLossOptions options;
+  for (int step = 0; step < 200; ++step) {
+    adam.zero_grad();
+    const torch::Tensor inv = inv_depth_of();
+    const torch::Tensor loss =
+        PhotometricLoss(target_, sources_, inv, Se3Update(delta, start), scene_.intrinsics, options).loss +
+        1e-3 * EdgeAwareSmoothness(inv, target_);
+    loss.backward();
+    adam.step();
+  }
+  const double rot1 = rot_error(Se3Update(delta.detach(), start)), depth1 = depth_error();
+  LOG_INFO("joint refinement: rotation {:.3f} -> {:.3f} deg, inverse-depth error {:.3f} -> {:.3f}", rot0, rot1,
+           depth0, depth1);
+  EXPECT_LT(rot1, 0.5 * rot0);
+  EXPECT_LT(depth1, 0.5 * depth0);
+}
+
+}  // namespace
+}  // namespace nerfreg
