@@ -56,7 +56,7 @@ TEST_F(InverseWarpTest, TranslationOnAPlaneShiftsByWholePixels) {
 }
 
 TEST_F(InverseWarpTest, WarpedSourceEqualsTargetOnAnAnalyticPlane) {
-  for (const PlaneScene& scene : {PlaneScene::FrontoParallel(2.0), PlaneScene::Tilted(2.0)}) {
+  for (const PlaneScene& scene : {PlaneScene::FrontoParallel(2.0), PlaneScene::Tilted(2.0), PlaneScene::Ridge(2.0)}) {
     const torch::Tensor src_from_tgt = testing_scene::SourcePoses(3);
     std::vector<torch::Tensor> sources;
     for (int64_t i = 0; i < 3; ++i) sources.push_back(scene.Render(src_from_tgt[i]));

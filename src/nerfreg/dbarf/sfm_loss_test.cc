@@ -134,39 +134,66 @@ TEST_F(SfmLossTest, PhotometricLossGradientsMatchFiniteDifferences) {
   EXPECT_NEAR(scale.grad().item<double>(), fd_scale, 1e-3 * std::abs(fd_scale) + 1e-9);
 }
 
-TEST_F(SfmLossTest, OptimisingAPoseDeltaByThePhotometricLossRecoversThePose) {
-  // Perturb both relative poses by ~3 degrees and 6 cm, then optimise left deltas by Adam on the
-  // photometric loss with the true depth.
+struct PoseRecovery {
+  double rot0, rot1, trans0, trans1, loss0, loss1;
+};
+
+// Perturbs both relative poses by ~3 degrees and 6 cm, then optimises left deltas by Adam (learning
+// rate 3e-3; with decay, 1e-3 and 3e-4 for the last half and quarter) on the photometric loss with
+// the true depth.
+PoseRecovery RecoverPoses(const PlaneScene& scene, int steps, const SfmLossOptions& options, bool decay) {
+  const torch::Tensor truth = testing_scene::SourcePoses(2);
+  const torch::Tensor target = scene.Render(torch::eye(4));
+  const torch::Tensor sources = torch::cat({scene.Render(truth[0]), scene.Render(truth[1])}, 0);
+  const torch::Tensor inv_depth = scene.TargetInverseDepth();
   const torch::Tensor perturb = torch::tensor({{0.04, -0.03, 0.02, 0.03, -0.035, 0.02},
                                                {-0.03, 0.04, 0.03, -0.025, 0.03, 0.035}}, torch::kFloat);
-  const torch::Tensor start = Se3Update(perturb, src_from_tgt_);
-  const auto errors = [&](const torch::Tensor& est) {
-    const double rot = So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / kPi;
-    const double trans = (est.slice(1, 0, 3).select(2, 3) - src_from_tgt_.slice(1, 0, 3).select(2, 3))
-                             .norm(2, 1).max().item<double>();
-    return std::make_pair(rot, trans);
+  const torch::Tensor start = Se3Update(perturb, truth);
+  const auto rot_error = [&](const torch::Tensor& est) {
+    return So3GeodesicAngle(est, truth).max().item<double>() * 180.0 / kPi;
   };
-  const auto [rot0, trans0] = errors(start);
+  const auto trans_error = [&](const torch::Tensor& est) {
+    return (est.slice(1, 0, 3).select(2, 3) - truth.slice(1, 0, 3).select(2, 3)).norm(2, 1).max().item<double>();
+  };
+  PoseRecovery r{};
+  r.rot0 = rot_error(start);
+  r.trans0 = trans_error(start);
   torch::Tensor delta = torch::zeros({2, 6}, torch::requires_grad());
   torch::optim::Adam adam({delta}, torch::optim::AdamOptions(3e-3));
-  SfmLossOptions options;
-  double first_loss = 0, last_loss = 0;
-  for (int step = 0; step < 150; ++step) {
+  for (int step = 0; step < steps; ++step) {
+    if (decay && step == steps / 2) static_cast<torch::optim::AdamOptions&>(adam.param_groups()[0].options()).lr(1e-3);
+    if (decay && step == 3 * steps / 4) static_cast<torch::optim::AdamOptions&>(adam.param_groups()[0].options()).lr(3e-4);
     adam.zero_grad();
     const torch::Tensor loss =
-        PhotometricLoss(target_, sources_, inv_depth_, Se3Update(delta, start), scene_.intrinsics, options).loss;
+        PhotometricLoss(target, sources, inv_depth, Se3Update(delta, start), scene.intrinsics, options).loss;
     loss.backward();
     adam.step();
-    if (step == 0) first_loss = loss.item<double>();
-    last_loss = loss.item<double>();
+    if (step == 0) r.loss0 = loss.item<double>();
+    r.loss1 = loss.item<double>();
   }
-  const auto [rot1, trans1] = errors(Se3Update(delta.detach(), start));
+  r.rot1 = rot_error(Se3Update(delta.detach(), start));
+  r.trans1 = trans_error(Se3Update(delta.detach(), start));
   LOG_INFO("pose refinement: rotation {:.3f} -> {:.3f} deg, translation {:.4f} -> {:.4f}, loss {:.4f} -> {:.4f}",
-           rot0, rot1, trans0, trans1, first_loss, last_loss);
-  EXPECT_GT(rot0, 2.5);
-  EXPECT_LT(rot1, 0.25 * rot0) << "rotation error " << rot0 << " -> " << rot1 << " deg";
-  EXPECT_LT(trans1, 0.35 * trans0) << "translation error " << trans0 << " -> " << trans1;
-  EXPECT_LT(last_loss, 0.5 * first_loss);
+           r.rot0, r.rot1, r.trans0, r.trans1, r.loss0, r.loss1);
+  return r;
+}
+
+TEST_F(SfmLossTest, OptimisingAPoseDeltaByThePhotometricLossRecoversThePose) {
+  // A single plane leaves a rotation/translation ambiguity (bas-relief): a residual remains.
+  const PoseRecovery plane = RecoverPoses(scene_, 150, SfmLossOptions{}, /*decay=*/false);
+  EXPECT_GT(plane.rot0, 2.5);
+  EXPECT_LT(plane.rot1, 0.25 * plane.rot0);
+  EXPECT_LT(plane.trans1, 0.35 * plane.trans0);
+  EXPECT_LT(plane.loss1, 0.5 * plane.loss0);
+  // Depth variation (a ridge) resolves it; for refinement (static scene, no outliers) clipping and
+  // auto-masking only discard information (measured: 0.095 deg with them after 400 steps, 0.034
+  // deg without).
+  SfmLossOptions refine;
+  refine.clip_std_factor = -1.0;
+  refine.auto_mask = false;
+  const PoseRecovery ridge = RecoverPoses(PlaneScene::Ridge(2.0), 300, refine, /*decay=*/true);
+  EXPECT_LT(ridge.rot1, 0.05 * ridge.rot0);
+  EXPECT_LT(ridge.trans1, 0.15 * ridge.trans0);
 }
 
 }  // namespace

@@ -10,13 +10,17 @@
 namespace nerfreg {
 namespace testing_scene {
 
-// The plane {x_in_tgt : normal . x_in_tgt = offset}, expressed in the target camera's frame.
+// The plane {x_in_tgt : normal . x_in_tgt = offset}, expressed in the target camera's frame; with
+// a second plane (Ridge), the solid behind both planes, whose visible surface is the later of the
+// two ray-plane intersections (a convex ridge, no occlusion for moderate viewpoint changes).
 struct PlaneScene {
   int64_t height = 48;
   int64_t width = 64;
   torch::Tensor intrinsics;  // [3, 3] float32
   torch::Tensor normal;      // [3] float32, unit
   double offset = 2.0;       // distance along the normal
+  torch::Tensor normal2;     // [3] float32, unit; undefined for a single plane
+  double offset2 = 0.0;
 
   static PlaneScene FrontoParallel(double depth, int64_t height = 48, int64_t width = 64) {
     PlaneScene s;
@@ -37,6 +41,19 @@ struct PlaneScene {
     return s;
   }
 
+  // Two faces through (0, 0, depth) tilted by +-slope in x: depth = depth + slope * |x| (and a
+  // little y tilt), so the scene has depth variation that planes lack.
+  static PlaneScene Ridge(double depth, double slope = 0.4, int64_t height = 48, int64_t width = 64) {
+    PlaneScene s = FrontoParallel(depth, height, width);
+    s.normal = torch::tensor({static_cast<float>(-slope), 0.1f, 1.0f});
+    s.normal = s.normal / s.normal.norm();
+    s.offset = depth * s.normal[2].item<double>();
+    s.normal2 = torch::tensor({static_cast<float>(slope), 0.1f, 1.0f});
+    s.normal2 = s.normal2 / s.normal2.norm();
+    s.offset2 = depth * s.normal2[2].item<double>();
+    return s;
+  }
+
   // Smooth colour texture at plane points x_in_tgt [P, 3] -> [P, 3] in about [0.05, 0.95].
   static torch::Tensor Texture(const torch::Tensor& x) {
     const torch::Tensor a = x.select(1, 0), b = x.select(1, 1), c = x.select(1, 2);
@@ -53,7 +70,8 @@ struct PlaneScene {
     const torch::Tensor o = tgt_from_cam.slice(0, 0, 3).select(1, 3);
     const torch::Tensor pix = PixelCentres(height, width, torch::kFloat);
     const torch::Tensor dirs = torch::matmul(torch::matmul(pix, torch::linalg::inv(intrinsics).t()), r.t());
-    const torch::Tensor s = (offset - torch::dot(normal, o)) / torch::matmul(dirs, normal);
+    torch::Tensor s = (offset - torch::dot(normal, o)) / torch::matmul(dirs, normal);
+    if (normal2.defined()) s = torch::maximum(s, (offset2 - torch::dot(normal2, o)) / torch::matmul(dirs, normal2));
     const torch::Tensor x = o + s.unsqueeze(1) * dirs;
     return Texture(x).t().reshape({1, 3, height, width}).contiguous();
   }
@@ -62,7 +80,9 @@ struct PlaneScene {
   torch::Tensor TargetInverseDepth() const {
     const torch::Tensor pix = PixelCentres(height, width, torch::kFloat);
     const torch::Tensor rays = torch::matmul(pix, torch::linalg::inv(intrinsics).t());  // z = 1
-    return (torch::matmul(rays, normal) / offset).view({1, 1, height, width});
+    torch::Tensor inv = torch::matmul(rays, normal) / offset;
+    if (normal2.defined()) inv = torch::minimum(inv, torch::matmul(rays, normal2) / offset2);
+    return inv.view({1, 1, height, width});
   }
 };
 
