@@ -160,9 +160,12 @@ PoseRecovery RecoverPoses(const PlaneScene& scene, int steps, const SfmLossOptio
   r.trans0 = trans_error(start);
   torch::Tensor delta = torch::zeros({2, 6}, torch::requires_grad());
   torch::optim::Adam adam({delta}, torch::optim::AdamOptions(3e-3));
+  const auto set_lr = [&](double lr) {
+    static_cast<torch::optim::AdamOptions&>(adam.param_groups()[0].options()).lr(lr);
+  };
   for (int step = 0; step < steps; ++step) {
-    if (decay && step == steps / 2) static_cast<torch::optim::AdamOptions&>(adam.param_groups()[0].options()).lr(1e-3);
-    if (decay && step == 3 * steps / 4) static_cast<torch::optim::AdamOptions&>(adam.param_groups()[0].options()).lr(3e-4);
+    if (decay && step == steps / 2) set_lr(1e-3);
+    if (decay && step == 3 * steps / 4) set_lr(3e-4);
     adam.zero_grad();
     const torch::Tensor loss =
         PhotometricLoss(target, sources, inv_depth, Se3Update(delta, start), scene.intrinsics, options).loss;
