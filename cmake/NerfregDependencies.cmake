@@ -30,3 +30,10 @@ if(NERFREG_WITH_TORCH)
   target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
   target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
 endif()
+
+# BLAS: Debian's Ceres links ATLAS's libf77blas.so.3 directly. An executable that lists it before
+# libblas.so.3 (the alternative setup.sh points at OpenBLAS) resolves LibTorch's sgemm_ to
+# single-threaded ATLAS: `perf` showed ATL_* kernels taking most of a `reg train` step, and
+# putting OpenBLAS first doubled its rate (0.28 -> 0.58 steps/s, 2 cores, shared machine). Every
+# executable therefore names libblas.so.3 first (nerfreg_blas_first in NerfregMacros.cmake).
+find_file(NERFREG_BLAS_LIBRARY libblas.so.3 PATHS /usr/lib/x86_64-linux-gnu /usr/lib/aarch64-linux-gnu /usr/lib NO_DEFAULT_PATH)

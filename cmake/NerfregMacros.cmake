@@ -17,6 +17,14 @@ function(nerfreg_use_torch_pch TARGET)
   target_precompile_headers(${TARGET} REUSE_FROM nerfreg_torch_pch)
 endfunction()
 
+# The BLAS alternative (OpenBLAS) as the executable's first needed library, ahead of ATLAS's
+# libf77blas that Ceres brings (see NerfregDependencies.cmake).
+function(nerfreg_blas_first TARGET)
+  if(NERFREG_BLAS_LIBRARY)
+    target_link_options(${TARGET} BEFORE PRIVATE "LINKER:--push-state,--no-as-needed" ${NERFREG_BLAS_LIBRARY} "LINKER:--pop-state")
+  endif()
+endfunction()
+
 function(nerfreg_add_library NAME)
   cmake_parse_arguments(A "TORCH" "" "SRCS;PUBLIC_LINK;PRIVATE_LINK" ${ARGN})
   add_library(${NAME} STATIC ${A_SRCS})
@@ -35,6 +43,7 @@ function(nerfreg_add_test NAME)
   endif()
   cmake_parse_arguments(A "TORCH" "" "SRCS;LINK" ${ARGN})
   add_executable(${NAME} ${A_SRCS})
+  nerfreg_blas_first(${NAME})
   target_link_libraries(${NAME} PRIVATE ${A_LINK} nerfreg_test_main)
   if(A_TORCH)
     target_link_libraries(${NAME} PRIVATE nerfreg_torch)

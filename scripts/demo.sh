@@ -20,12 +20,18 @@ for k in 0 1; do
   $BIN nerf train "$OUT/data/block_$k" --out "$OUT/block_$k.ckpt" --preset fast --iters "$ITERS"
 done
 
-echo "== 3/4 register block 0 into block 1"
-$BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --out "$OUT/target_from_source.json"
+echo "== 3/4 register block 0 into block 1 (DReg-NeRF with the shipped weights, then FPFH + RANSAC)"
+METHODS="ransac"
+[ -f models/dreg_cpu.pt ] && METHODS="dreg ransac"
+for m in $METHODS; do
+  $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --method "$m" --out "$OUT/target_from_source_$m.json"
+done
 
 echo "== 4/4 errors against the ground truth, pictures, report"
-$BIN reg eval --pair "$OUT/target_from_source.json" --ground-truth "$OUT/data/ground_truth.json" \
-  --source 0 --target 1 --out "$OUT/errors.json"
+for m in $METHODS; do
+  $BIN reg eval --pair "$OUT/target_from_source_$m.json" --ground-truth "$OUT/data/ground_truth.json" \
+    --source 0 --target 1 --out "$OUT/errors_$m.json"
+done
 for k in 0 1; do
   $BIN nerf render "$OUT/block_$k.ckpt" --transforms "$OUT/data/block_$k/transforms.json" --out "$OUT/renders_block_$k" --quiet
 done

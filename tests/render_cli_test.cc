@@ -37,3 +37,20 @@ TEST(RenderCli, AssimpMeshIntoTwoBlocksWithGroundTruth) {
 
 }  // namespace
 }  // namespace nerfreg
+
+namespace nerfreg {
+namespace {
+
+// LibTorch's matrix products must reach OpenBLAS, not ATLAS's libf77blas (which Debian's Ceres
+// links): the binary names libblas.so.3 before libf77blas.so.3, so the loader binds sgemm_ to it.
+TEST(Binary, OpenBlasIsBoundBeforeAtlas) {
+  const CommandResult r = RunShell("readelf -d " + std::string(NERFREG_BINARY) + " | grep NEEDED");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const size_t blas = r.output.find("[libblas.so.3]");
+  ASSERT_NE(blas, std::string::npos) << r.output;
+  const size_t atlas = r.output.find("[libf77blas.so.3]");
+  if (atlas != std::string::npos) EXPECT_LT(blas, atlas) << r.output;
+}
+
+}  // namespace
+}  // namespace nerfreg

@@ -78,7 +78,9 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("--method", method, "ransac, fgr or dreg")->check(CLI::IsMember({"ransac", "fgr", "dreg"}));
   app.add_option("--refine", refine, "none or icp")->check(CLI::IsMember({"none", "icp"}));
   app.add_option("--weights", weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
-  app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 64, as trained)");
+  app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 32, as the shipped weights were trained)");
+  std::string config;
+  app.add_option("--config", config, "dreg: require weights of this network config (cpu or paper)")->check(CLI::IsMember({"cpu", "paper"}));
   app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
   app.add_option("--seed", seed, "Random seed");
@@ -92,6 +94,9 @@ int RunRegRegister(int argc, char** argv) {
     }
     DregModelOptions model_options;
     DregNet net = LoadDregWeights(weights, &model_options);
+    if (!config.empty()) {
+      CheckDregOptionsMatch(model_options, config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), weights);
+    }
     Timer t_grid;
     grid_options.seed = seed;
     const RegGrid gs = ExtractRegGrid(source, grid_options), gt = ExtractRegGrid(target, grid_options);

@@ -16,7 +16,7 @@ using namespace nerfreg;
 namespace {
 
 void AddGridOptions(CLI::App& app, GridExtractionOptions* g) {
-  app.add_option("--grid-resolution", g->resolution, "Voxels per side of the grid (default 64; the paper 128)");
+  app.add_option("--grid-resolution", g->resolution, "Voxels per side of the grid (default 32, the shipped model's; the paper 128)");
   app.add_option("--grid-side", g->side, "Side of the grid's cube, block units (default 3.6)");
   app.add_option("--min-density", g->min_density, "Density mask threshold (default 0.7, the paper's)");
   app.add_option("--variant", g->variant, "surface (density AND surface field) or df (density only)")

@@ -18,7 +18,7 @@
 namespace nerfreg {
 
 struct GridExtractionOptions {
-  int resolution = 64;              // D (the paper: 128 over a side of 3)
+  int resolution = 32;              // D: the shipped CPU model's (the paper: 128 over a side of 3)
   double side = 3.6;                // cube side, block units; centred on the centre of the field's box
   double min_density = 0.7;         // density mask threshold (spec)
   double surface_threshold = 0.5;   // S >= this joins the mask (variant "surface")

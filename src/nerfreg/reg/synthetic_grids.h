@@ -23,7 +23,7 @@
 namespace nerfreg {
 
 struct SyntheticPairOptions {
-  int resolution = 64;         // D, as GridExtractionOptions
+  int resolution = 32;         // D, as GridExtractionOptions
   double side = 3.6;           // cube side, as GridExtractionOptions
   int views = 120;             // orbit views (the DReg-NeRF trajectory)
   int image_size = 96;         // ray-cast resolution of each view (the back-projected points)

@@ -1,0 +1,68 @@
+#include "nerfreg/reg/register_grids.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/reg/synthetic_grids.h"
+#include "nerfreg/render/mesh.h"
+#include "nerfreg/render/procedural.h"
+#include "nerfreg/util/file_util.h"
+
+namespace nerfreg {
+namespace {
+
+struct KnownPair {
+  RegGrid source, target;
+  Eigen::Matrix4d target_from_source;
+};
+
+// One block's grid of the spider, and the same grid seen from a frame turned by 70 degrees and
+// shifted (resampled, so its sample points differ as a second block's would).
+KnownPair SameGridMoved() {
+  TriangleMesh mesh = LoadMesh("/usr/share/assimp/models/OBJ/spider.obj");
+  NormalizeMesh(&mesh);
+  SyntheticPairOptions o;
+  o.views = 60;
+  o.image_size = 64;
+  const GridPair p = SyntheticGridPair(mesh, o, 3);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(70 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t(0.15, -0.1, 0.05);
+  KnownPair k{p.source, TransformRegGrid(p.source, R, t), Eigen::Matrix4d::Identity()};
+  k.target_from_source.topLeftCorner<3, 3>() = R;
+  k.target_from_source.topRightCorner<3, 1>() = t;
+  return k;
+}
+
+void ExpectRecovered(const GridRegistrationResult& r, const Eigen::Matrix4d& gt, double max_deg, double max_trans) {
+  const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3), truth = Sim3d::FromMatrix(gt, 1e-3);
+  EXPECT_LT(RotationErrorDeg(est.rotation, truth.rotation), max_deg) << r.method;
+  EXPECT_LT(TranslationError(est.translation, truth.translation), max_trans) << r.method;
+}
+
+TEST(RegisterGrids, ClassicalRecoversAKnownTransformOfTheSameGrid) {
+  torch::set_num_threads(2);
+  const KnownPair k = SameGridMoved();
+  GridRegistrationOptions o;
+  o.method = "ransac";
+  const GridRegistrationResult r = RegisterGrids(k.source, k.target, o, nullptr);
+  ExpectRecovered(r, k.target_from_source, 2.0, 0.05);
+  EXPECT_GT(r.confidence, 0.5);
+  EXPECT_EQ(r.method, "ransac+icp");
+}
+
+TEST(RegisterGrids, EmptyGridIsIdentityWithZeroConfidence) {
+  const KnownPair k = SameGridMoved();
+  RegGrid empty = k.target;
+  empty.mask.zero_();
+  GridRegistrationOptions o;
+  o.method = "ransac";
+  const GridRegistrationResult r = RegisterGrids(k.source, empty, o, nullptr);
+  EXPECT_EQ(r.confidence, 0);
+  EXPECT_TRUE(r.target_from_source.isIdentity());
+  EXPECT_EQ(r.target_points, 0);
+}
+
+}  // namespace
+}  // namespace nerfreg
