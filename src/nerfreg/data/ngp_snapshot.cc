@@ -178,7 +178,8 @@ std::vector<NgpGridLevel> NgpGridLevels(const NgpGridEncoding& e) {
   for (int l = 0; l < e.levels; ++l) {
     NgpGridLevel li;
     li.scale = std::exp2(static_cast<float>(l) * log2_scale) * static_cast<float>(e.base_resolution) - 1.0f;
-    li.resolution = static_cast<std::uint32_t>(std::ceil(li.scale)) + 1;
+    // Saturated, not cast out of range: a config this large is refused by the reader.
+    li.resolution = li.scale < 16777216.f ? static_cast<std::uint32_t>(std::ceil(li.scale)) + 1 : 16777217u;
     const double dense = std::pow(static_cast<double>(li.resolution), 3);
     const std::int64_t rows = dense > double(table) ? table : RoundUp(static_cast<std::int64_t>(dense), 8);
     li.entries = static_cast<std::uint32_t>(std::min(rows, table));
