@@ -1,5 +1,6 @@
 #pragma once
-// instant-ngp snapshots (`.msgpack`, and `.ingp` = the same bytes zlib/gzip-compressed), read into
+// instant-ngp snapshots (`.msgpack`, and `.ingp` = the same bytes compressed: instant-ngp writes
+// them through zstr, i.e. gzip; zlib streams are read too), read into
 // plain structs with every size checked against the bytes present before anything is allocated.
 // Torch-free, so the sanitizer build fuzzes it (fuzz/ngp_snapshot_fuzz.cc).
 //

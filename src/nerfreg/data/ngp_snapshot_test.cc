@@ -88,6 +88,25 @@ TEST(NgpSnapshot, ReadsMsgpackAndIngp) {
   }
 }
 
+TEST(NgpSnapshot, ReadsGzipIngpAsInstantNgpWritesIt) {
+  // instant-ngp compresses .ingp with zstr (deflate with a gzip header).
+  const TestNgpSnapshot t = MakeTestNgpSnapshot();
+  std::vector<std::uint8_t> raw = nlohmann::json::to_msgpack(t.json), gz(raw.size() + 1024);
+  z_stream zs{};
+  ASSERT_EQ(deflateInit2(&zs, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  zs.next_in = raw.data();
+  zs.avail_in = static_cast<uInt>(raw.size());
+  zs.next_out = gz.data();
+  zs.avail_out = static_cast<uInt>(gz.size());
+  ASSERT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
+  gz.resize(zs.total_out);
+  deflateEnd(&zs);
+  ASSERT_EQ(gz[0], 0x1f);
+  const NgpSnapshot s = ParseNgpSnapshot(gz, "s.ingp");
+  EXPECT_EQ(s.params, t.params);
+  EXPECT_EQ(s.density_cascades, 2);
+}
+
 TEST(NgpSnapshot, PerLevelScaleDefaultsToInstantNgpRule) {
   TestNgpSnapshot t = MakeTestNgpSnapshot();
   t.json["encoding"].erase("per_level_scale");

@@ -91,6 +91,10 @@ NerfBlock SnapshotToNerfBlock(const NgpSnapshot& s, const std::string& source, c
   if (dn.width != rn.width) ThrowInputError(source, "rgb_network.n_neurons", std::to_string(dn.width) + " (as network.n_neurons)");
   if (s.sh_degree != 4) ThrowInputError(source, "dir_encoding", "spherical harmonics of degree 4");
   const NgpFrame frame = ImportFrame(s, options, cameras);
+  if (s.has_dataset_transform && cameras && cameras->ngp_scale && std::abs(*cameras->ngp_scale - s.scale) > 1e-9) {
+    LOG_WARN("{}: the snapshot's scale {} differs from the transforms.json's {}; using the snapshot's", source, s.scale,
+             *cameras->ngp_scale);
+  }
 
   FieldOptions fo;
   fo.flavor = "instant-ngp";
