@@ -168,7 +168,7 @@ int RunNerfImport(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Import an instant-ngp snapshot (.msgpack, or zlib-compressed .ingp) as a NeRF block: its hash grid "
+                  "Import an instant-ngp snapshot (.msgpack, or gzip/zlib-compressed .ingp) as a NeRF block: its hash grid "
                   "and MLP weights (field flavor instant-ngp, same densities and colours), its density grid as the "
                   "occupancy grid. The block lives in the frame of the transforms.json ngp trained on (ngp's "
                   "scale/offset/axis cycle undone; --frame ngp keeps ngp's unit cube); --transforms adds that "
