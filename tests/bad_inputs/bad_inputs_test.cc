@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "cli_test_util.h"
+#include "nerfreg/data/ngp_test_snapshot.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/test_util.h"
@@ -88,6 +89,38 @@ const std::vector<BadInputCase>& Cases() {
       {"convert_unknown_format",
        [](const std::string& d) { return "convert " + d + " --to nerf --out " + d + "/t.json"; },
        "expected a transforms.json, an LLFF poses_bounds.npy or a COLMAP model folder", "t.json"},
+      {"ngp_truncated_snapshot",
+       [](const std::string& d) {
+         auto bytes = TestNgpSnapshotBytes(MakeTestNgpSnapshot().json, true);
+         bytes.resize(bytes.size() / 2);
+         WriteFileAtomic(d + "/s.ingp", std::string(bytes.begin(), bytes.end()));
+         return "nerf import " + d + "/s.ingp --out " + d + "/b.ckpt";
+       },
+       "s.ingp: expected a complete zlib/gzip-compressed .ingp snapshot", "b.ckpt"},
+      {"ngp_params_count_mismatch",
+       [](const std::string& d) {
+         auto t = MakeTestNgpSnapshot();
+         t.json["snapshot"]["n_params"] = t.params.size() - 8;
+         WriteTestNgpSnapshot(t.json, d + "/s.msgpack", false);
+         return "nerf import " + d + "/s.msgpack --out " + d + "/b.ckpt";
+       },
+       "s.msgpack: snapshot.n_params: expected 9696 for this encoding and these networks", "b.ckpt"},
+      {"ngp_claims_1e12_params",
+       [](const std::string& d) {
+         auto t = MakeTestNgpSnapshot();
+         t.json["snapshot"]["n_params"] = std::uint64_t(1000000000000ull);
+         WriteTestNgpSnapshot(t.json, d + "/s.msgpack", false);
+         return "nerf import " + d + "/s.msgpack --out " + d + "/b.ckpt";
+       },
+       "(the file claims 1000000000000)", "b.ckpt"},
+      {"ngp_unsupported_encoding",
+       [](const std::string& d) {
+         auto t = MakeTestNgpSnapshot();
+         t.json["encoding"]["otype"] = "TiledGrid";
+         WriteTestNgpSnapshot(t.json, d + "/s.msgpack", false);
+         return "nerf import " + d + "/s.msgpack --out " + d + "/b.ckpt";
+       },
+       "s.msgpack: encoding.otype: expected \"HashGrid\"", "b.ckpt"},
       {"unknown_option", [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
        "no-such-option", "r.html"},
   };

@@ -17,6 +17,7 @@ int RunNerfTrain(int argc, char** argv);
 int RunNerfRender(int argc, char** argv);
 int RunNerfEval(int argc, char** argv);
 int RunNerfExport(int argc, char** argv);
+int RunNerfImport(int argc, char** argv);
 // Registration (exe/reg_commands.cc)
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
@@ -39,6 +40,7 @@ int RunReport(int argc, char** argv);
   {"nerf render", RunNerfRender, "Render views of a trained block"}, \
   {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
   {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
+  {"nerf import", RunNerfImport, "Import an instant-ngp snapshot (.msgpack / .ingp) as a NeRF block"}, \
   {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
   {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
   {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \

@@ -1,6 +1,7 @@
-// Commands of the NeRF-block layer: nerf train | render | eval | export.
+// Commands of the NeRF-block layer: nerf train | render | eval | export | import.
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "nerfreg/data/convert.h"
 #include "nerfreg/data/transforms_json.h"
@@ -8,6 +9,7 @@
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/mesh_export.h"
+#include "nerfreg/nerf/ngp_import.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -158,5 +160,36 @@ int RunNerfExport(int argc, char** argv) {
   }
   WriteFileAtomic(points, ply);
   LOG_INFO("wrote {} points to {}", p.size(0), points);
+  return 0;
+}
+
+int RunNerfImport(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Import an instant-ngp snapshot (.msgpack, or gzip/zlib-compressed .ingp) as a NeRF block: its hash grid "
+                  "and MLP weights (field flavor instant-ngp, same densities and colours), its density grid as the "
+                  "occupancy grid. The block lives in the frame of the transforms.json ngp trained on (ngp's "
+                  "scale/offset/axis cycle undone; --frame ngp keeps ngp's unit cube); --transforms adds that "
+                  "file's cameras to the block (needed by registration).",
+                  "nerfreg nerf import fox/base.ingp --transforms data/fox/transforms.json --out runs/fox.ckpt");
+  std::string snapshot_path, out, transforms;
+  NgpImportOptions options;
+  app.add_option("snapshot", snapshot_path, "instant-ngp snapshot (.msgpack or .ingp)")->required();
+  app.add_option("--out", out, "Checkpoint to write")->required();
+  app.add_option("--transforms", transforms, "The transforms.json the snapshot was trained on (cameras, scale, offset)");
+  app.add_option("--frame", options.frame, "Block frame: nerf (the transforms.json frame, default) or ngp");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (options.frame != "nerf" && options.frame != "ngp") throw InputError("nerf import: --frame must be nerf or ngp");
+  CheckCanWriteOutput(out, common.force);
+  const NgpSnapshot snapshot = ReadNgpSnapshot(snapshot_path);
+  std::optional<Dataset> cameras;
+  if (!transforms.empty()) cameras = ReadCameras(transforms);
+  NerfBlock block = SnapshotToNerfBlock(snapshot, snapshot_path, options, cameras ? &*cameras : nullptr);
+  SaveNerfBlock(block, out);
+  LOG_INFO("imported {} ({} levels x {} features, {} params, {:.1f}% occupied) to {}", snapshot_path,
+           snapshot.encoding.levels, snapshot.encoding.features, snapshot.params.size(), 100 * block.grid->OccupiedFraction(),
+           out);
   return 0;
 }

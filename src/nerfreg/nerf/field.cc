@@ -1,5 +1,7 @@
 #include "nerfreg/nerf/field.h"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace nerfreg {
@@ -11,6 +13,15 @@ void FieldOptions::Check() const {
   }
   for (int k = 0; k < 3; ++k)
     if (!(aabb_max[k] > aabb_min[k])) throw std::invalid_argument("FieldOptions: aabb_max must exceed aabb_min");
+  if (flavor != "nerfreg" && flavor != "instant-ngp") throw std::invalid_argument("FieldOptions: flavor must be nerfreg or instant-ngp");
+  if ((flavor == "instant-ngp") != (encoding.grid_rule == "instant-ngp")) {
+    throw std::invalid_argument("FieldOptions: the instant-ngp flavor goes with the instant-ngp grid rule, and only it");
+  }
+  auto sorted = axis_order;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted != std::vector<int>{0, 1, 2}) throw std::invalid_argument("FieldOptions: axis_order must permute 0, 1, 2");
+  if (!InstantNgp() && axis_order != std::vector<int>{0, 1, 2}) throw std::invalid_argument("FieldOptions: axis_order needs the instant-ngp flavor");
+  if (!(density_scale > 0) || !std::isfinite(density_scale)) throw std::invalid_argument("FieldOptions: density_scale must be positive");
 }
 
 namespace {
@@ -56,7 +67,8 @@ NerfFieldImpl::NerfFieldImpl(const FieldOptions& options) : options_(options) {
                                                                       torch::nn::ReLU(),
                                                                       Linear(LinearOptions(h, 1 + options_.geo_feature_dim).bias(false))));
   torch::nn::Sequential color;
-  color->push_back(Linear(LinearOptions(16 + options_.geo_feature_dim, h).bias(false)));
+  const int color_inputs = 16 + options_.geo_feature_dim + (options_.InstantNgp() ? 1 : 0);
+  color->push_back(Linear(LinearOptions(color_inputs, h).bias(false)));
   color->push_back(torch::nn::ReLU());
   for (int k = 1; k < options_.color_hidden_layers; ++k) {
     color->push_back(Linear(LinearOptions(h, h).bias(false)));
@@ -64,12 +76,23 @@ NerfFieldImpl::NerfFieldImpl(const FieldOptions& options) : options_(options) {
   }
   color->push_back(Linear(LinearOptions(h, 3).bias(false)));
   color_mlp_ = register_module("color_mlp", color);
+  if (options_.InstantNgp()) {
+    axes_ = register_buffer("axis_order", torch::tensor(std::vector<std::int64_t>(options_.axis_order.begin(), options_.axis_order.end())));
+  }
 }
 
 std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const torch::Tensor& positions) {
   TORCH_CHECK(positions.dim() == 2 && positions.size(1) == 3, "NerfField: positions must be [N, 3]");
-  const auto unit = (positions - aabb_min_) / aabb_size_;
+  auto unit = (positions - aabb_min_) / aabb_size_;
   const auto inside = ((unit >= 0) & (unit <= 1)).all(1);
+  if (options_.InstantNgp()) {
+    unit = unit.index_select(1, axes_);
+    const auto encoded = options_.reference_kernels ? HashEncodeReference(unit, table, options_.encoding)
+                                                    : HashEncode(unit.contiguous(), table, options_.encoding);
+    const auto h = density_mlp_->forward(encoded);
+    const auto sigma = torch::exp(h.select(1, 0)) * options_.density_scale * inside.to(h.dtype());
+    return {sigma, h};  // ngp's colour network takes every density output
+  }
   const auto encoded = options_.reference_kernels ? HashEncodeReference(unit, table, options_.encoding)
                                                   : HashEncode(unit.contiguous(), table, options_.encoding);
   const auto h = density_mlp_->forward(encoded);
@@ -79,7 +102,9 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const 
 
 std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions, const torch::Tensor& dirs) {
   auto [sigma, features] = DensityAndFeatures(positions);
-  const auto rgb = torch::sigmoid(color_mlp_->forward(torch::cat({SphericalHarmonics16(dirs), features}, 1)));
+  const auto color_in = options_.InstantNgp() ? torch::cat({features, SphericalHarmonics16(dirs.index_select(1, axes_))}, 1)
+                                              : torch::cat({SphericalHarmonics16(dirs), features}, 1);
+  const auto rgb = torch::sigmoid(color_mlp_->forward(color_in));
   return {sigma, rgb};
 }
 

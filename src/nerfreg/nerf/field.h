@@ -3,6 +3,12 @@
 // hash encoding of the position normalised to the AABB -> density MLP (1 hidden layer, 16 outputs;
 // density = trunc_exp(out0 - 1)) ; SH degree 4 of the view direction + the other 15 outputs ->
 // colour MLP (2 hidden layers, sigmoid). MLPs without biases, as tiny-cuda-nn's fully fused MLP.
+//
+// flavor "instant-ngp" reproduces an imported instant-ngp snapshot (nerf/ngp_import.h) in the
+// block's own frame: the encoding uses tiny-cuda-nn's level rule; the normalised position and the
+// view direction are permuted by `axis_order` before encoding (ngp cycles xyz <- yzx); density =
+// exp(out0) * density_scale (ngp's exponential activation, times the world-to-ngp length scale);
+// the colour MLP takes all density outputs, out0 included, then the 16 SH (ngp's order).
 #include <torch/torch.h>
 
 #include "nerfreg/nerf/hash_encoding.h"
@@ -20,6 +26,14 @@ struct FieldOptions {
   // Use the torch-ops reference kernels (encoding here, compositing in the trainer) instead of
   // the fused ones: for tests and benchmarks only, not saved in checkpoints.
   bool reference_kernels = false;
+  // "nerfreg" (what `nerf train` makes) or "instant-ngp" (above; requires encoding.grid_rule
+  // "instant-ngp"). Checkpoints without these fields load as "nerfreg".
+  std::string flavor = "nerfreg";
+  // instant-ngp: encoder axis k reads block axis axis_order[k] (positions and directions).
+  std::vector<int> axis_order = {0, 1, 2};
+  // instant-ngp: sigma = exp(out0) * density_scale (block lengths are 1/density_scale of ngp's).
+  double density_scale = 1.0;
+  bool InstantNgp() const { return flavor == "instant-ngp"; }
   void Check() const;  // throws std::invalid_argument
 };
 
@@ -48,6 +62,7 @@ class NerfFieldImpl : public torch::nn::Module {
 
   FieldOptions options_;
   torch::Tensor aabb_min_, aabb_size_;  // [3] buffers
+  torch::Tensor axes_;                  // [3] int64 axis_order (instant-ngp flavor)
   torch::nn::Sequential density_mlp_{nullptr}, color_mlp_{nullptr};
 };
 TORCH_MODULE(NerfField);

@@ -5,16 +5,31 @@
 #include <vector>
 #include <algorithm>
 
+#include "nerfreg/data/ngp_snapshot.h"
+
 namespace nerfreg {
 
 void HashEncodingOptions::Check() const {
   if (levels < 1 || levels > 32 || features < 1 || features > 8 || log2_table_size < 4 || log2_table_size > 24 ||
-      base_resolution < 2 || !(per_level_scale >= 1.0)) {
+      base_resolution < 2 || !(per_level_scale >= 1.0) || (grid_rule != "nerfreg" && grid_rule != "instant-ngp")) {
     throw std::invalid_argument("HashEncodingOptions: out of range");
   }
 }
 
+namespace {
+NgpGridEncoding NgpEncoding(const HashEncodingOptions& o) {
+  NgpGridEncoding e;
+  e.levels = o.levels;
+  e.features = o.features;
+  e.log2_table_size = o.log2_table_size;
+  e.base_resolution = o.base_resolution;
+  e.per_level_scale = o.per_level_scale;
+  return e;
+}
+}  // namespace
+
 int LevelResolution(const HashEncodingOptions& o, int level) {
+  if (o.grid_rule == "instant-ngp") return static_cast<int>(NgpGridLevels(NgpEncoding(o))[level].resolution);
   return static_cast<int>(std::floor(o.base_resolution * std::pow(o.per_level_scale, level)));
 }
 
@@ -25,17 +40,29 @@ constexpr std::uint32_t kPrime1 = 2654435761u, kPrime2 = 805459861u;
 struct LevelInfo {
   int resolution;
   bool dense;
-  float scale;  // position scale: p * (res - 1) + 0.5, as instant-NGP's grid_scale
+  float scale;          // position scale: p * scale + 0.5, as instant-NGP's grid_scale
+  std::uint32_t stride; // dense index x + y * stride + z * stride^2
+  bool wrap;            // dense index mod rows (instant-ngp), else & (T - 1)
+  std::uint32_t rows;   // rows of the level's table in use
 };
 
 std::vector<LevelInfo> Levels(const HashEncodingOptions& o) {
   std::vector<LevelInfo> out;
+  if (o.grid_rule == "instant-ngp") {
+    for (const NgpGridLevel& n : NgpGridLevels(NgpEncoding(o))) {
+      out.push_back({static_cast<int>(n.resolution), n.dense, n.scale, n.resolution, true, n.entries});
+    }
+    return out;
+  }
   for (int l = 0; l < o.levels; ++l) {
     LevelInfo li;
     li.resolution = LevelResolution(o, l);
     li.scale = static_cast<float>(li.resolution - 1);
     const double verts = std::pow(double(li.resolution + 1), 3);
     li.dense = verts <= double(o.TableSize());
+    li.stride = static_cast<std::uint32_t>(li.resolution + 1);
+    li.wrap = false;
+    li.rows = static_cast<std::uint32_t>(o.TableSize());
     out.push_back(li);
   }
   return out;
@@ -43,8 +70,8 @@ std::vector<LevelInfo> Levels(const HashEncodingOptions& o) {
 
 inline std::uint32_t GridIndex(const LevelInfo& li, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t mask) {
   if (li.dense) {
-    const std::uint32_t stride = static_cast<std::uint32_t>(li.resolution + 1);
-    return (x + y * stride + z * stride * stride) & mask;
+    const std::uint32_t i = x + y * li.stride + z * li.stride * li.stride;
+    return li.wrap ? i % li.rows : i & mask;
   }
   return (x ^ (y * kPrime1) ^ (z * kPrime2)) & mask;
 }
@@ -120,6 +147,7 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     ctx->saved_data["log2"] = static_cast<std::int64_t>(o.log2_table_size);
     ctx->saved_data["base"] = static_cast<std::int64_t>(o.base_resolution);
     ctx->saved_data["scale"] = o.per_level_scale;
+    ctx->saved_data["rule"] = o.grid_rule;
     return out;
   }
 
@@ -130,6 +158,7 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     o.log2_table_size = static_cast<int>(ctx->saved_data["log2"].toInt());
     o.base_resolution = static_cast<int>(ctx->saved_data["base"].toInt());
     o.per_level_scale = ctx->saved_data["scale"].toDouble();
+    o.grid_rule = ctx->saved_data["rule"].toStringRef();
     const auto positions = ctx->get_saved_variables()[0];
     const auto grad_out = grads[0].contiguous();
     const auto levels = Levels(o);
@@ -193,8 +222,8 @@ torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::T
       const auto x = base.select(1, 0) + dx, y = base.select(1, 1) + dy, z = base.select(1, 2) + dz;
       torch::Tensor index;
       if (li.dense) {
-        const std::int64_t s = li.resolution + 1;
-        index = (x + y * s + z * s * s).bitwise_and(mask);
+        const std::int64_t s = li.stride;
+        index = li.wrap ? (x + y * s + z * s * s).remainder(std::int64_t(li.rows)) : (x + y * s + z * s * s).bitwise_and(mask);
       } else {
         // uint32 arithmetic emulated in int64: multiply, then keep the low 32 bits.
         const std::int64_t low32 = 0xffffffffLL;

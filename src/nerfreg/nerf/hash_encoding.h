@@ -6,6 +6,14 @@
 // else by the spatial hash x*1 ^ y*2654435761 ^ z*805459861 mod T) and interpolated trilinearly.
 // Output: [N, L * F], level-major.
 //
+// Two level layouts (HashEncodingOptions::grid_rule):
+//  - "nerfreg": N_l = floor(base * s^l), position scale N_l - 1, dense when (N_l + 1)^3 <= T with
+//    stride N_l + 1. What `nerf train` uses.
+//  - "instant-ngp": tiny-cuda-nn's rule, so an imported snapshot's table reproduces exactly:
+//    scale_l = 2^(l log2 s) * base - 1 (float), N_l = ceil(scale_l) + 1, the level's table has
+//    R_l = min(round8(N_l^3), T) rows (stored in the first R_l rows of its [T, F] slice), dense
+//    when N_l^3 <= R_l with stride N_l and index mod R_l (it wraps at the upper faces).
+//
 // Two implementations with one contract:
 //  - HashEncode(): a fused C++ kernel (OpenMP over points forward; over levels backward, so each
 //    thread owns a level's table slice and gradient scatters need no atomics), wrapped as a torch
@@ -14,6 +22,7 @@
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <string>
 
 namespace nerfreg {
 
@@ -23,12 +32,13 @@ struct HashEncodingOptions {
   int log2_table_size = 19;     // T = 2^19 entries per level
   int base_resolution = 16;     // N_0
   double per_level_scale = 1.4472692012786865;  // s; 16 * s^15 = 4096 (instant-NGP / DReg-NeRF)
+  std::string grid_rule = "nerfreg";            // level layout: "nerfreg" or "instant-ngp" (above)
   void Check() const;           // throws std::invalid_argument
   int OutputDim() const { return levels * features; }
   std::int64_t TableSize() const { return std::int64_t(1) << log2_table_size; }
 };
 
-// Per-level resolution and whether the level is indexed densely.
+// Per-level resolution (vertices per axis under the options' grid rule).
 int LevelResolution(const HashEncodingOptions& options, int level);
 
 // positions: [N, 3] float32 in [0, 1] (clamped), any device (CPU kernel; CUDA falls back to the

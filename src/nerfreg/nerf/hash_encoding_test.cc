@@ -5,8 +5,9 @@
 namespace nerfreg {
 namespace {
 
-HashEncodingOptions SmallOptions() {
+HashEncodingOptions SmallOptions(const std::string& rule = "nerfreg") {
   HashEncodingOptions o;
+  o.grid_rule = rule;
   o.levels = 4;
   o.features = 2;
   o.log2_table_size = 10;  // coarse levels dense, fine levels hashed
@@ -15,9 +16,13 @@ HashEncodingOptions SmallOptions() {
   return o;
 }
 
-TEST(HashEncoding, FusedForwardEqualsReference) {
+// The fused kernel and the reference share one contract under both grid rules.
+class HashEncodingRule : public ::testing::TestWithParam<std::string> {};
+INSTANTIATE_TEST_SUITE_P(Rules, HashEncodingRule, ::testing::Values("nerfreg", "instant-ngp"));
+
+TEST_P(HashEncodingRule, FusedForwardEqualsReference) {
   torch::manual_seed(1);
-  const auto o = SmallOptions();
+  const auto o = SmallOptions(GetParam());
   const auto table = torch::randn({o.levels, o.TableSize(), o.features});
   const auto x = torch::rand({300, 3});
   const auto a = HashEncode(x, table, o), b = HashEncodeReference(x, table, o);
@@ -28,9 +33,9 @@ TEST(HashEncoding, FusedForwardEqualsReference) {
   EXPECT_GT(std::pow(LevelResolution(o, 3) + 1, 3), o.TableSize());
 }
 
-TEST(HashEncoding, FusedBackwardEqualsReferenceAndFiniteDifferences) {
+TEST_P(HashEncodingRule, FusedBackwardEqualsReferenceAndFiniteDifferences) {
   torch::manual_seed(2);
-  auto o = SmallOptions();
+  auto o = SmallOptions(GetParam());
   o.log2_table_size = 6;  // small table: many collisions, so scatter-adds must accumulate
   const auto x = torch::rand({200, 3});
   const auto w = torch::randn({200, o.OutputDim()});
@@ -54,11 +59,11 @@ TEST(HashEncoding, FusedBackwardEqualsReferenceAndFiniteDifferences) {
   }
 }
 
-TEST(HashEncoding, FusedHandlesAnyPointCountAndOutOfRangePositions) {
+TEST_P(HashEncodingRule, FusedHandlesAnyPointCountAndOutOfRangePositions) {
   // The kernels work on groups of points: counts around the group size, and positions outside
   // [0, 1] (clamped), must match the reference.
   torch::manual_seed(5);
-  const auto o = SmallOptions();
+  const auto o = SmallOptions(GetParam());
   const auto table = torch::randn({o.levels, o.TableSize(), o.features});
   for (std::int64_t n : {0, 1, 7, 8, 9, 17}) {
     const auto x = torch::rand({n, 3}) * 1.4 - 0.2;
@@ -85,6 +90,33 @@ TEST(HashEncoding, InterpolatesGridValuesExactlyAtVertices) {
   const auto out = HashEncode(x, table, o);
   const int64_t idx = 2 + 2 * (res + 1) + 2 * (res + 1) * (res + 1);
   EXPECT_NEAR(out[0][0].item<float>(), table[0][idx][0].item<float>(), 1e-5);
+}
+
+TEST(HashEncoding, InstantNgpRuleLevelsAndWrappingDenseIndex) {
+  // tiny-cuda-nn: scale = 2.5^l * 4 - 1 = 3, 9, 24, 61.5 -> resolution ceil + 1 = 4, 10, 25, 63.
+  const auto o = SmallOptions("instant-ngp");
+  EXPECT_EQ(LevelResolution(o, 0), 4);
+  EXPECT_EQ(LevelResolution(o, 1), 10);
+  EXPECT_EQ(LevelResolution(o, 3), 63);
+  // Level 0 (4^3 = 64 rows, stride 4): x = 1 gives pos = 3 + 0.5 on every axis, so the 8 corners
+  // (3|4, 3|4, 3|4) weigh 1/8 each, and vertex 4 wraps: index (x + 4y + 16z) mod 64.
+  auto one = o;
+  one.levels = 1;
+  const auto table = torch::randn({1, one.TableSize(), one.features});
+  const auto out = HashEncode(torch::tensor({{1.0f, 1.0f, 1.0f}}), table, one);
+  auto expected = torch::zeros({one.features});
+  for (int c = 0; c < 8; ++c) {
+    const int x = 3 + (c & 1), y = 3 + ((c >> 1) & 1), z = 3 + ((c >> 2) & 1);
+    expected += table[0][(x + 4 * y + 16 * z) % 64] / 8;
+  }
+  EXPECT_LT((out[0] - expected).abs().max().item<float>(), 1e-5);
+  // Level 1 has 10^3 = 1000 rows (dense, not a power of 2): a vertex reads row x + 10y + 100z.
+  auto second = o;
+  second.levels = 2;
+  const auto t2 = torch::randn({2, second.TableSize(), second.features});
+  const float x0 = 4.5f / 9.0f;  // pos = 9 * x0 + 0.5 = 5 exactly
+  const auto out2 = HashEncode(torch::tensor({{x0, x0, x0}}), t2, second);
+  EXPECT_NEAR(out2[0][2].item<float>(), t2[1][5 + 50 + 500][0].item<float>(), 1e-5);
 }
 
 }  // namespace

@@ -78,7 +78,8 @@ Json FieldOptionsToJson(const FieldOptions& f) {
   return {{"levels", e.levels}, {"features", e.features}, {"log2_table_size", e.log2_table_size},
           {"base_resolution", e.base_resolution}, {"per_level_scale", e.per_level_scale}, {"hidden_dim", f.hidden_dim},
           {"geo_feature_dim", f.geo_feature_dim}, {"color_hidden_layers", f.color_hidden_layers},
-          {"aabb_min", f.aabb_min}, {"aabb_max", f.aabb_max}};
+          {"aabb_min", f.aabb_min}, {"aabb_max", f.aabb_max}, {"grid_rule", e.grid_rule}, {"flavor", f.flavor},
+          {"axis_order", f.axis_order}, {"density_scale", f.density_scale}};
 }
 
 FieldOptions FieldOptionsFromJson(const JsonField& j) {
@@ -93,6 +94,14 @@ FieldOptions FieldOptionsFromJson(const JsonField& j) {
   f.color_hidden_layers = j["color_hidden_layers"].Int();
   f.aabb_min = j["aabb_min"].Doubles();
   f.aabb_max = j["aabb_max"].Doubles();
+  // Absent in checkpoints written before instant-ngp import: the defaults ("nerfreg") apply.
+  f.encoding.grid_rule = j.StringOr("grid_rule", f.encoding.grid_rule);
+  f.flavor = j.StringOr("flavor", f.flavor);
+  f.density_scale = j.DoubleOr("density_scale", f.density_scale);
+  if (j.Has("axis_order")) {
+    f.axis_order.clear();
+    for (size_t k = 0; k < j["axis_order"].ArraySize(); ++k) f.axis_order.push_back(j["axis_order"][k].Int());
+  }
   try {
     f.Check();
   } catch (const std::invalid_argument& e) {
@@ -155,6 +164,17 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   b.march.max_samples_per_ray = m["march"]["max_samples_per_ray"].Int();
   b.step = m["step"].Int();
   b.train_options = meta.value("train_options", Json::object());
+  try {
+    b.grid_options.Check();
+    b.march.Check();
+  } catch (const std::invalid_argument& e) {
+    ThrowInputError(path, "grid", std::string("valid grid and march settings (") + e.what() + ")");
+  }
+  // A corrupted size must be an error, not a multi-GB allocation (real tables are ~64 MB).
+  const auto& enc = b.field_options.encoding;
+  if (double(enc.levels) * double(enc.TableSize()) * enc.features * 4 > double(std::int64_t(1) << 32)) {
+    ThrowInputError(path, "field", "a hash table of at most 4 GiB");
+  }
   b.field = NerfField(b.field_options);
   b.grid = std::make_unique<OccupancyGrid>(b.grid_options, b.field_options.aabb_min, b.field_options.aabb_max);
   try {
@@ -170,8 +190,10 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
     ThrowInputError(path, "", "a complete nerfreg NeRF checkpoint (tensors missing or of the wrong shape)");
   }
   // The training cameras, kept as transforms.json inside the checkpoint (with sizes: no image needed).
-  Dataset d = DatasetFromTransformsJson(meta["cameras"], path + " (cameras)", ParentDir(path));
-  b.cameras = d;
+  // A block may have no cameras (an instant-ngp import without --transforms).
+  const Json& cams = meta["cameras"];
+  const bool no_cameras = cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
+  if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));
   return b;
 }
 
