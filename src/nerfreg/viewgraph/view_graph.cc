@@ -110,11 +110,15 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   const int n = static_cast<int>(images.size());
   std::vector<Features> features(n);
   std::vector<std::vector<cv::Point2d>> normalised(n);
+  graph.keypoints.resize(n);
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features);
   for (int k = 0; k < n; ++k) {
     sift->detectAndCompute(ToGray8(images[k]), cv::noArray(), features[k].keypoints, features[k].descriptors);
     for (const auto& kp : features[k].keypoints) {
-      const Eigen::Vector3d d = cameras[k].CamFromImg({kp.pt.x, kp.pt.y});
+      // OpenCV puts pixel centres at integer coordinates; nerfreg at +0.5.
+      const Eigen::Vector2d uv(kp.pt.x + 0.5, kp.pt.y + 0.5);
+      graph.keypoints[k].push_back(uv);
+      const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
       normalised[k].push_back({d.x(), d.y()});
     }
   }
@@ -149,6 +153,9 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       edge.num_matches = static_cast<int>(matches.size());
       edge.num_inliers = inliers;
       edge.j_from_i = Rigid3d(rot, trans.normalized());
+      for (size_t m = 0; m < matches.size(); ++m) {
+        if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
+      }
       graph.edges.push_back(edge);
     }
   }
