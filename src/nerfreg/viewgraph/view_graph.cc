@@ -13,7 +13,8 @@ namespace nerfreg {
 
 void ViewGraphOptions::Check() const {
   if (max_features <= 0 || !(ratio > 0 && ratio < 1) || !(ransac_threshold_px > 0) ||
-      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5) {
+      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5 || !(contrast_threshold > 0) ||
+      upsample < 1 || upsample > 4) {
     throw std::invalid_argument("ViewGraphOptions: out of range");
   }
 }
@@ -111,12 +112,16 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   std::vector<Features> features(n);
   std::vector<std::vector<cv::Point2d>> normalised(n);
   graph.keypoints.resize(n);
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features);
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+  const double up = options.upsample;
   for (int k = 0; k < n; ++k) {
-    sift->detectAndCompute(ToGray8(images[k]), cv::noArray(), features[k].keypoints, features[k].descriptors);
+    cv::Mat gray = ToGray8(images[k]);
+    if (options.upsample > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
+    sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
     for (const auto& kp : features[k].keypoints) {
-      // OpenCV puts pixel centres at integer coordinates; nerfreg at +0.5.
-      const Eigen::Vector2d uv(kp.pt.x + 0.5, kp.pt.y + 0.5);
+      // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
+      // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
+      const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
       graph.keypoints[k].push_back(uv);
       const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
       normalised[k].push_back({d.x(), d.y()});

@@ -25,6 +25,12 @@ struct ViewGraphOptions {
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
   int min_inliers = 30;              // fewer geometric inliers: no edge
+  // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
+  // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
+  double contrast_threshold = 0.04;
+  // Images are enlarged by this factor (bilinear) before SIFT, and keypoints mapped back: more
+  // keypoints, better localised, on small images. 1 = as they are.
+  int upsample = 1;
   void Check() const;                // throws std::invalid_argument
 };
 
