@@ -20,6 +20,8 @@ int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
 int RunRegRegisterMany(int argc, char** argv);
 // DBARF (exe/dbarf_commands.cc)
+int RunDbarfPoses(int argc, char** argv);
+int RunDbarfEvalPoses(int argc, char** argv);
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
 
@@ -33,4 +35,6 @@ int RunReport(int argc, char** argv);
   {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
   {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
+  {"dbarf poses", RunDbarfPoses, "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}, \
+  {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},
