@@ -30,6 +30,8 @@ int RunRegTrain(int argc, char** argv);
 std::string DefaultDregWeights();
 std::string DefaultRegistrationMethod();
 // DBARF (exe/dbarf_commands.cc)
+int RunDbarfPoses(int argc, char** argv);
+int RunDbarfEvalPoses(int argc, char** argv);
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
 
@@ -47,4 +49,6 @@ int RunReport(int argc, char** argv);
   {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"}, \
   {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"}, \
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
+  {"dbarf poses", RunDbarfPoses, "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}, \
+  {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

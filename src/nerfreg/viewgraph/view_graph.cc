@@ -1,6 +1,8 @@
 #include "nerfreg/viewgraph/view_graph.h"
 
 #include <algorithm>
+#include <cmath>
+#include <Eigen/Core>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -8,12 +10,14 @@
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
 
 namespace nerfreg {
 
 void ViewGraphOptions::Check() const {
   if (max_features <= 0 || !(ratio > 0 && ratio < 1) || !(ransac_threshold_px > 0) ||
-      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5) {
+      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5 || !(contrast_threshold > 0) ||
+      upsample < 1 || upsample > 4) {
     throw std::invalid_argument("ViewGraphOptions: out of range");
   }
 }
@@ -66,23 +70,40 @@ cv::Mat ToGray8(const Image& im) {
 struct Features {
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> eigen;  // descriptors, one per row
+  Eigen::VectorXf norms;                                                         // squared row norms
 };
 
+// Mutual nearest neighbours passing the ratio test in both directions, from one matrix of
+// descriptor dot products (one GEMM instead of two brute-force passes):
+// |a - b|^2 = |a|^2 + |b|^2 - 2 a.b.
 std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, double ratio) {
-  if (a.descriptors.empty() || b.descriptors.empty() || b.descriptors.rows < 2 || a.descriptors.rows < 2) return {};
-  cv::BFMatcher matcher(cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> ab, ba;
-  matcher.knnMatch(a.descriptors, b.descriptors, ab, 2);
-  matcher.knnMatch(b.descriptors, a.descriptors, ba, 2);
-  std::vector<int> best_ba(b.descriptors.rows, -1);
-  for (const auto& m : ba)
-    if (m.size() == 2 && m[0].distance < ratio * m[1].distance) best_ba[m[0].queryIdx] = m[0].trainIdx;
-  std::vector<cv::DMatch> out;
-  for (const auto& m : ab) {
-    if (m.size() == 2 && m[0].distance < ratio * m[1].distance && best_ba[m[0].trainIdx] == m[0].queryIdx) {
-      out.push_back(m[0]);
+  const int na = static_cast<int>(a.eigen.rows()), nb = static_cast<int>(b.eigen.rows());
+  if (na < 2 || nb < 2) return {};
+  const Eigen::MatrixXf dot = a.eigen * b.eigen.transpose();
+  const float r2 = static_cast<float>(ratio * ratio);
+  std::vector<int> best_ab(na, -1), best_ba(nb, -1);
+  std::vector<float> d1b(nb, INFINITY), d2b(nb, INFINITY);
+  std::vector<int> i1b(nb, -1);
+  std::vector<float> d1a(na), distance(na);
+  for (int i = 0; i < na; ++i) {
+    float d1 = INFINITY, d2 = INFINITY;
+    int j1 = -1;
+    for (int j = 0; j < nb; ++j) {
+      const float d = a.norms(i) + b.norms(j) - 2 * dot(i, j);
+      if (d < d1) d2 = d1, d1 = d, j1 = j;
+      else if (d < d2) d2 = d;
+      if (d < d1b[j]) d2b[j] = d1b[j], d1b[j] = d, i1b[j] = i;
+      else if (d < d2b[j]) d2b[j] = d;
     }
+    if (d1 < r2 * d2) best_ab[i] = j1;
+    distance[i] = std::sqrt(std::max(d1, 0.f));
   }
+  for (int j = 0; j < nb; ++j)
+    if (d1b[j] < r2 * d2b[j]) best_ba[j] = i1b[j];
+  std::vector<cv::DMatch> out;
+  for (int i = 0; i < na; ++i)
+    if (best_ab[i] >= 0 && best_ba[best_ab[i]] == i) out.emplace_back(i, best_ab[i], distance[i]);
   return out;
 }
 
@@ -110,18 +131,36 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   const int n = static_cast<int>(images.size());
   std::vector<Features> features(n);
   std::vector<std::vector<cv::Point2d>> normalised(n);
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features);
+  graph.keypoints.resize(n);
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+  const double up = options.upsample;
+  const Timer timer;
   for (int k = 0; k < n; ++k) {
-    sift->detectAndCompute(ToGray8(images[k]), cv::noArray(), features[k].keypoints, features[k].descriptors);
+    cv::Mat gray = ToGray8(images[k]);
+    if (options.upsample > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
+    sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
+    const cv::Mat& desc = features[k].descriptors;
+    features[k].eigen.resize(desc.rows, desc.cols);
+    for (int r = 0; r < desc.rows; ++r)
+      for (int c = 0; c < desc.cols; ++c) features[k].eigen(r, c) = desc.at<float>(r, c);
+    features[k].norms = features[k].eigen.rowwise().squaredNorm();
     for (const auto& kp : features[k].keypoints) {
-      const Eigen::Vector3d d = cameras[k].CamFromImg({kp.pt.x, kp.pt.y});
+      // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
+      // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
+      const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
+      graph.keypoints[k].push_back(uv);
+      const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
       normalised[k].push_back({d.x(), d.y()});
     }
   }
+  [[maybe_unused]] const double seconds_features = timer.Seconds();
+  double seconds_matching = 0;
   const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
+      const double start = timer.Seconds();
       const auto matches = MatchMutualRatio(features[i], features[j], options.ratio);
+      seconds_matching += timer.Seconds() - start;
       if (static_cast<int>(matches.size()) < options.min_inliers) continue;
       std::vector<cv::Point2d> pi, pj;
       for (const auto& m : matches) {
@@ -149,9 +188,14 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       edge.num_matches = static_cast<int>(matches.size());
       edge.num_inliers = inliers;
       edge.j_from_i = Rigid3d(rot, trans.normalized());
+      for (size_t m = 0; m < matches.size(); ++m) {
+        if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
+      }
       graph.edges.push_back(edge);
     }
   }
+  LOG_DEBUG("view graph: features {:.2f} s, matching {:.2f} s, geometry {:.2f} s", seconds_features, seconds_matching,
+            timer.Seconds() - seconds_features - seconds_matching);
   for (int k : graph.Isolated()) LOG_WARN("{}: no geometric matches to any other image; left out", names[k]);
   return graph;
 }

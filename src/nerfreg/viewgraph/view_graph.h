@@ -8,7 +8,10 @@
 // SIFT features (OpenCV), Lowe ratio test + mutual consistency, essential matrix by RANSAC on
 // undistorted normalised coordinates, cheirality check (recoverPose). Edge weight = inlier count.
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "nerfreg/geometry/camera.h"
 #include "nerfreg/geometry/rigid3.h"
@@ -22,6 +25,12 @@ struct ViewGraphOptions {
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
   int min_inliers = 30;              // fewer geometric inliers: no edge
+  // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
+  // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
+  double contrast_threshold = 0.04;
+  // Images are enlarged by this factor (bilinear) before SIFT, and keypoints mapped back: more
+  // keypoints, better localised, on small images. 1 = as they are.
+  int upsample = 1;
   void Check() const;                // throws std::invalid_argument
 };
 
@@ -33,11 +42,17 @@ struct ViewGraphEdge {
   int num_matches = 0;  // after the ratio and mutual tests
   int num_inliers = 0;  // essential-matrix inliers in front of both cameras
   Rigid3d j_from_i;
+  // The inlier correspondences (keypoint index in image i, keypoint index in image j), indices
+  // into ViewGraph::keypoints[i] and [j]: what tracks are built from (sfm/tracks.h).
+  std::vector<std::pair<int, int>> inlier_matches;
 };
 
 struct ViewGraph {
   std::vector<std::string> names;  // one per image
   std::vector<ViewGraphEdge> edges;
+  // Per image, the SIFT keypoints' image coordinates (pixels, centre of pixel (c, r) at
+  // (c + 0.5, r + 0.5)), indexed by ViewGraphEdge::inlier_matches.
+  std::vector<std::vector<Eigen::Vector2d>> keypoints;
 
   // The k neighbours of image i with the most inliers, best first.
   std::vector<int> Neighbors(int i, int k) const;

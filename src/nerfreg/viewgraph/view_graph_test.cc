@@ -70,6 +70,23 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
   EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, gt.rotation), 1.0);
   const double cos_t = ab->j_from_i.translation.normalized().dot(gt.translation.normalized());
   EXPECT_GT(cos_t, std::cos(3.0 * M_PI / 180));
+
+  // The kept inlier correspondences index the kept keypoints and obey the true epipolar geometry
+  // (point-to-epipolar-line distance in pixels; the plane texture gives exact ground truth).
+  ASSERT_EQ(g.keypoints.size(), 3u);
+  ASSERT_EQ(static_cast<int>(ab->inlier_matches.size()), ab->num_inliers);
+  const Eigen::Matrix3d e_true = Skew(gt.translation) * gt.RotationMatrix();
+  int far_from_line = 0;
+  for (const auto& [ki, kj] : ab->inlier_matches) {
+    ASSERT_TRUE(ki >= 0 && ki < static_cast<int>(g.keypoints[0].size()));
+    ASSERT_TRUE(kj >= 0 && kj < static_cast<int>(g.keypoints[1].size()));
+    const Eigen::Vector3d xi = cam.CamFromImg(g.keypoints[0][ki]);
+    const Eigen::Vector3d xj = cam.CamFromImg(g.keypoints[1][kj]);
+    const Eigen::Vector3d line = e_true * xi;  // in image j, normalised coordinates
+    const double dist_px = std::abs(xj.dot(line)) / line.head<2>().norm() * cam.fx;
+    if (dist_px > 1.5) ++far_from_line;
+  }
+  EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
 }
 
 TEST(ViewGraph, ImagesOfDifferentSizesAreNamed) {

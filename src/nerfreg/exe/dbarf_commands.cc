@@ -1,0 +1,267 @@
+// Commands of DBARF: dbarf poses (poses of unposed images) | dbarf eval-poses.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <unistd.h>
+
+#include "nerfreg/data/colmap.h"
+#include "nerfreg/data/transforms_json.h"
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/sfm/global_sfm.h"
+#include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+using namespace nerfreg;
+namespace fs = std::filesystem;
+
+namespace {
+
+// PNG / JPEG files of a folder, sorted by name.
+std::vector<std::string> ListImages(const std::string& dir) {
+  if (!DirExists(dir)) ThrowInputError(dir, "", "a folder of images");
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string ext = LowerExtension(entry.path().string());
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") names.push_back(entry.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// Intrinsics of each image from a transforms.json (top-level or per-frame `fl_x fl_y cx cy w h`
+// or `camera_angle_x`); its poses are ignored. Frames are matched to images by name; images
+// without a frame take the top-level intrinsics. The data-layer reader does the parsing.
+std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::string& images_dir,
+                                          const std::vector<std::string>& names) {
+  Json json = ReadJsonFile(path);
+  if (!json.is_object()) ThrowInputError(path, "", "a JSON object with intrinsics");
+  std::map<std::string, Json> by_name;
+  if (json.contains("frames") && json["frames"].is_array()) {
+    for (const Json& f : json["frames"])
+      if (f.is_object() && f.contains("file_path") && f["file_path"].is_string()) {
+        std::string p = f["file_path"].get<std::string>();
+        if (fs::path(p).extension().empty()) p += ".png";
+        by_name[fs::path(p).filename().string()] = f;
+      }
+  }
+  Json frames = Json::array();
+  const Json identity = MatrixToJson(Eigen::Matrix4d::Identity());
+  for (const std::string& name : names) {
+    auto it = by_name.find(name);
+    Json f = it == by_name.end() ? Json::object() : it->second;
+    f["file_path"] = name;
+    f["transform_matrix"] = identity;  // poses in the file are not used
+    frames.push_back(f);
+  }
+  json["frames"] = frames;
+  const Dataset d = DatasetFromTransformsJson(json, path, images_dir);
+  std::vector<Camera> cameras;
+  for (const Frame& f : d.frames) cameras.push_back(f.camera);
+  return cameras;
+}
+
+ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras, const std::vector<std::string>& names,
+                         const std::vector<Image>& images) {
+  ColmapModel model;
+  std::vector<std::uint32_t> camera_id(cameras.size());
+  for (size_t k = 0; k < cameras.size(); ++k) {
+    camera_id[k] = static_cast<std::uint32_t>(k + 1);
+    for (size_t m = 0; m < k; ++m) {
+      const Camera &a = cameras[k], &b = cameras[m];
+      if (a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
+          a.k1 == b.k1 && a.k2 == b.k2 && a.p1 == b.p1 && a.p2 == b.p2) {
+        camera_id[k] = camera_id[m];
+        break;
+      }
+    }
+    if (!model.cameras.count(camera_id[k])) model.cameras[camera_id[k]] = ColmapCamera::FromCamera(camera_id[k], cameras[k]);
+  }
+  for (size_t k = 0; k < names.size(); ++k) {
+    if (!r.posed[k]) continue;
+    ColmapImage im;
+    im.image_id = static_cast<std::uint32_t>(k + 1);
+    im.cam_from_world = r.cam_from_world[k];
+    im.camera_id = camera_id[k];
+    im.name = names[k];
+    for (const auto& uv : r.view_graph.keypoints[k]) im.points2d.push_back({uv.x(), uv.y(), -1});
+    model.images[im.image_id] = std::move(im);
+  }
+  std::uint64_t id = 0;
+  for (const SfmPoint& p : r.points) {
+    ColmapPoint3D pt;
+    pt.point3d_id = ++id;
+    pt.xyz = p.x_in_world;
+    double error = 0;
+    Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+    for (const auto& e : p.elements) {
+      const Eigen::Vector2d& uv = r.view_graph.keypoints[e.image][e.keypoint];
+      error += ReprojectionErrorPx(cameras[e.image], r.cam_from_world[e.image], p.x_in_world, uv) / p.elements.size();
+      const Image& img = images[e.image];
+      const int x = std::clamp(static_cast<int>(uv.x()), 0, img.width - 1), y = std::clamp(static_cast<int>(uv.y()), 0, img.height - 1);
+      for (int c = 0; c < 3; ++c) rgb(c) += img.at(x, y, std::min(c, img.channels - 1)) / p.elements.size();
+      pt.track.push_back({static_cast<std::uint32_t>(e.image + 1), static_cast<std::uint32_t>(e.keypoint)});
+      model.images[e.image + 1].points2d[e.keypoint].point3d_id = static_cast<std::int64_t>(pt.point3d_id);
+    }
+    for (int c = 0; c < 3; ++c) pt.rgb[c] = static_cast<std::uint8_t>(std::clamp(rgb(c), 0.0, 1.0) * 255 + 0.5);
+    pt.error = error;
+    model.points3d[pt.point3d_id] = std::move(pt);
+  }
+  return model;
+}
+
+}  // namespace
+
+int RunDbarfPoses(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Estimate every image's camera from a folder of unposed images with known intrinsics: SIFT view "
+                  "graph, robust rotation and translation averaging, triangulation and bundle adjustment (the "
+                  "classical initialisation of DBARF). Writes OUT/transforms.json (camera 0 at the identity, mean "
+                  "distance of the others to it 1; images that could not be posed under \"not_posed\") and a COLMAP "
+                  "model in OUT/sparse/0.",
+                  "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");
+  std::string images_dir, intrinsics, out;
+  double focal = 0;
+  SfmOptions options;
+  app.add_option("images", images_dir, "Folder of PNG / JPEG images (sorted by name)")->required();
+  auto* t_opt = app.add_option("--intrinsics", intrinsics, "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
+  auto* f_opt = app.add_option("--focal", focal, "Focal length in pixels (principal point at the image centre)");
+  t_opt->excludes(f_opt);
+  app.add_option("--out", out, "Output folder")->required();
+  app.add_option("--max-features", options.view_graph.max_features, "SIFT keypoints per image (default 4000)");
+  app.add_option("--min-inliers", options.view_graph.min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
+  app.add_option("--sift-contrast", options.view_graph.contrast_threshold, "SIFT contrast threshold (default 0.005)");
+  app.add_option("--sift-upsample", options.view_graph.upsample, "Enlarge images by this factor before SIFT (default 2)");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (intrinsics.empty() && !(focal > 0)) throw InputError("dbarf poses: give --intrinsics T.json or --focal PX (> 0)");
+  options.Check();
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+  CheckCanWriteOutput(out, common.force);
+  const Timer timer;
+
+  const std::vector<std::string> names = ListImages(images_dir);
+  if (names.size() < 3) ThrowInputError(images_dir, "", "at least 3 PNG / JPEG images, found " + std::to_string(names.size()));
+  std::vector<Image> images;
+  for (const auto& name : names) images.push_back(ReadImage(JoinPaths(images_dir, name)));
+  std::vector<Camera> cameras;
+  if (!intrinsics.empty()) {
+    cameras = CamerasFromTransforms(intrinsics, images_dir, names);
+  } else {
+    for (const Image& im : images) cameras.push_back(Camera::Pinhole(im.width, im.height, focal, focal, 0.5 * im.width, 0.5 * im.height));
+  }
+  LOG_INFO("posing {} images of {}", names.size(), images_dir);
+  const SfmResult r = PoseImages(images, cameras, names, options);
+  int num_posed = 0;
+  for (bool p : r.posed) num_posed += p;
+  if (num_posed == 0) ThrowInputError(images_dir, "", "images that share enough features to be posed (no two do)");
+
+  // Everything goes into a temporary folder renamed into place at the end.
+  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  CreateDirectories(JoinPaths(tmp, "sparse/0"));
+  try {
+    Dataset dataset;
+    dataset.root = out;
+    const fs::path out_abs = fs::absolute(out);
+    for (size_t k = 0; k < names.size(); ++k) {
+      if (!r.posed[k]) continue;
+      Frame f;
+      f.name = names[k];
+      // Relative to OUT, so the file stays usable as a dataset; the file name is the image's.
+      f.file_path = fs::relative(fs::absolute(JoinPaths(images_dir, names[k])), out_abs).generic_string();
+      f.camera = cameras[k];
+      f.cam_from_world = r.cam_from_world[k];
+      dataset.frames.push_back(std::move(f));
+    }
+    Json json = TransformsJsonFromDataset(dataset);
+    json["not_posed"] = r.not_posed;
+    json["dbarf_poses"] = {{"images", names.size()},
+                           {"posed", num_posed},
+                           {"points", r.num_points},
+                           {"mean_reprojection_error_px", r.mean_reprojection_error_px},
+                           {"edges", r.view_graph.edges.size()},
+                           {"edges_used", r.num_edges_used},
+                           {"seconds_view_graph", r.seconds_view_graph},
+                           {"seconds_sfm", r.seconds_sfm},
+                           {"seconds", timer.Seconds()},
+                           {"frame", "first posed camera at the identity; mean distance of the others to it = 1"}};
+    WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
+    WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
+    if (fs::exists(out)) fs::remove_all(out);
+    fs::rename(tmp, out);
+  } catch (...) {
+    fs::remove_all(tmp);
+    throw;
+  }
+  for (const auto& name : r.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
+  LOG_INFO("posed {}/{} images, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}", num_posed, names.size(),
+           r.num_points, r.mean_reprojection_error_px, timer.Seconds(), out);
+  return 0;
+}
+
+int RunDbarfEvalPoses(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Rotation and camera-centre errors of estimated cameras against ground truth, after a Sim(3) "
+                  "alignment: Umeyama on the centres (--align centers, as DBARF evaluates) or the rotations then the "
+                  "centres (--align rotations, also defined for collinear or 2-3 cameras). Frames are matched by image "
+                  "name; ground-truth frames missing from the estimate count as not posed.",
+                  "nerfreg dbarf eval-poses runs/poses/transforms.json --ground-truth data/scene/transforms.json");
+  std::string estimate_path, gt_path, align = "centers";
+  app.add_option("estimate", estimate_path, "Estimated transforms.json (e.g. from dbarf poses)")->required();
+  app.add_option("--ground-truth", gt_path, "Ground-truth transforms.json")->required();
+  app.add_option("--align", align, "centers or rotations")->check(CLI::IsMember({"centers", "rotations"}));
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const Json est_json = ReadJsonFile(estimate_path), gt_json = ReadJsonFile(gt_path);
+  // Sizes are in both files' intrinsics; images are not needed.
+  const Dataset est = DatasetFromTransformsJson(est_json, estimate_path, ParentDir(estimate_path));
+  const Dataset gt = DatasetFromTransformsJson(gt_json, gt_path, ParentDir(gt_path));
+  std::map<std::string, Rigid3d> by_name;
+  for (const Frame& f : est.frames) by_name[f.name] = f.cam_from_world;
+  std::vector<Rigid3d> e, g;
+  std::vector<std::string> missing;
+  for (const Frame& f : gt.frames) {
+    auto it = by_name.find(f.name);
+    if (it == by_name.end()) {
+      missing.push_back(f.name);
+      continue;
+    }
+    e.push_back(it->second);
+    g.push_back(f.cam_from_world);
+  }
+  const PoseEvaluation r = EvaluatePoses(e, g, align == "centers" ? PoseAlignment::kCenters : PoseAlignment::kRotationsAndCenters);
+  if (!r.aligned) ThrowInputError(estimate_path, "frames", "at least 3 cameras (not collinear for --align centers) matching the ground truth by name");
+  const double base = r.widest_baseline > 0 ? 100.0 / r.widest_baseline : 0;
+  const Json result = {{"images", gt.frames.size()},
+                       {"posed", e.size()},
+                       {"not_posed", missing},
+                       {"align", align},
+                       {"rotation_deg_mean", r.mean_rotation_deg},
+                       {"rotation_deg_median", r.median_rotation_deg},
+                       {"center_mean", r.mean_center},
+                       {"center_median", r.median_center},
+                       {"center_percent_mean", r.mean_center * base},
+                       {"center_percent_median", r.median_center_percent},
+                       {"widest_baseline", r.widest_baseline}};
+  if (common.json) {
+    std::printf("%s\n", result.dump().c_str());
+  } else {
+    std::printf("posed            %zu / %zu\n", e.size(), gt.frames.size());
+    std::printf("rotation (deg)   mean %.4f  median %.4f\n", r.mean_rotation_deg, r.median_rotation_deg);
+    std::printf("centre           mean %.5f  median %.5f  (%.3f %% / %.3f %% of the widest baseline %.4f)\n", r.mean_center,
+                r.median_center, r.mean_center * base, r.median_center_percent, r.widest_baseline);
+    for (const auto& name : missing) std::printf("not posed        %s\n", name.c_str());
+  }
+  return 0;
+}
