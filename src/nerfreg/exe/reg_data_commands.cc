@@ -22,6 +22,7 @@ void AddGridOptions(CLI::App& app, GridExtractionOptions* g) {
   app.add_option("--variant", g->variant, "surface (density AND surface field) or df (density only)")
       ->check(CLI::IsMember({"surface", "df"}));
   app.add_option("--surface-cameras", g->surface.max_cameras, "Training cameras the surface field marches from (default 16)");
+  app.add_option("--samples-per-voxel", g->samples_per_voxel, "Jittered density samples per voxel, the densest kept (default 8; the paper 1)");
 }
 
 }  // namespace

@@ -8,6 +8,7 @@ void GridExtractionOptions::Check() const {
   if (resolution < 8 || resolution > 512) ThrowInputError("--grid-resolution", "", "8..512");
   if (!(side > 0)) ThrowInputError("--grid-side", "", "> 0");
   if (!(min_density >= 0)) ThrowInputError("--min-density", "", ">= 0");
+  if (samples_per_voxel < 1 || samples_per_voxel > 64) ThrowInputError("--samples-per-voxel", "", "1..64");
   if (variant != "surface" && variant != "df") ThrowInputError("--variant", "", "surface or df");
   try {
     surface.Check();
@@ -34,10 +35,15 @@ RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
   const auto idx = torch::arange(d, torch::kFloat32);
   const auto ijk = torch::meshgrid({idx, idx, idx}, "ij");
   const auto mn = torch::tensor({float(g.aabb_min.x()), float(g.aabb_min.y()), float(g.aabb_min.z())});
-  g.xyz = mn + (torch::stack({ijk[0], ijk[1], ijk[2]}, -1) + torch::rand({d, d, d, 3}, gen)) * cell;  // [D, D, D, 3]
-
-  const auto points = g.xyz.reshape({-1, 3});
-  const auto sigma = QueryDensity(block, points);                     // [D^3]
+  const auto corner = mn + torch::stack({ijk[0], ijk[1], ijk[2]}, -1).reshape({-1, 3}) * cell;  // [D^3, 3]
+  // k jittered samples per voxel; the densest is the voxel's point.
+  const int k = options.samples_per_voxel;
+  const auto cand = corner.unsqueeze(1) + torch::rand({d * d * d, k, 3}, gen) * cell;           // [D^3, k, 3]
+  const auto cand_sigma = QueryDensity(block, cand.reshape({-1, 3})).view({d * d * d, k});       // [D^3, k]
+  const auto best = cand_sigma.argmax(1);                                                        // [D^3]
+  const auto points = cand.gather(1, best.view({-1, 1, 1}).expand({-1, 1, 3})).squeeze(1);        // [D^3, 3]
+  const auto sigma = cand_sigma.gather(1, best.view({-1, 1})).squeeze(1);                       // [D^3]
+  g.xyz = points.reshape({d, d, d, 3}).contiguous();
   const auto dense = sigma > options.min_density;                     // [D^3]
   const auto dense_idx = dense.nonzero().squeeze(1);
   const auto dense_pts = points.index_select(0, dense_idx);

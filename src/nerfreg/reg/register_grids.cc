@@ -1,5 +1,6 @@
 #include "nerfreg/reg/register_grids.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "nerfreg/reg/baselines.h"
@@ -38,10 +39,14 @@ GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& targe
     r.seconds = timer.Seconds();
     return r;  // nothing to register: identity, confidence 0
   }
+  // The classical pipeline's voxel is at least the grid's cell: finer, the normals (2 voxels) and
+  // FPFH (5 voxels) find no neighbours among one point per cell (on the spider's real blocks at
+  // D = 32: RANSAC + ICP 171 deg off at 0.05, 1.9 deg at 0.12).
+  const double voxel = std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize()));
   ClassicalRegistrationOptions c;
-  c.voxel_size = o.voxel;
-  c.normal_radius = 2 * o.voxel;
-  c.feature_radius = 5 * o.voxel;
+  c.voxel_size = voxel;
+  c.normal_radius = 2 * voxel;
+  c.feature_radius = 5 * voxel;
   c.seed = o.seed;
   Rigid3d estimate;
   if (o.method == "dreg") {

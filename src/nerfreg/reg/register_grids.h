@@ -16,7 +16,8 @@ namespace nerfreg {
 struct GridRegistrationOptions {
   std::string method = "dreg";  // "dreg", "ransac" or "fgr"
   bool icp = true;              // refine with point-to-plane ICP on the masked points
-  double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x, ICP distance 2x)
+  double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x, ICP distance 2x);
+                                // at least 1.1 x the grids' cell is used
   double inlier_radius = 0.1;   // dreg: the radius of its confidence (DregRegistration)
   unsigned seed = 0;
   void Check() const;           // throws InputError naming the option
