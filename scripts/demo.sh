@@ -20,9 +20,9 @@ for k in 0 1; do
   $BIN nerf train "$OUT/data/block_$k" --out "$OUT/block_$k.ckpt" --preset fast --iters "$ITERS"
 done
 
-echo "== 3/4 register block 0 into block 1 (DReg-NeRF with the shipped weights, then FPFH + RANSAC)"
+echo "== 3/4 register block 0 into block 1 (auto: DReg-NeRF with the shipped weights; then FPFH + RANSAC)"
 METHODS="ransac"
-[ -f models/dreg_cpu.pt ] && METHODS="dreg ransac"
+[ -f models/dreg_cpu.pt ] && METHODS="auto ransac"  # auto: DReg-NeRF, FPFH + RANSAC when its confidence is low
 for m in $METHODS; do
   $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --method "$m" --out "$OUT/target_from_source_$m.json"
 done

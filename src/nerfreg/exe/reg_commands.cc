@@ -55,8 +55,9 @@ std::string DefaultDregWeights() {
   return std::string(NERFREG_MODELS_DIR) + "/dreg_cpu.pt";
 }
 
-// dreg when its weights are there, else FPFH + RANSAC.
-std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "dreg" : "ransac"; }
+// auto (dreg, falling back to FPFH + RANSAC when its confidence is low) when weights are there,
+// else FPFH + RANSAC.
+std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "auto" : "ransac"; }
 
 int RunRegRegister(int argc, char** argv) {
   CLI::App app;
@@ -75,7 +76,12 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("source", source_path, "Source block checkpoint")->required();
   app.add_option("target", target_path, "Target block checkpoint")->required();
   app.add_option("--out", out, "Output JSON")->required();
-  app.add_option("--method", method, "ransac, fgr or dreg")->check(CLI::IsMember({"ransac", "fgr", "dreg"}));
+  app.add_option("--method", method,
+                 "auto (default with weights: dreg, then ransac when dreg's confidence < --min-confidence), dreg, "
+                 "ransac or fgr")
+      ->check(CLI::IsMember({"auto", "ransac", "fgr", "dreg"}));
+  double min_confidence = 0.3;
+  app.add_option("--min-confidence", min_confidence, "auto: dreg answers below this confidence fall back to ransac (0.3)");
   app.add_option("--refine", refine, "none or icp")->check(CLI::IsMember({"none", "icp"}));
   app.add_option("--weights", weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
   app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 32, as the shipped weights were trained)");
@@ -88,7 +94,11 @@ int RunRegRegister(int argc, char** argv) {
   CheckCanWriteOutput(out, common.force);
   Timer timer;
   NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
-  if (method == "dreg") {
+  Json fallback;
+  RegGrid gs, gt;
+  GridRegistrationResult dreg_result;
+  double dreg_grid_seconds = 0;
+  if (method == "dreg" || method == "auto") {
     if (weights.empty() || !FileExists(weights)) {
       ThrowInputError(weights.empty() ? "--weights" : weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
     }
@@ -99,17 +109,28 @@ int RunRegRegister(int argc, char** argv) {
     }
     Timer t_grid;
     grid_options.seed = seed;
-    const RegGrid gs = ExtractRegGrid(source, grid_options), gt = ExtractRegGrid(target, grid_options);
-    const double grid_seconds = t_grid.Seconds();
+    gs = ExtractRegGrid(source, grid_options);
+    gt = ExtractRegGrid(target, grid_options);
+    dreg_grid_seconds = t_grid.Seconds();
     GridRegistrationOptions ro;
     ro.method = "dreg";
     ro.icp = refine == "icp";
     ro.voxel = voxel;
     ro.seed = seed;
-    const GridRegistrationResult r = RegisterGrids(gs, gt, ro, &net);
+    dreg_result = RegisterGrids(gs, gt, ro, &net);
+    const GridRegistrationResult& r = dreg_result;
     if (r.source_points < 100 || r.target_points < 100) {
       LOG_WARN("{}: few surface voxels (source {}, target {}): is a block empty?", out, r.source_points, r.target_points);
     }
+    if (method == "auto" && r.confidence < min_confidence) {
+      LOG_WARN("{}: DReg-NeRF confidence {:.2f} < {:.2f}: falling back to FPFH + RANSAC", out, r.confidence, min_confidence);
+      fallback = {{"method", r.method}, {"confidence", r.confidence}, {"target_from_source", MatrixToJson(r.target_from_source)}};
+      method = "ransac";
+    }
+  }
+  if (method == "dreg" || method == "auto") {
+    const GridRegistrationResult r = dreg_result;
+    const double grid_seconds = dreg_grid_seconds;
     if (r.confidence < 0.3) LOG_WARN("{}: low confidence {:.2f}: the blocks may not overlap; do not trust this pose", out, r.confidence);
     const Json result = {{"target_from_source", MatrixToJson(r.target_from_source)}, {"scale", r.scale},
                          {"confidence", r.confidence}, {"seconds", timer.Seconds()}, {"register_seconds", r.seconds},
@@ -143,6 +164,7 @@ int RunRegRegister(int argc, char** argv) {
             {"inlier_rmse", r.inlier_rmse},
             {"seconds", timer.Seconds()},
             {"method", method + (options.icp ? "+icp" : "")},
+            {"fallback_from", fallback.is_null() ? Json() : fallback},
             {"source_points", src.cols()},
             {"target_points", tgt.cols()}};
   WriteJsonFile(out, result);
