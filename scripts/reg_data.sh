@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Makes the DReg-NeRF training and held-out evaluation data used for the shipped weights
-# (models/dreg_cpu.pt). Resumable: re-running skips finished objects. Never uses libcgal-demo's
-# meshes (reserved for independent evaluation).
+# (models/dreg_cpu.pt). Resumable: re-running skips finished objects. Only the Debian test meshes
+# below and procedural objects are used (see README, Data).
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs AND

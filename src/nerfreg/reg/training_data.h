@@ -7,7 +7,7 @@
 //   OUT/<object>/mesh_<k>_{source,target}.grid     synthesised pairs (reg/synthetic_grids.h)
 //   OUT/<object>/nerf/...                          rendered blocks, block checkpoints, their grids
 //
-// Objects are meshes (assimp-testmodels, openscad-testing-data; never libcgal-demo's, which are
+// Objects are meshes (assimp-testmodels, openscad-testing-data; see README, Data, for the meshes
 // reserved for independent evaluation) and procedural objects. Every pair of an object carries
 // the object's split, so held-out objects are never trained on.
 #include <string>
