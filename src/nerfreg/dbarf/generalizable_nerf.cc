@@ -3,23 +3,13 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 namespace {
 
 const char* kFormatTag = "nerfreg-generalizable-nerf";
 
-torch::Tensor StringTensor(const std::string& s) {
-  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<int64_t>(s.size())},
-                          torch::kUInt8)
-      .clone();
-}
-
-std::string TensorString(const torch::Tensor& t) {
-  TORCH_CHECK(t.scalar_type() == torch::kUInt8 && t.dim() == 1, "meta must be uint8 [N]");
-  const torch::Tensor c = t.contiguous();
-  return std::string(reinterpret_cast<const char*>(c.data_ptr<uint8_t>()), c.numel());
-}
 
 std::vector<int64_t> Int64s(const JsonField& j) {
   std::vector<int64_t> out;
@@ -123,26 +113,10 @@ void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& pa
 
 GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
                                         const GeneralizableNerfOptions* expected) {
-  if (!FileExists(path)) ThrowInputError(path, "", "an existing generalizable NeRF checkpoint");
   torch::serialize::InputArchive archive;
-  Json meta;
-  try {
-    archive.load_from(path);
-    torch::Tensor meta_tensor;
-    archive.read("meta", meta_tensor);
-    meta = Json::parse(TensorString(meta_tensor));
-  } catch (const std::exception&) {
-    ThrowInputError(path, "", "a nerfreg generalizable NeRF checkpoint (unreadable or truncated)");
-  }
+  const Json meta =
+      LoadArchiveMeta(path, "generalizable NeRF checkpoint", kFormatTag, kGeneralizableNerfCheckpointVersion, &archive);
   const JsonField m(meta, path);
-  if (m.StringOr("format", "") != kFormatTag) {
-    ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
-  }
-  if (m["version"].Int() != kGeneralizableNerfCheckpointVersion) {
-    ThrowInputError(path, "version",
-                    std::to_string(kGeneralizableNerfCheckpointVersion) +
-                        " (written by another nerfreg version)");
-  }
   const GeneralizableNerfOptions options = GeneralizableNerfOptionsFromJson(m["options"]);
   if (expected != nullptr &&
       GeneralizableNerfOptionsToJson(*expected) != GeneralizableNerfOptionsToJson(options)) {

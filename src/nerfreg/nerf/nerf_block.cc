@@ -4,6 +4,7 @@
 #include "nerfreg/geometry/rays.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 
@@ -65,13 +66,6 @@ Image RenderImage(NerfBlock& block, const Camera& camera, const Rigid3d& cam_fro
 namespace {
 const char* kFormatTag = "nerfreg-nerf-block";
 
-torch::Tensor StringTensor(const std::string& s) {
-  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone();
-}
-std::string TensorString(const torch::Tensor& t) {
-  const auto c = t.contiguous();
-  return std::string(reinterpret_cast<const char*>(c.data_ptr<std::uint8_t>()), c.numel());
-}
 
 Json FieldOptionsToJson(const FieldOptions& f) {
   const auto& e = f.encoding;
@@ -136,22 +130,9 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
 }
 
 NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch::serialize::InputArchive&)>& extra) {
-  if (!FileExists(path)) ThrowInputError(path, "", "an existing NeRF checkpoint");
   torch::serialize::InputArchive archive;
-  Json meta;
-  try {
-    archive.load_from(path);
-    torch::Tensor meta_tensor;
-    archive.read("meta", meta_tensor);
-    meta = Json::parse(TensorString(meta_tensor));
-  } catch (const std::exception& e) {
-    ThrowInputError(path, "", "a nerfreg NeRF checkpoint (unreadable or truncated)");
-  }
+  const Json meta = LoadArchiveMeta(path, "NeRF checkpoint", kFormatTag, kNerfCheckpointVersion, &archive);
   const JsonField m(meta, path);
-  if (m.StringOr("format", "") != kFormatTag) ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
-  if (m["version"].Int() != kNerfCheckpointVersion) {
-    ThrowInputError(path, "version", std::to_string(kNerfCheckpointVersion) + " (written by another nerfreg version)");
-  }
   NerfBlock b;
   b.field_options = FieldOptionsFromJson(m["field"]);
   b.grid_options.resolution = m["grid"]["resolution"].Int();

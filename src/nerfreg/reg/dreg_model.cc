@@ -7,6 +7,7 @@
 #include "nerfreg/reg/weighted_procrustes.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 namespace {
@@ -43,14 +44,6 @@ Keypoints GatherKeypoints(Backbone& backbone, const RegGrid& g, const torch::Dev
   return k;
 }
 
-torch::Tensor StringTensor(const std::string& s) {
-  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<int64_t>(s.size())}, torch::kUInt8).clone();
-}
-
-std::string TensorString(const torch::Tensor& t) {
-  const torch::Tensor c = t.contiguous().to(torch::kUInt8);
-  return std::string(reinterpret_cast<const char*>(c.data_ptr<uint8_t>()), c.numel());
-}
 
 std::vector<int64_t> Ints(const JsonField& j) {
   std::vector<int64_t> v;
@@ -333,24 +326,8 @@ void SaveDregWeights(DregNet& net, const DregModelOptions& options, const std::s
 }
 
 DregNet LoadDregWeights(const std::string& path, DregModelOptions* options) {
-  if (!FileExists(path)) ThrowInputError(path, "", "an existing DReg-NeRF weights file");
   torch::serialize::InputArchive archive;
-  Json meta;
-  try {
-    archive.load_from(path);
-    torch::Tensor meta_tensor;
-    archive.read("meta", meta_tensor);
-    meta = Json::parse(TensorString(meta_tensor));
-  } catch (const std::exception& e) {
-    ThrowInputError(path, "", "a nerfreg DReg-NeRF weights file (unreadable or truncated)");
-  }
-  const JsonField m(meta, path);
-  if (!meta.is_object() || m.StringOr("format", "") != kWeightsFormatTag) {
-    ThrowInputError(path, "format", std::string("\"") + kWeightsFormatTag + "\"");
-  }
-  if (m["version"].Int() != kDregWeightsVersion) {
-    ThrowInputError(path, "version", std::to_string(kDregWeightsVersion) + " (written by another nerfreg version)");
-  }
+  const Json meta = LoadArchiveMeta(path, "DReg-NeRF weights file", kWeightsFormatTag, kDregWeightsVersion, &archive);
   const DregModelOptions stored = DregModelOptions::FromJson(meta.at("options"), path + " (options)");
   DregNet net(stored);
   // Module::load replaces tensors whatever their shape, so the shapes the stored options imply

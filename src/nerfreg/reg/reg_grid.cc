@@ -5,19 +5,13 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 namespace {
 
 constexpr const char* kFormatTag = "nerfreg-reg-grid";
 
-torch::Tensor StringTensor(const std::string& s) {
-  return torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone();
-}
-std::string TensorString(const torch::Tensor& t) {
-  const auto c = t.contiguous();
-  return std::string(reinterpret_cast<const char*>(c.data_ptr<std::uint8_t>()), c.numel());
-}
 
 Json VectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
@@ -60,22 +54,9 @@ void SaveRegGrid(const RegGrid& grid, const std::string& path) {
 }
 
 RegGrid LoadRegGrid(const std::string& path) {
-  if (!FileExists(path)) ThrowInputError(path, "", "an existing registration grid (reg make-data / reg extract)");
   torch::serialize::InputArchive archive;
-  Json meta;
-  try {
-    archive.load_from(path);
-    torch::Tensor meta_tensor;
-    archive.read("meta", meta_tensor);
-    meta = Json::parse(TensorString(meta_tensor));
-  } catch (const std::exception&) {
-    ThrowInputError(path, "", "a nerfreg registration grid (unreadable or truncated)");
-  }
+  const Json meta = LoadArchiveMeta(path, "registration grid", kFormatTag, kRegGridVersion, &archive);
   const JsonField m(meta, path);
-  if (m.StringOr("format", "") != kFormatTag) ThrowInputError(path, "format", std::string("\"") + kFormatTag + "\"");
-  if (m["version"].Int() != kRegGridVersion) {
-    ThrowInputError(path, "version", std::to_string(kRegGridVersion) + " (written by another nerfreg version)");
-  }
   RegGrid g;
   const auto mn = m["aabb_min"].Doubles(), mx = m["aabb_max"].Doubles();
   if (mn.size() != 3 || mx.size() != 3) ThrowInputError(path, "aabb_min/aabb_max", "3 numbers each");
