@@ -215,6 +215,21 @@ PoseDepthNetImpl::PoseDepthNetImpl(const PoseDepthNetOptions& options) : options
   depth_delta_head_ = register_module("depth_delta_head", Head(hid, o.head_channels, 1));
   depth_mask_head_ = register_module("depth_mask_head", Head(hid, o.mask_channels, mask_out, 1));
   pose_delta_head_ = register_module("pose_delta_head", Head(hid, o.head_channels, 6));
+  // The pose heads start at zero twists: an untrained network returns its initial poses unchanged
+  // (the identity, or the cameras it is given) instead of random motions, so refining a classical
+  // initialisation starts from that initialisation's error and training can only improve on it.
+  torch::NoGradGuard no_grad;
+  for (auto* head : {&init_pose_head_, &pose_delta_head_}) {
+    auto last = (*head)->ptr(2)->as<nn::Conv2d>();
+    last->weight.zero_();
+    if (last->bias.defined()) last->bias.zero_();
+  }
+}
+
+void PoseDepthNetImpl::SetDepthRange(double near, double far) {
+  TORCH_CHECK(near > 0.0 && far > near, "PoseDepthNet: need 0 < near < far, got ", near, " ", far);
+  options_.near = near;
+  options_.far = far;
 }
 
 torch::Tensor PoseDepthNetImpl::ToInverseDepth(const torch::Tensor& disparity) const {
@@ -228,7 +243,8 @@ torch::Tensor PoseDepthNetImpl::TwistFromHead(const torch::Tensor& head_output) 
 }
 
 PoseDepthPrediction PoseDepthNetImpl::forward(const torch::Tensor& target, const torch::Tensor& sources,
-                                              const torch::Tensor& intrinsics) {
+                                              const torch::Tensor& intrinsics,
+                                              const torch::Tensor& initial_src_from_tgt) {
   TORCH_CHECK(target.dim() == 4 && target.size(0) == 1 && target.size(1) == 3,
               "PoseDepthNet: target must be [1, 3, H, W], got ", target.sizes());
   TORCH_CHECK(sources.dim() == 4 && sources.size(0) >= 1 && sources.sizes().slice(1) == target.sizes().slice(1),
@@ -255,9 +271,17 @@ PoseDepthPrediction PoseDepthNetImpl::forward(const torch::Tensor& target, const
     return ToInverseDepth(up);
   };
 
-  // Initial predictions.
-  torch::Tensor src_from_tgt =
-      Se3Exp(TwistFromHead(init_pose_head_->forward(torch::cat({f_tgt.expand({n, -1, h, w}), f_src}, 1))));
+  // Initial predictions (the pose head's twist corrects the given initial poses when there are any).
+  const torch::Tensor init_twist =
+      TwistFromHead(init_pose_head_->forward(torch::cat({f_tgt.expand({n, -1, h, w}), f_src}, 1)));
+  torch::Tensor src_from_tgt;
+  if (initial_src_from_tgt.defined()) {
+    TORCH_CHECK(initial_src_from_tgt.sizes() == torch::IntArrayRef({n, 4, 4}),
+                "PoseDepthNet: initial poses must be [N, 4, 4], got ", initial_src_from_tgt.sizes());
+    src_from_tgt = Se3Update(init_twist, initial_src_from_tgt.detach().to(init_twist.scalar_type()));
+  } else {
+    src_from_tgt = Se3Exp(init_twist);
+  }
   torch::Tensor disparity = torch::sigmoid(init_depth_head_->forward(f_tgt));  // [1, 1, h, w]
   PoseDepthPrediction out;
   out.target_features = f_tgt;

@@ -139,9 +139,17 @@ class PoseDepthNetImpl : public torch::nn::Module {
   explicit PoseDepthNetImpl(const PoseDepthNetOptions& options);
   // target: [1, 3, H, W] float32 in [0, 1]; sources: [N, 3, H, W] float32 in [0, 1];
   // intrinsics: [3, 3] float32 in pixels of the H x W images. H, W >= 16.
+  // initial_src_from_tgt: undefined, or [N, 4, 4] relative poses to start from (e.g. the classical
+  // cameras of sfm/global_sfm.h): the initial pose head then predicts a correction of them rather
+  // than the poses themselves, and the recurrent updates refine from there (no gradient flows
+  // into the given poses).
   PoseDepthPrediction forward(const torch::Tensor& target, const torch::Tensor& sources,
-                              const torch::Tensor& intrinsics);
+                              const torch::Tensor& intrinsics, const torch::Tensor& initial_src_from_tgt = {});
   const PoseDepthNetOptions& options() const { return options_; }
+  // The depth range of the scene at hand (0 < near < far; scene units): the network predicts a
+  // normalised disparity in (0, 1) and this maps it to inverse depth, so one set of weights serves
+  // scenes of different extents (DBARF passes each scene's bounds the same way).
+  void SetDepthRange(double near, double far);
 
  private:
   torch::Tensor ToInverseDepth(const torch::Tensor& disparity) const;

@@ -109,6 +109,19 @@ TEST_F(PoseDepthNetTest, OptionsCheck) {
 TEST_F(PoseDepthNetTest, ForwardShapesRangesAndFiniteGradients) {
   const auto options = PoseDepthNetOptions::Cpu();
   PoseDepthNet net(options);
+  // The pose heads' last layers start at zero (an untrained network returns its initial poses);
+  // give them small values so that gradients reach the layers before them too.
+  {
+    torch::NoGradGuard no_grad;
+    int zeroed = 0;
+    for (auto& p : net->named_parameters()) {
+      if (p.key().find("pose_head.2.") == std::string::npos && p.key().find("pose_delta_head.2.") == std::string::npos) continue;
+      EXPECT_EQ(p.value().abs().max().item<double>(), 0.0) << p.key();
+      p.value().normal_(0.0, 0.01);
+      ++zeroed;
+    }
+    EXPECT_EQ(zeroed, 4);  // weight and bias of both heads
+  }
   const PlaneScene scene = PlaneScene::Tilted(2.0, 48, 64);
   const torch::Tensor poses = testing_scene::SourcePoses(2);
   const torch::Tensor target = scene.Render(torch::eye(4));

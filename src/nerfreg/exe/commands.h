@@ -32,6 +32,13 @@ std::string DefaultRegistrationMethod();
 // DBARF (exe/dbarf_commands.cc)
 int RunDbarfPoses(int argc, char** argv);
 int RunDbarfEvalPoses(int argc, char** argv);
+// DBARF training, novel views and evaluation (exe/dbarf_train_commands.cc)
+int RunDbarfPretrain(int argc, char** argv);
+int RunDbarfFinetune(int argc, char** argv);
+int RunDbarfRender(int argc, char** argv);
+int RunDbarfEval(int argc, char** argv);
+// The shipped DBARF weights (NERFREG_DBARF_WEIGHTS overrides).
+std::string DefaultDbarfWeights();
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
 
@@ -51,4 +58,8 @@ int RunReport(int argc, char** argv);
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
   {"dbarf poses", RunDbarfPoses, "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}, \
   {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \
+  {"dbarf pretrain", RunDbarfPretrain, "Pretrain DBARF on many scenes (resumable)"}, \
+  {"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"}, \
+  {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"}, \
+  {"dbarf eval", RunDbarfEval, "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

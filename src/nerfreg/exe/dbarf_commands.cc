@@ -7,6 +7,7 @@
 
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/dbarf/dbarf_scene.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/sfm/global_sfm.h"
@@ -164,6 +165,9 @@ int RunDbarfPoses(int argc, char** argv) {
   for (bool p : r.posed) num_posed += p;
   if (num_posed == 0) ThrowInputError(images_dir, "", "images that share enough features to be posed (no two do)");
 
+  // The depth range and view graph go into the output too: dbarf finetune / render read them.
+  double near = 0, far = 0;
+  DepthRangeFromPoints(r, images_dir, &near, &far);
   // Everything goes into a temporary folder renamed into place at the end.
   const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
   fs::remove_all(tmp);
@@ -184,6 +188,7 @@ int RunDbarfPoses(int argc, char** argv) {
     }
     Json json = TransformsJsonFromDataset(dataset);
     json["not_posed"] = r.not_posed;
+    json["view_graph"] = ViewGraphToJson(r.view_graph);
     json["dbarf_poses"] = {{"images", names.size()},
                            {"posed", num_posed},
                            {"points", r.num_points},
@@ -193,6 +198,8 @@ int RunDbarfPoses(int argc, char** argv) {
                            {"seconds_view_graph", r.seconds_view_graph},
                            {"seconds_sfm", r.seconds_sfm},
                            {"seconds", timer.Seconds()},
+                           {"near", near},
+                           {"far", far},
                            {"frame", "first posed camera at the identity; mean distance of the others to it = 1"}};
     WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));

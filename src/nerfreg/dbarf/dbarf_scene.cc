@@ -1,0 +1,233 @@
+#include "nerfreg/dbarf/dbarf_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "nerfreg/data/convert.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/image.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/logging.h"
+
+namespace nerfreg {
+namespace {
+
+torch::Tensor MatrixTensor(const Eigen::Matrix4d& m) {
+  torch::Tensor t = torch::empty({4, 4}, torch::kFloat);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) t[r][c] = static_cast<float>(m(r, c));
+  return t;
+}
+
+torch::Tensor IntrinsicsTensor(const Camera& c) {
+  return torch::tensor({c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
+}
+
+// The transforms.json behind `path` (a file or a folder holding one), or "" for other formats.
+std::string TransformsJsonPath(const std::string& path) {
+  if (DetectCameraFormat(path) != CameraFormat::kTransformsJson) return "";
+  return DirExists(path) ? JoinPaths(path, "transforms.json") : path;
+}
+
+}  // namespace
+
+void DbarfSceneOptions::Check() const {
+  if (max_width < 0) throw InputError("--max-width: expected >= 0, got " + std::to_string(max_width));
+  sfm.Check();
+}
+
+torch::Tensor ImageToTensor(const Image& image) {
+  const torch::Tensor hwc = torch::from_blob(const_cast<float*>(image.data.data()),
+                                             {image.height, image.width, image.channels}, torch::kFloat);
+  torch::Tensor rgb;
+  if (image.channels == 4) {
+    const torch::Tensor a = hwc.narrow(2, 3, 1);
+    rgb = hwc.narrow(2, 0, 3) * a + (1 - a);
+  } else if (image.channels == 3) {
+    rgb = hwc;
+  } else {
+    rgb = hwc.narrow(2, 0, 1).expand({image.height, image.width, 3});
+  }
+  return rgb.permute({2, 0, 1}).contiguous().clone();
+}
+
+Image TensorToImage(const torch::Tensor& chw) {
+  const torch::Tensor hwc = chw.detach().to(torch::kCPU, torch::kFloat).clamp(0, 1).permute({1, 2, 0}).contiguous();
+  Image image(static_cast<int>(hwc.size(1)), static_cast<int>(hwc.size(0)), static_cast<int>(hwc.size(2)));
+  std::copy(hwc.data_ptr<float>(), hwc.data_ptr<float>() + hwc.numel(), image.data.begin());
+  return image;
+}
+
+void DepthRangeFromPoints(const SfmResult& sfm, const std::string& source, double* near, double* far) {
+  std::vector<double> depths;
+  for (const SfmPoint& p : sfm.points) {
+    for (const auto& e : p.elements) {
+      if (!sfm.posed[e.image]) continue;
+      const double z = (sfm.cam_from_world[e.image] * p.x_in_world).z();
+      if (z > 0 && std::isfinite(z)) depths.push_back(z);
+    }
+  }
+  if (depths.size() < 10) ThrowInputError(source, "", "images with enough triangulated points to bound the depth");
+  std::sort(depths.begin(), depths.end());
+  const auto at = [&](double q) { return depths[static_cast<size_t>(q * (depths.size() - 1))]; };
+  *near = 0.7 * at(0.02);
+  *far = 1.4 * at(0.98);
+}
+
+Json ViewGraphToJson(const ViewGraph& graph) {
+  Json edges = Json::array();
+  for (const ViewGraphEdge& e : graph.edges) edges.push_back({graph.names[e.i], graph.names[e.j], e.num_inliers});
+  return edges;
+}
+
+std::vector<int> NearestViews(const DbarfScene& scene, const torch::Tensor& cam_from_world, int k) {
+  TORCH_CHECK(scene.cam_from_world.defined(), "NearestViews: the scene has no cameras");
+  const auto centre = [](const torch::Tensor& c) {  // -R^T t
+    return -torch::matmul(c.slice(-2, 0, 3).slice(-1, 0, 3).transpose(-1, -2), c.slice(-2, 0, 3).slice(-1, 3, 4)).squeeze(-1);
+  };
+  const auto axis = [](const torch::Tensor& c) { return c.slice(-2, 2, 3).slice(-1, 0, 3).squeeze(-2); };  // row 3 of R
+  const torch::Tensor centres = centre(scene.cam_from_world);  // [V, 3]
+  const torch::Tensor axes = axis(scene.cam_from_world);       // [V, 3]
+  // Scale: median over views of the distance to the nearest other view.
+  const torch::Tensor d = torch::cdist(centres, centres) + 1e9 * torch::eye(centres.size(0));
+  const double scale = std::max(1e-9, std::get<0>(d.min(1)).median().item<double>());
+  const torch::Tensor q = cam_from_world.to(torch::kFloat);
+  const torch::Tensor dist = (centres - centre(q)).norm(2, 1) / scale;
+  const torch::Tensor angle = torch::acos((axes * axis(q)).sum(1).clamp(-1, 1));
+  const torch::Tensor score = dist + angle;
+  std::vector<std::pair<double, int>> order;
+  for (int v = 0; v < scene.NumViews(); ++v)
+    if (scene.usable[v]) order.push_back({score[v].item<double>(), v});
+  std::sort(order.begin(), order.end());
+  std::vector<int> out;
+  for (size_t i = 0; i < order.size() && static_cast<int>(i) < k; ++i) out.push_back(order[i].second);
+  return out;
+}
+
+NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std::vector<int>& sources,
+                          const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
+                          int64_t width) {
+  TORCH_CHECK(!sources.empty(), "RenderNovelView: no source views");
+  torch::NoGradGuard no_grad;
+  model.Train(false);
+  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  IbrSourceViews views;
+  views.images = scene.images.index_select(0, idx);
+  views.intrinsics = scene.intrinsics.index_select(0, idx);
+  views.cam_from_world = scene.cam_from_world.index_select(0, idx);
+  const IbrRenderOutput out =
+      RenderIbrImage(model.nerf.feature_net, model.nerf.ibrnet, views, intrinsics.to(torch::kFloat),
+                     cam_from_world.to(torch::kFloat), height, width, scene.near, scene.far, model.options.nerf.render);
+  return {out.rgb.t().reshape({3, height, width}).contiguous(), out.depth.reshape({height, width}),
+          out.valid.reshape({height, width})};
+}
+
+LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions& options) {
+  options.Check();
+  LoadedDbarfScene out;
+  out.dataset = ReadCameras(path);
+  Dataset& d = out.dataset;
+  const int64_t v = static_cast<int64_t>(d.frames.size());
+  if (v < 3) ThrowInputError(path, "frames", "at least 3 images, found " + std::to_string(v));
+  DbarfScene& scene = out.scene;
+  scene.name = path;
+
+  // Images at one size (downsampled to max_width), intrinsics scaled with them.
+  std::vector<Image> images;
+  std::vector<torch::Tensor> tensors, intrinsics;
+  for (Frame& f : d.frames) {
+    const std::string file = d.ImagePath(f);
+    Image image = ReadImage(file);
+    if (image.width != f.camera.width || image.height != f.camera.height) {
+      ThrowInputError(file, "", "an image of the camera's size " + std::to_string(f.camera.width) + "x" +
+                                    std::to_string(f.camera.height) + ", got " + std::to_string(image.width) + "x" +
+                                    std::to_string(image.height));
+    }
+    torch::Tensor t = ImageToTensor(image);
+    if (options.max_width > 0 && image.width > options.max_width) {
+      const int64_t w = options.max_width;
+      const int64_t h = std::max<int64_t>(1, std::lround(static_cast<double>(image.height) * w / image.width));
+      t = torch::nn::functional::interpolate(
+              t.unsqueeze(0), torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea))
+              .squeeze(0);
+      const double sx = static_cast<double>(w) / image.width, sy = static_cast<double>(h) / image.height;
+      f.camera.fx *= sx;
+      f.camera.cx *= sx;
+      f.camera.fy *= sy;
+      f.camera.cy *= sy;
+      f.camera.width = static_cast<int>(w);
+      f.camera.height = static_cast<int>(h);
+      image = TensorToImage(t);
+    }
+    if (!tensors.empty() && t.sizes() != tensors[0].sizes()) {
+      ThrowInputError(file, "", "images of one size (the first is " + std::to_string(tensors[0].size(2)) + "x" +
+                                    std::to_string(tensors[0].size(1)) + ")");
+    }
+    tensors.push_back(t);
+    intrinsics.push_back(IntrinsicsTensor(f.camera));
+    images.push_back(std::move(image));
+    scene.image_names.push_back(f.name);
+    out.is_test.push_back(f.split == "test");
+  }
+  scene.images = torch::stack(tensors);
+  scene.intrinsics = torch::stack(intrinsics);
+  scene.usable.assign(v, true);
+  if (options.hold_out_test)
+    for (int64_t i = 0; i < v; ++i) scene.usable[i] = !out.is_test[i];
+
+  // Cameras estimated by dbarf poses: use them, their depth range and their view graph.
+  const std::string json_path = TransformsJsonPath(path);
+  Json json;
+  if (!json_path.empty()) json = ReadJsonFile(json_path);
+  std::vector<torch::Tensor> poses;
+  for (const Frame& f : d.frames) poses.push_back(MatrixTensor(f.cam_from_world.ToMatrix()));
+  if (json.is_object() && json.contains("dbarf_poses")) {
+    scene.cam_from_world = torch::stack(poses);
+    const JsonField root(json, json_path);
+    std::map<std::string, int> index;
+    for (int64_t i = 0; i < v; ++i) index[scene.image_names[i]] = static_cast<int>(i);
+    std::vector<std::vector<std::pair<int, int>>> weighted(v);
+    const JsonField graph = root["view_graph"];
+    for (size_t e = 0; e < graph.ArraySize(); ++e) {
+      const std::string a = graph[e][0].String(), b = graph[e][1].String();
+      const int inliers = graph[e][2].Int();
+      if (!index.count(a) || !index.count(b)) continue;  // an image that was not posed
+      weighted[index[a]].push_back({inliers, index[b]});
+      weighted[index[b]].push_back({inliers, index[a]});
+    }
+    scene.neighbours.resize(v);
+    for (int64_t i = 0; i < v; ++i) {
+      std::stable_sort(weighted[i].begin(), weighted[i].end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+      for (const auto& [w, j] : weighted[i]) scene.neighbours[i].push_back(j);
+    }
+    const JsonField info = root["dbarf_poses"];
+    scene.near = info["near"].Double();
+    scene.far = info["far"].Double();
+  } else {
+    // The dataset's poses are ground truth: kept aside; estimate everything from the images.
+    out.ground_truth = torch::stack(poses);
+    std::vector<Camera> cameras;
+    for (const Frame& f : d.frames) cameras.push_back(f.camera);
+    LOG_INFO("{}: estimating cameras from the {} images (the file's poses are kept for evaluation only)", path, v);
+    const SfmResult sfm = PoseImages(images, cameras, scene.image_names, options.sfm);
+    std::vector<torch::Tensor> estimated;
+    for (int64_t i = 0; i < v; ++i) {
+      estimated.push_back(MatrixTensor(sfm.cam_from_world[i].ToMatrix()));
+      if (!sfm.posed[i]) {
+        scene.usable[i] = false;
+        out.not_posed.push_back(scene.image_names[i]);
+      }
+    }
+    scene.cam_from_world = torch::stack(estimated);
+    scene.neighbours.resize(v);
+    for (int64_t i = 0; i < v; ++i) scene.neighbours[i] = sfm.view_graph.Neighbors(static_cast<int>(i), static_cast<int>(v));
+    DepthRangeFromPoints(sfm, path, &scene.near, &scene.far);
+    out.estimated_here = true;
+  }
+  scene.Check();
+  return out;
+}
+
+}  // namespace nerfreg

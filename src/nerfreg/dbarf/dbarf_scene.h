@@ -1,0 +1,72 @@
+// Scenes for DBARF from the formats people have: a transforms.json written by `nerfreg dbarf
+// poses` (estimated cameras, depth range and view graph already in it), or any dataset
+// `nerfreg convert` reads (transforms.json, LLFF poses_bounds.npy, COLMAP model), whose poses are
+// treated as ground truth: they are kept for evaluation only, and the cameras, depth range and view
+// graph used for training and rendering are estimated from the images (sfm/global_sfm.h).
+#pragma once
+
+#include <torch/torch.h>
+
+#include <string>
+#include <vector>
+
+#include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf/dbarf_trainer.h"
+#include "nerfreg/data/dataset.h"
+#include "nerfreg/sfm/global_sfm.h"
+
+namespace nerfreg {
+
+struct DbarfSceneOptions {
+  // Images wider than this are downsampled (area) to it, intrinsics scaled on a copy (all of fx,
+  // fy, cx, cy: spec 9.1). 0 keeps the size.
+  int max_width = 0;
+  // Test-split frames are loaded but not usable as sources or training targets.
+  bool hold_out_test = true;
+  // Used when the cameras have to be estimated.
+  SfmOptions sfm;
+  void Check() const;  // throws InputError naming the option
+};
+
+struct LoadedDbarfScene {
+  DbarfScene scene;
+  // [V, 4, 4] float32: the dataset's own poses when it was not written by dbarf poses (ground
+  // truth for evaluation, never used for training or rendering); undefined otherwise.
+  torch::Tensor ground_truth;
+  std::vector<bool> is_test;           // per view, split == "test"
+  Dataset dataset;                     // as read (cameras at the loaded size)
+  bool estimated_here = false;         // cameras were estimated by this call
+  std::vector<std::string> not_posed;  // images the estimation could not pose (left unusable)
+};
+
+// Throws InputError naming the file and field on bad input (see data/convert.h for formats).
+LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions& options = {});
+
+// Depth range of triangulated points seen by posed cameras: the 2nd / 98th percentiles of their
+// camera depths, widened by 0.7 / 1.4. Throws InputError (source) with fewer than 10 depths.
+void DepthRangeFromPoints(const SfmResult& sfm, const std::string& source, double* near, double* far);
+
+// The view graph as written into transforms.json by dbarf poses: [[name_i, name_j, inliers], ...].
+Json ViewGraphToJson(const ViewGraph& graph);
+
+// The k usable views nearest to a camera cam_from_world [4, 4]: centre distance (in units of the
+// scene's median distance between neighbouring centres) plus the angle between viewing directions
+// (radians), smallest first. For novel cameras, which have no image and so no view-graph edge.
+std::vector<int> NearestViews(const DbarfScene& scene, const torch::Tensor& cam_from_world, int k);
+
+struct NovelView {
+  torch::Tensor rgb;    // [3, H, W] float32
+  torch::Tensor depth;  // [H, W] float32, z-depth
+  torch::Tensor valid;  // [H, W] bool
+};
+// Renders a camera (intrinsics [3, 3], cam_from_world [4, 4], in the scene's frame) of size
+// height x width from the scene's views `sources` placed by the scene's cameras, without gradients.
+NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std::vector<int>& sources,
+                          const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
+                          int64_t width);
+
+// Image [H, W, C] in [0, 1] -> tensor [3, H, W] float32 (alpha composited over white), and back.
+torch::Tensor ImageToTensor(const Image& image);
+Image TensorToImage(const torch::Tensor& chw);
+
+}  // namespace nerfreg

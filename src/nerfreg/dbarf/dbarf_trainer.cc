@@ -1,0 +1,404 @@
+#include "nerfreg/dbarf/dbarf_trainer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "nerfreg/dbarf/ibr_render.h"
+#include "nerfreg/dbarf/se3.h"
+#include "nerfreg/dbarf/sfm_loss.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/progress.h"
+#include "nerfreg/util/torch_archive.h"
+
+namespace nerfreg {
+namespace {
+
+const char* kStateFormat = "nerfreg-dbarf-train-state";
+constexpr int kStateVersion = 1;
+
+void SetLearningRates(torch::optim::Adam* optimizer, const std::vector<double>& base, double factor) {
+  auto& groups = optimizer->param_groups();
+  for (size_t g = 0; g < groups.size() && g < base.size(); ++g) {
+    static_cast<torch::optim::AdamOptions&>(groups[g].options())
+        .lr(base[g] * factor);
+  }
+}
+
+// Rotation angle (degrees) of every R_a^T R_b: a, b [N, 4, 4] -> [N].
+torch::Tensor RotationAngleDeg(const torch::Tensor& a, const torch::Tensor& b) {
+  const torch::Tensor ra = a.slice(1, 0, 3).slice(2, 0, 3), rb = b.slice(1, 0, 3).slice(2, 0, 3);
+  const torch::Tensor trace = torch::matmul(ra.transpose(1, 2), rb).diagonal(0, 1, 2).sum(1);
+  return torch::acos(((trace - 1) / 2).clamp(-1, 1)) * (180.0 / M_PI);
+}
+
+}  // namespace
+
+void DbarfScene::Check() const {
+  const std::string what = "scene " + name;
+  if (!images.defined() || images.dim() != 4 || images.size(1) != 3 || images.size(0) < 2) {
+    ThrowInputError(name, "images", "at least 2 RGB images of one size");
+  }
+  const int64_t v = images.size(0);
+  if (!intrinsics.defined() || intrinsics.sizes() != torch::IntArrayRef({v, 3, 3})) {
+    ThrowInputError(name, "intrinsics", "one 3x3 matrix per image");
+  }
+  if (cam_from_world.defined() && cam_from_world.sizes() != torch::IntArrayRef({v, 4, 4})) {
+    ThrowInputError(name, "cam_from_world", "one 4x4 camera per image");
+  }
+  if (static_cast<int64_t>(neighbours.size()) != v || static_cast<int64_t>(usable.size()) != v ||
+      static_cast<int64_t>(image_names.size()) != v) {
+    ThrowInputError(name, "view_graph", "neighbours, names and usable flags for every image");
+  }
+  for (const auto& n : neighbours)
+    for (int j : n)
+      if (j < 0 || j >= v) ThrowInputError(name, "view_graph", "neighbour indices within the images");
+  if (!(near > 0 && far > near && std::isfinite(far))) {
+    ThrowInputError(name, "near/far", "a depth range 0 < near < far, got " + std::to_string(near) + ", " +
+                                          std::to_string(far));
+  }
+}
+
+const char* DbarfStageName(DbarfStage stage) {
+  switch (stage) {
+    case DbarfStage::kPose: return "pose";
+    case DbarfStage::kNerf: return "nerf";
+    case DbarfStage::kJoint: return "joint";
+  }
+  return "?";
+}
+
+DbarfStage DbarfStageOfStep(int64_t step, int64_t stage_steps) {
+  const int64_t k = step / std::max<int64_t>(stage_steps, 1);
+  if (k > 0 && k % 3 == 0) return DbarfStage::kJoint;
+  return k % 2 == 0 ? DbarfStage::kPose : DbarfStage::kNerf;
+}
+
+DbarfTrainOptions DbarfTrainOptions::Pretrain() { return {}; }
+
+DbarfTrainOptions DbarfTrainOptions::Finetune() {
+  DbarfTrainOptions o;
+  o.num_sources = 10;
+  o.source_jitter_min = -2;
+  o.source_jitter_max = 1;
+  o.lr_feature = 5e-4;
+  o.lr_mlp = 2e-4;
+  o.lr_pose = 1e-5;
+  o.lr_decay_steps = 20000;
+  return o;
+}
+
+void DbarfTrainOptions::Check() const {
+  if (stage_steps < 1) throw InputError("--stage-steps: expected >= 1, got " + std::to_string(stage_steps));
+  if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
+  if (source_jitter_min > source_jitter_max) throw InputError("source jitter: expected min <= max");
+  if (rays_per_step < 1) throw InputError("--rays: expected >= 1, got " + std::to_string(rays_per_step));
+  if (!(lr_feature > 0 && lr_mlp > 0 && lr_pose > 0)) throw InputError("learning rates: expected > 0");
+  if (lr_decay_steps < 1 || !(lr_gamma > 0 && lr_gamma <= 1)) throw InputError("lr decay: expected steps >= 1, 0 < gamma <= 1");
+  if (!(joint_decay >= 0)) throw InputError("joint_decay: expected >= 0");
+  if (schedule != "dbarf" && schedule != "nerf") {
+    throw InputError("--schedule: expected \"dbarf\" or \"nerf\", got \"" + schedule + "\"");
+  }
+  if (pose_init != "network" && pose_init != "cameras") {
+    throw InputError("--pose-init: expected \"network\" or \"cameras\", got \"" + pose_init + "\"");
+  }
+  if (nerf_poses != "network" && nerf_poses != "cameras") {
+    throw InputError("--nerf-poses: expected \"network\" or \"cameras\", got \"" + nerf_poses + "\"");
+  }
+}
+
+DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options)
+    : model_(model), scenes_(std::move(scenes)), options_(options), rng_(options.seed) {
+  options_.Check();
+  if (scenes_.empty()) throw InputError("dbarf training: no scenes");
+  for (size_t s = 0; s < scenes_.size(); ++s) {
+    scenes_[s].Check();
+    if ((options_.nerf_poses == "cameras" || options_.pose_init == "cameras") && !scenes_[s].cam_from_world.defined()) {
+      ThrowInputError(scenes_[s].name, "cameras", "estimated cameras (--nerf-poses cameras)");
+    }
+    for (int v = 0; v < scenes_[s].NumViews(); ++v)
+      if (scenes_[s].usable[v] && !SourcesOf(scenes_[s], v, 1).empty()) targets_.push_back({static_cast<int>(s), v});
+  }
+  if (targets_.empty()) throw InputError("dbarf training: no usable view has a usable view-graph neighbour");
+  using G = torch::optim::OptimizerParamGroup;
+  std::vector<G> nerf_groups;
+  nerf_groups.emplace_back(model_->nerf.FeatureParameters(),
+                           std::make_unique<torch::optim::AdamOptions>(options_.lr_feature));
+  nerf_groups.emplace_back(model_->nerf.MlpParameters(), std::make_unique<torch::optim::AdamOptions>(options_.lr_mlp));
+  nerf_optimizer_ = std::make_unique<torch::optim::Adam>(nerf_groups, torch::optim::AdamOptions(options_.lr_mlp));
+  pose_optimizer_ =
+      std::make_unique<torch::optim::Adam>(model_->PoseParameters(), torch::optim::AdamOptions(options_.lr_pose));
+}
+
+std::vector<int> DbarfTrainer::SourcesOf(const DbarfScene& scene, int target, int k) {
+  std::vector<int> out;
+  for (int j : scene.neighbours[target]) {
+    if (static_cast<int>(out.size()) >= k) break;
+    if (j != target && scene.usable[j]) out.push_back(j);
+  }
+  return out;
+}
+
+torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources) {
+  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  const torch::Tensor world_from_tgt = Se3Inverse(cam_from_world[target]);
+  return torch::matmul(cam_from_world.index_select(0, idx), world_from_tgt);
+}
+
+DbarfStepResult DbarfTrainer::Step() {
+  DbarfStepResult result;
+  result.stage = options_.schedule == "nerf" ? DbarfStage::kNerf : DbarfStageOfStep(step_, options_.stage_steps);
+  // Every random draw of the step derives from rng_, whose state SaveState keeps.
+  torch::manual_seed(rng_());
+  const auto [s, t] = targets_[std::uniform_int_distribution<size_t>(0, targets_.size() - 1)(rng_)];
+  const DbarfScene& scene = scenes_[s];
+  const int jitter = std::uniform_int_distribution<int>(options_.source_jitter_min, options_.source_jitter_max)(rng_);
+  std::vector<int> sources = SourcesOf(scene, t, std::max(1, options_.num_sources + jitter));
+  std::shuffle(sources.begin(), sources.end(), rng_);
+  if (sources.size() > 1 && std::uniform_real_distribution<double>(0, 1)(rng_) < options_.self_source_probability) {
+    sources.back() = t;
+  }
+  result.scene = s;
+  result.target = t;
+  result.num_sources = static_cast<int>(sources.size());
+
+  const torch::Tensor src_idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  const torch::Tensor target = scene.images.slice(0, t, t + 1);        // [1, 3, H, W]
+  const torch::Tensor source_images = scene.images.index_select(0, src_idx);  // [N, 3, H, W]
+  const torch::Tensor k_t = scene.intrinsics[t];                        // [3, 3]
+  const bool pose_grad = result.stage != DbarfStage::kNerf;
+  const bool nerf_on = result.stage != DbarfStage::kPose;
+  model_->Train(true);
+  model_->pose_net->SetDepthRange(scene.near, scene.far);
+  nerf_optimizer_->zero_grad();
+  pose_optimizer_->zero_grad();
+
+  // The pose network (with gradients only where the pose optimiser steps).
+  PoseDepthPrediction pred;
+  torch::Tensor src_from_tgt;  // [N, 4, 4]
+  if (pose_grad || options_.nerf_poses == "network") {
+    torch::AutoGradMode grad(pose_grad);
+    const torch::Tensor init =
+        options_.pose_init == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources) : torch::Tensor();
+    pred = model_->pose_net->forward(target, source_images, k_t, init);
+    src_from_tgt = pred.src_from_tgt.back();
+  }
+  torch::Tensor loss = torch::zeros({}, torch::kFloat);
+  if (pose_grad) {
+    const SfmLossResult sfm = SfmLoss(target, source_images, pred.inv_depths, pred.src_from_tgt, k_t);
+    result.sfm_loss = sfm.total.item<double>();
+    loss = result.stage == DbarfStage::kJoint ? std::pow(2.0, -options_.joint_decay * step_) * sfm.total : sfm.total;
+  }
+  bool rgb_valid = false;
+  if (nerf_on) {
+    if (result.stage == DbarfStage::kNerf) {
+      src_from_tgt = options_.nerf_poses == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources)
+                                                      : src_from_tgt.detach();
+    }
+    const IbrSourceViews views =
+        model_->nerf.PrepareSources(source_images, scene.intrinsics.index_select(0, src_idx), src_from_tgt);
+    const int64_t height = scene.images.size(2), width = scene.images.size(3);
+    const int64_t num_rays = std::max<int64_t>(
+        1, std::min<int64_t>(height * width, options_.rays_per_step * 5 / static_cast<int64_t>(sources.size())));
+    const torch::Tensor pixels = torch::randperm(height * width, torch::kLong).slice(0, 0, num_rays);
+    const IbrRays rays = TargetRays(k_t, torch::eye(4), height, width, pixels);
+    const IbrRenderOutput out = model_->nerf.RenderRays(views, rays, scene.near, scene.far, /*training=*/true);
+    const torch::Tensor gt = target[0].reshape({3, -1}).t().index_select(0, pixels);  // [R, 3]
+    const torch::Tensor mask = out.valid.to(torch::kFloat).unsqueeze(1);
+    const double num_valid = mask.sum().item<double>();
+    if (num_valid > 0) {
+      const torch::Tensor rgb_loss = ((out.rgb - gt).pow(2) * mask).sum() / (3.0 * num_valid);
+      result.rgb_loss = rgb_loss.item<double>();
+      result.psnr = -10.0 * std::log10(std::max(result.rgb_loss, 1e-10));
+      const double a = result.stage == DbarfStage::kJoint ? std::pow(2.0, -options_.joint_decay * step_) : 0.0;
+      loss = loss + (1.0 - a) * rgb_loss;
+      rgb_valid = true;
+    }
+  }
+  if (!std::isfinite(loss.item<double>())) {
+    throw std::runtime_error("non-finite loss at step " + std::to_string(step_) + " (" + DbarfStageName(result.stage) +
+                             " stage, scene " + scene.name + ", target " + scene.image_names[t] + ")");
+  }
+  if (loss.requires_grad()) loss.backward();
+  const double decay = std::pow(options_.lr_gamma, static_cast<double>(step_ / options_.lr_decay_steps));
+  if (nerf_on && rgb_valid) {
+    SetLearningRates(nerf_optimizer_.get(), {options_.lr_feature, options_.lr_mlp}, decay);
+    nerf_optimizer_->step();
+  }
+  if (pose_grad) {
+    SetLearningRates(pose_optimizer_.get(), {options_.lr_pose}, decay);
+    pose_optimizer_->step();
+  }
+  ++step_;
+  return result;
+}
+
+void DbarfTrainer::SaveState(const std::string& path) const {
+  const Json meta = {{"format", kStateFormat}, {"version", kStateVersion}, {"step", step_}};
+  std::ostringstream rng;
+  rng << rng_;
+  torch::serialize::OutputArchive archive, nerf, pose;
+  archive.write("meta", StringTensor(meta.dump()));
+  archive.write("rng", StringTensor(rng.str()));
+  nerf_optimizer_->save(nerf);
+  pose_optimizer_->save(pose);
+  archive.write("nerf_optimizer", nerf);
+  archive.write("pose_optimizer", pose);
+  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+}
+
+void DbarfTrainer::LoadState(const std::string& path) {
+  torch::serialize::InputArchive archive;
+  const Json meta = LoadArchiveMeta(path, "DBARF training state", kStateFormat, kStateVersion, &archive);
+  const JsonField m(meta, path);
+  try {
+    torch::Tensor rng;
+    archive.read("rng", rng);
+    std::istringstream in(TensorString(rng));
+    in >> rng_;
+    if (!in) ThrowInputError(path, "rng", "a random-generator state");
+    torch::serialize::InputArchive nerf, pose;
+    archive.read("nerf_optimizer", nerf);
+    archive.read("pose_optimizer", pose);
+    nerf_optimizer_->load(nerf);
+    pose_optimizer_->load(pose);
+  } catch (const c10::Error&) {
+    ThrowInputError(path, "", "a complete DBARF training state for this configuration");
+  }
+  step_ = m["step"].Int();
+}
+
+void DbarfRunOptions::Check() const {
+  if (steps < 1) throw InputError("--steps: expected >= 1, got " + std::to_string(steps));
+  if (checkpoint_every < 1) throw InputError("--checkpoint-every: expected >= 1, got " + std::to_string(checkpoint_every));
+  if (out.empty()) throw InputError("--out: expected a weights path");
+}
+
+DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
+                                const DbarfRunOptions& run) {
+  run.Check();
+  DbarfTrainer trainer(model, std::move(scenes), options);
+  const std::string state_path = run.out + ".train";
+  if (run.resume) {
+    if (!FileExists(state_path)) ThrowInputError(state_path, "", "a training state to resume (written by dbarf pretrain / finetune)");
+    trainer.LoadState(state_path);
+    LOG_INFO("resuming {} at step {}", run.out, trainer.step());
+  }
+  const double seconds_before = model->training.is_object() && model->training.contains("seconds") &&
+                                        model->training["seconds"].is_number() && run.resume
+                                    ? model->training["seconds"].get<double>()
+                                    : 0.0;
+  std::ofstream log(run.out + ".log.jsonl", run.resume ? std::ios::app : std::ios::trunc);
+  ProgressBar bar("dbarf train", run.steps, "step");
+  bar.Tick(trainer.step());
+  const auto start = std::chrono::steady_clock::now();
+  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  std::vector<double> psnrs, sfms;
+  const auto checkpoint = [&] {
+    model->training["steps"] = trainer.step();
+    model->training["seconds"] = seconds_before + elapsed();
+    model->training["scenes"] = trainer.scenes().size();
+    model->training["schedule"] = options.schedule;
+    model->training["stage_steps"] = options.stage_steps;
+    SaveDbarfWeights(*model, run.out);
+    trainer.SaveState(state_path);
+  };
+  while (trainer.step() < run.steps) {
+    const DbarfStepResult r = trainer.Step();
+    if (r.psnr > 0) psnrs.push_back(r.psnr);
+    if (r.sfm_loss > 0) sfms.push_back(r.sfm_loss);
+    Json line = {{"step", trainer.step()}, {"stage", DbarfStageName(r.stage)}, {"scene", r.scene}, {"target", r.target},
+                 {"sources", r.num_sources}, {"seconds", elapsed()}};
+    if (r.sfm_loss > 0) line["sfm_loss"] = r.sfm_loss;
+    if (r.rgb_loss > 0) line["rgb_loss"] = r.rgb_loss, line["psnr"] = r.psnr;
+    log << line.dump() << "\n";
+    if (r.psnr > 0) bar.SetMetric("psnr", r.psnr);
+    if (r.sfm_loss > 0) bar.SetMetric("sfm", r.sfm_loss);
+    bar.Tick();
+    if (trainer.step() % run.checkpoint_every == 0 || trainer.step() == run.steps) {
+      log.flush();
+      checkpoint();
+    }
+  }
+  bar.Finish();
+  DbarfRunResult result;
+  result.steps = trainer.step();
+  result.seconds = elapsed();
+  const auto tail_mean = [](const std::vector<double>& v) {
+    if (v.empty()) return 0.0;
+    const size_t n = std::max<size_t>(1, v.size() / 10);
+    double sum = 0;
+    for (size_t i = v.size() - n; i < v.size(); ++i) sum += v[i];
+    return sum / n;
+  };
+  result.mean_psnr_last = tail_mean(psnrs);
+  result.mean_sfm_last = tail_mean(sfms);
+  return result;
+}
+
+namespace {
+
+// Errors of predicted relative poses (one call per target) accumulated over a scene.
+struct PoseErrorSum {
+  double rot = 0, trans = 0, dir = 0;
+  RelativePoseError e;
+  void Add(const torch::Tensor& p, const torch::Tensor& g) {
+    rot += RotationAngleDeg(p, g).sum().item<double>();
+    const torch::Tensor tp = p.slice(1, 0, 3).select(2, 3), tg = g.slice(1, 0, 3).select(2, 3);  // [N, 3]
+    trans += (tp - tg).norm(2, 1).sum().item<double>();
+    const torch::Tensor cosine = (tp * tg).sum(1) / (tp.norm(2, 1) * tg.norm(2, 1)).clamp_min(1e-12);
+    dir += (torch::acos(cosine.clamp(-1, 1)) * (180.0 / M_PI)).sum().item<double>();
+    e.pairs += static_cast<int>(p.size(0));
+  }
+  RelativePoseError Result() {
+    if (e.pairs > 0) {
+      e.rotation_deg = rot / e.pairs;
+      e.translation = trans / e.pairs;
+      e.translation_deg = dir / e.pairs;
+    }
+    return e;
+  }
+};
+
+}  // namespace
+
+RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
+                                              int num_sources) {
+  PoseErrorSum sum;
+  for (int t = 0; t < scene.NumViews(); ++t) {
+    if (!scene.usable[t]) continue;
+    const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
+    if (!sources.empty()) {
+      sum.Add(RelativeCameras(scene.cam_from_world, t, sources), RelativeCameras(true_cam_from_world, t, sources));
+    }
+  }
+  return sum.Result();
+}
+
+RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& scene,
+                                        const torch::Tensor& true_cam_from_world, int num_sources,
+                                        const std::string& pose_init) {
+  torch::NoGradGuard no_grad;
+  model.Train(false);
+  model.pose_net->SetDepthRange(scene.near, scene.far);
+  PoseErrorSum sum;
+  for (int t = 0; t < scene.NumViews(); ++t) {
+    if (!scene.usable[t]) continue;
+    const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
+    if (sources.empty()) continue;
+    const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+    const torch::Tensor init =
+        pose_init == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources) : torch::Tensor();
+    const auto pred = model.pose_net->forward(scene.images.slice(0, t, t + 1), scene.images.index_select(0, idx),
+                                              scene.intrinsics[t], init);
+    sum.Add(pred.src_from_tgt.back(), RelativeCameras(true_cam_from_world, t, sources));
+  }
+  return sum.Result();
+}
+
+}  // namespace nerfreg

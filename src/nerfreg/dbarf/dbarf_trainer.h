@@ -1,0 +1,158 @@
+// Training DBARF (spec dbarf.md 4): one step = one target view and its view-graph neighbours as
+// sources; the pose/depth network predicts the target's inverse depth and every source's pose
+// relative to the target, and the generalizable NeRF renders target rays from the sources placed by
+// those poses (the target camera is the world frame of a step). Three stages alternate:
+//   pose  : the self-supervised SfM loss trains the pose network (its optimiser only);
+//   nerf  : the masked RGB loss trains the NeRF (its optimiser only), sources placed by the pose
+//           network's detached last prediction (or by the scene's cameras, see nerf_poses);
+//   joint : a * L_sfm + (1 - a) * L_rgb, a = 2^(-joint_decay * step), both optimisers, the RGB
+//           loss reaching the pose network through the source cameras.
+// Block k = step / stage_steps is joint when k > 0 and k % 3 == 0, else pose when k is even and
+// nerf when odd (the original's rule). Two Adam optimisers (NeRF: feature / MLP groups; pose), each
+// with a step decay, each stepping only in its stages.
+//
+// Source views come from the view graph (never from ground-truth poses), at training and test time.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+// One scene as training and rendering need it (all views share one image size).
+struct DbarfScene {
+  std::string name;                      // for logs and errors
+  std::vector<std::string> image_names;  // one per view
+  torch::Tensor images;                  // [V, 3, H, W] float32 in [0, 1]
+  torch::Tensor intrinsics;              // [V, 3, 3] float32, pixels of the H x W images
+  // [V, 4, 4] float32: cameras estimated from the images (dbarf poses), or undefined. Never ground
+  // truth: evaluation reads that separately.
+  torch::Tensor cam_from_world;
+  // Per view, its view-graph neighbours, most inliers first.
+  std::vector<std::vector<int>> neighbours;
+  // Views that may be used (targets and sources); held-out views are false.
+  std::vector<bool> usable;
+  double near = 0, far = 0;  // depth range of the content, scene units
+
+  int64_t NumViews() const { return images.defined() ? images.size(0) : 0; }
+  // Throws InputError naming the scene when sizes disagree, the depth range is invalid, or no
+  // usable view has a usable neighbour.
+  void Check() const;
+};
+
+enum class DbarfStage { kPose, kNerf, kJoint };
+const char* DbarfStageName(DbarfStage stage);
+DbarfStage DbarfStageOfStep(int64_t step, int64_t stage_steps);
+
+struct DbarfTrainOptions {
+  int64_t stage_steps = 10000;        // steps per stage block
+  int num_sources = 5;                // sources per step before the jitter
+  int source_jitter_min = -2;         // num_sources + uniform integer in [min, max]
+  int source_jitter_max = 2;
+  double self_source_probability = 0.005;  // one source replaced by the target itself
+  int64_t rays_per_step = 500;        // rays per step at 5 sources (scaled by 5 / N, spec 4)
+  double lr_feature = 1e-3, lr_mlp = 5e-4, lr_pose = 2e-5;
+  int64_t lr_decay_steps = 50000;     // StepLR period
+  double lr_gamma = 0.5;
+  double joint_decay = 1e-5;          // a = 2^(-joint_decay * step)
+  // Where the NeRF-only stage places the sources: "network" (the pose network's prediction, the
+  // original) or "cameras" (the scene's estimated cameras, when it has them).
+  std::string nerf_poses = "network";
+  // Where the pose network starts: "network" (its own initial head, the original) or "cameras"
+  // (the scene's estimated cameras, which the network then refines: the classical initialisation
+  // keeps the self-supervised loss in its basin, where from scratch it collapses depth to the far
+  // bound on small scenes).
+  std::string pose_init = "network";
+  // "dbarf": the stage rule above; "nerf": the NeRF-only stage throughout (the renderer alone, on
+  // the scene's cameras or the network's poses as nerf_poses says).
+  std::string schedule = "dbarf";
+  uint64_t seed = 0;
+
+  static DbarfTrainOptions Pretrain();
+  // Finetuning on one scene: 10 sources (-2..+1), lower rates, faster decay (spec 4).
+  static DbarfTrainOptions Finetune();
+  void Check() const;  // throws InputError naming the option
+};
+
+struct DbarfStepResult {
+  DbarfStage stage = DbarfStage::kPose;
+  double sfm_loss = 0;   // 0 when not computed
+  double rgb_loss = 0;   // 0 when not computed
+  double psnr = 0;       // of the rendered rays (nerf and joint stages)
+  int scene = 0, target = 0, num_sources = 0;
+};
+
+class DbarfTrainer {
+ public:
+  DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options);
+
+  DbarfStepResult Step();
+  int64_t step() const { return step_; }
+  const std::vector<DbarfScene>& scenes() const { return scenes_; }
+
+  // Optimiser states, step and random state, atomically; Load throws InputError naming the file.
+  void SaveState(const std::string& path) const;
+  void LoadState(const std::string& path);
+
+  // The sources of `target` in `scene`: its usable view-graph neighbours, best first, at most `k`.
+  static std::vector<int> SourcesOf(const DbarfScene& scene, int target, int k);
+
+ private:
+  DbarfModel* model_;
+  std::vector<DbarfScene> scenes_;
+  DbarfTrainOptions options_;
+  std::unique_ptr<torch::optim::Adam> nerf_optimizer_, pose_optimizer_;
+  int64_t step_ = 0;
+  std::mt19937_64 rng_;
+  std::vector<std::pair<int, int>> targets_;  // (scene, view) with at least one usable neighbour
+};
+
+// A training run: `steps` steps in total (counting those of a resumed run), progress bar, a JSON
+// line per step in out + ".log.jsonl", weights (out) and state (out + ".train") every
+// checkpoint_every steps and at the end, both atomic. With resume, the state in out + ".train" is
+// loaded first (the caller loads the weights from out). A non-finite loss stops the run with an
+// error naming the step; the last checkpoint is left as it was.
+struct DbarfRunOptions {
+  int64_t steps = 1000;
+  int64_t checkpoint_every = 250;
+  std::string out;
+  bool resume = false;
+  void Check() const;  // throws InputError naming the option
+};
+struct DbarfRunResult {
+  int64_t steps = 0;
+  double seconds = 0;           // this run's wall time
+  double mean_psnr_last = 0;    // over the last 10% of the steps that rendered
+  double mean_sfm_last = 0;     // over the last 10% of the steps with an SfM loss
+};
+DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
+                                const DbarfRunOptions& run);
+
+// src_from_tgt [N, 4, 4] of views `sources` relative to `target` from the scene's cameras.
+torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources);
+
+struct RelativePoseError {
+  double rotation_deg = 0;     // mean geodesic angle
+  double translation = 0;      // mean |t_pred - t_true| (scene units)
+  // Mean angle between predicted and true translation directions: the photometric loss fixes a
+  // translation only up to the scale of the depth, so this is what self-supervision can recover.
+  double translation_deg = 0;
+  int pairs = 0;
+};
+// The pose network's last prediction for every usable target and its sources, against the relative
+// poses of `true_cam_from_world` [V, 4, 4] (same units as the scene's depth range).
+// With `pose_init` "cameras" the network starts from the scene's cameras (as in training).
+RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& scene,
+                                        const torch::Tensor& true_cam_from_world, int num_sources,
+                                        const std::string& pose_init = "network");
+// The error of the scene's own cameras, measured the same way (what the network should improve on).
+RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
+                                              int num_sources);
+
+}  // namespace nerfreg

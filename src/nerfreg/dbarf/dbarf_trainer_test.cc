@@ -1,0 +1,171 @@
+#include "nerfreg/dbarf/dbarf_trainer.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "nerfreg/dbarf/se3.h"
+#include "nerfreg/dbarf/test_scene.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/test_util.h"
+
+namespace nerfreg {
+namespace {
+
+using testing_scene::PlaneScene;
+
+// Four views of the analytic ridge: view 0 at the identity, views 1-3 at known offsets; every view
+// neighbours every other.
+DbarfScene RidgeScene(torch::Tensor* true_cam_from_world) {
+  const PlaneScene ridge = PlaneScene::Ridge(2.0, 0.4, 48, 64);
+  const torch::Tensor poses = torch::cat({torch::eye(4).unsqueeze(0), testing_scene::SourcePoses(3)}, 0);
+  DbarfScene scene;
+  scene.name = "ridge";
+  std::vector<torch::Tensor> images;
+  for (int v = 0; v < 4; ++v) {
+    images.push_back(ridge.Render(poses[v]));
+    scene.image_names.push_back("v" + std::to_string(v) + ".png");
+    std::vector<int> n;
+    for (int j = 0; j < 4; ++j)
+      if (j != v) n.push_back(j);
+    scene.neighbours.push_back(n);
+    scene.usable.push_back(true);
+  }
+  scene.images = torch::cat(images, 0);
+  scene.intrinsics = ridge.intrinsics.unsqueeze(0).repeat({4, 1, 1});
+  scene.near = 1.0;
+  scene.far = 8.0;
+  *true_cam_from_world = poses;
+  return scene;
+}
+
+DbarfTrainOptions SmallOptions() {
+  DbarfTrainOptions o;
+  o.num_sources = 3;
+  o.source_jitter_min = o.source_jitter_max = 0;
+  o.self_source_probability = 0;
+  o.rays_per_step = 64;
+  return o;
+}
+
+std::vector<torch::Tensor> Snapshot(const std::vector<torch::Tensor>& params) {
+  std::vector<torch::Tensor> out;
+  for (const auto& p : params) out.push_back(p.detach().clone());
+  return out;
+}
+
+bool Changed(const std::vector<torch::Tensor>& before, const std::vector<torch::Tensor>& params) {
+  for (size_t i = 0; i < params.size(); ++i)
+    if (!torch::equal(before[i], params[i].detach())) return true;
+  return false;
+}
+
+TEST(DbarfTrainer, StageScheduleFollowsTheOriginal) {
+  const std::vector<DbarfStage> expected = {DbarfStage::kPose, DbarfStage::kNerf, DbarfStage::kPose,
+                                            DbarfStage::kJoint, DbarfStage::kPose, DbarfStage::kNerf,
+                                            DbarfStage::kJoint, DbarfStage::kNerf};
+  for (size_t k = 0; k < expected.size(); ++k) {
+    EXPECT_EQ(DbarfStageOfStep(static_cast<int64_t>(k) * 100 + 99, 100), expected[k]) << "block " << k;
+  }
+}
+
+TEST(DbarfTrainer, EachStageUpdatesOnlyItsOwnParameters) {
+  torch::manual_seed(0);
+  torch::Tensor truth;
+  DbarfModel model(DbarfOptions::Cpu());
+  DbarfTrainOptions options = SmallOptions();
+  options.stage_steps = 1;  // steps 0, 1, 2, 3: pose, nerf, pose, joint
+  DbarfTrainer trainer(&model, {RidgeScene(&truth)}, options);
+  const std::vector<DbarfStage> stages = {DbarfStage::kPose, DbarfStage::kNerf, DbarfStage::kPose, DbarfStage::kJoint};
+  for (DbarfStage stage : stages) {
+    const auto nerf_before = Snapshot(model.NerfParameters());
+    const auto pose_before = Snapshot(model.PoseParameters());
+    const DbarfStepResult r = trainer.Step();
+    ASSERT_EQ(r.stage, stage);
+    const bool nerf_changed = Changed(nerf_before, model.NerfParameters());
+    const bool pose_changed = Changed(pose_before, model.PoseParameters());
+    EXPECT_EQ(nerf_changed, stage != DbarfStage::kPose) << DbarfStageName(stage);
+    EXPECT_EQ(pose_changed, stage != DbarfStage::kNerf) << DbarfStageName(stage);
+    if (stage != DbarfStage::kNerf) EXPECT_GT(r.sfm_loss, 0.0);
+    if (stage != DbarfStage::kPose) EXPECT_GT(r.rgb_loss, 0.0);
+  }
+}
+
+TEST(DbarfTrainer, AnUntrainedNetworkReturnsTheCamerasItStartsFrom) {
+  torch::manual_seed(1);
+  torch::Tensor truth;
+  DbarfScene scene = RidgeScene(&truth);
+  // Cameras a few degrees and centimetres off, as a classical initialisation might be.
+  const torch::Tensor noise = torch::tensor({{0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+                                             {0.03, -0.02, 0.02, 0.015, -0.02, 0.01},
+                                             {-0.02, 0.03, -0.01, -0.01, 0.015, 0.02},
+                                             {0.02, 0.02, 0.03, 0.02, 0.01, -0.015}},
+                                            torch::kFloat);
+  scene.cam_from_world = torch::matmul(Se3Exp(noise), truth);
+  DbarfModel model(DbarfOptions::Cpu());
+  const RelativePoseError cameras = EvaluateCameraRelativePoses(scene, truth, 3);
+  const RelativePoseError network = EvaluateRelativePoses(model, scene, truth, 3, "cameras");
+  EXPECT_EQ(network.pairs, 12);
+  EXPECT_GT(cameras.rotation_deg, 1.0);
+  EXPECT_NEAR(network.rotation_deg, cameras.rotation_deg, 0.05);
+  EXPECT_NEAR(network.translation, cameras.translation, 1e-3);
+  // Without cameras it starts at the identity.
+  const RelativePoseError identity = EvaluateRelativePoses(model, scene, truth, 3, "network");
+  EXPECT_GT(identity.translation, 3 * cameras.translation);
+}
+
+TEST(DbarfTrainer, WeightsAndStateRoundTripAndResumeReproducesTheNextStep) {
+  const ScopedTempDir tmp;
+  const std::string dir = tmp.path();
+  torch::Tensor truth;
+  const DbarfScene scene = RidgeScene(&truth);
+  DbarfTrainOptions options = SmallOptions();
+  options.stage_steps = 2;
+  torch::manual_seed(2);
+  DbarfModel model(DbarfOptions::Cpu());
+  model.training = {{"steps", 3}};
+  DbarfTrainer trainer(&model, {scene}, options);
+  for (int i = 0; i < 3; ++i) trainer.Step();
+  SaveDbarfWeights(model, dir + "/w.pt");
+  trainer.SaveState(dir + "/w.pt.train");
+  const DbarfStepResult next = trainer.Step();  // step 3: nerf stage
+
+  const DbarfOptions cpu = DbarfOptions::Cpu();
+  DbarfModel loaded = LoadDbarfWeights(dir + "/w.pt", &cpu);
+  EXPECT_EQ(loaded.training["steps"], 3);
+  DbarfTrainer resumed(&loaded, {scene}, options);
+  resumed.LoadState(dir + "/w.pt.train");
+  EXPECT_EQ(resumed.step(), 3);
+  const DbarfStepResult again = resumed.Step();
+  EXPECT_EQ(again.stage, next.stage);
+  EXPECT_EQ(again.target, next.target);
+  EXPECT_NEAR(again.rgb_loss, next.rgb_loss, 1e-6);
+
+  // Another configuration, a foreign file, a truncated file.
+  DbarfOptions other = DbarfOptions::Cpu();
+  other.pose.hidden_channels = 24;
+  EXPECT_THROW(LoadDbarfWeights(dir + "/w.pt", &other), InputError);
+  EXPECT_THROW(LoadDbarfWeights(dir + "/w.pt.train"), InputError);
+  std::filesystem::resize_file(dir + "/w.pt", std::filesystem::file_size(dir + "/w.pt") / 2);
+  EXPECT_THROW(LoadDbarfWeights(dir + "/w.pt"), InputError);
+  EXPECT_THROW(LoadDbarfWeights(dir + "/missing.pt"), InputError);
+}
+
+TEST(DbarfTrainer, RejectsScenesWithoutUsableNeighboursOrDepthRange) {
+  torch::Tensor truth;
+  DbarfModel model(DbarfOptions::Cpu());
+  DbarfScene scene = RidgeScene(&truth);
+  scene.far = 0.5;
+  EXPECT_THROW(DbarfTrainer(&model, {scene}, SmallOptions()), InputError);
+  scene = RidgeScene(&truth);
+  for (auto& n : scene.neighbours) n.clear();
+  EXPECT_THROW(DbarfTrainer(&model, {scene}, SmallOptions()), InputError);
+  scene = RidgeScene(&truth);
+  DbarfTrainOptions cams = SmallOptions();
+  cams.nerf_poses = "cameras";
+  EXPECT_THROW(DbarfTrainer(&model, {scene}, cams), InputError);  // the scene has no cameras
+}
+
+}  // namespace
+}  // namespace nerfreg

@@ -1,0 +1,344 @@
+// Commands of DBARF's learned part: dbarf pretrain | finetune (training, resumable) | render (novel
+// views from posed images) | eval (the whole pose-free pipeline against ground truth).
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <unistd.h>
+
+#include "nerfreg/data/convert.h"
+#include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf/dbarf_trainer.h"
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/image.h"
+#include "nerfreg/util/image_metrics.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/progress.h"
+#include "nerfreg/util/timer.h"
+
+using namespace nerfreg;
+namespace fs = std::filesystem;
+
+std::string DefaultDbarfWeights() {
+  if (const char* env = std::getenv("NERFREG_DBARF_WEIGHTS")) return env;
+  return std::string(NERFREG_MODELS_DIR) + "/dbarf_cpu.pt";
+}
+
+namespace {
+
+struct TrainCli {
+  std::vector<std::string> scenes;
+  std::string out, config = "cpu", weights;
+  DbarfTrainOptions train;
+  DbarfRunOptions run;
+  DbarfSceneOptions scene;
+};
+
+void AddTrainOptions(CLI::App& app, TrainCli* c) {
+  app.add_option("--out", c->run.out, "Output weights (OUT.train: the state --resume continues; OUT.log.jsonl)")->required();
+  app.add_option("--steps", c->run.steps, "Total steps (a resumed run counts its earlier steps)");
+  app.add_option("--checkpoint-every", c->run.checkpoint_every, "Steps between checkpoints (default 250)");
+  app.add_flag("--resume", c->run.resume, "Continue from OUT and OUT.train");
+  app.add_option("--schedule", c->train.schedule, "dbarf (pose / nerf / joint stages) or nerf (renderer only)")
+      ->check(CLI::IsMember({"dbarf", "nerf"}));
+  app.add_option("--stage-steps", c->train.stage_steps, "Steps per stage block (original 10000)");
+  app.add_option("--sources", c->train.num_sources, "Source views per step before the jitter");
+  app.add_option("--rays", c->train.rays_per_step, "Rays per step at 5 sources (scaled by 5 / N)");
+  app.add_option("--pose-init", c->train.pose_init, "network (the original) or cameras (refine the estimated cameras)")
+      ->check(CLI::IsMember({"network", "cameras"}));
+  app.add_option("--nerf-poses", c->train.nerf_poses, "Sources of the NeRF-only stage placed by: network or cameras")
+      ->check(CLI::IsMember({"network", "cameras"}));
+  app.add_option("--lr-feature", c->train.lr_feature, "Feature-net learning rate");
+  app.add_option("--lr-mlp", c->train.lr_mlp, "IBRNet learning rate");
+  app.add_option("--lr-pose", c->train.lr_pose, "Pose-network learning rate");
+  app.add_option("--joint-decay", c->train.joint_decay, "Joint stage: SfM weight a = 2^(-joint_decay * step)");
+  app.add_option("--lr-decay-steps", c->train.lr_decay_steps, "Halve the learning rates every this many steps");
+  app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
+  app.add_option("--seed", c->train.seed, "Seed");
+}
+
+std::vector<DbarfScene> LoadScenes(const std::vector<std::string>& paths, const DbarfSceneOptions& options) {
+  std::vector<DbarfScene> scenes;
+  ProgressBar bar("loading scenes", static_cast<int64_t>(paths.size()), "scene");
+  for (const auto& p : paths) {
+    LoadedDbarfScene s = LoadDbarfScene(p, options);
+    for (const auto& name : s.not_posed) LOG_WARN("{}: {} could not be posed; left out", p, name);
+    scenes.push_back(std::move(s.scene));
+    bar.Tick();
+  }
+  bar.Finish();
+  return scenes;
+}
+
+int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
+  if (!c.run.resume) CheckCanWriteOutput(c.run.out, common.force);
+  c.train.Check();
+  c.run.Check();
+  // Weights and state first: a wrong file fails before minutes of scene loading.
+  if (c.run.resume && !FileExists(c.run.out + ".train")) {
+    ThrowInputError(c.run.out + ".train", "", "a training state to resume (written by dbarf pretrain / finetune)");
+  }
+  const DbarfOptions expected = DbarfOptions::Named(c.config);
+  DbarfModel model = c.run.resume ? LoadDbarfWeights(c.run.out, &expected)
+                                  : (c.weights.empty() ? DbarfModel(expected) : LoadDbarfWeights(c.weights));
+  const std::vector<DbarfScene> scenes = LoadScenes(c.scenes, c.scene);
+  if (!c.run.resume) {
+    model.training = Json::object();
+    model.training["kind"] = what;
+    if (!c.weights.empty()) model.training["initial_weights"] = c.weights;
+  }
+  model.training["data"] = c.scenes;
+  const DbarfRunResult r = RunDbarfTraining(&model, scenes, c.train, c.run);
+  const Json summary = {{"steps", r.steps}, {"seconds", r.seconds}, {"psnr_train_last", r.mean_psnr_last},
+                        {"sfm_loss_last", r.mean_sfm_last}, {"weights", c.run.out}, {"scenes", c.scenes.size()}};
+  WriteJsonFile(c.run.out + ".json", summary);
+  if (common.json) std::printf("%s\n", summary.dump().c_str());
+  LOG_INFO("{}: {} steps in {:.1f} s, training PSNR (last 10%) {:.2f} dB -> {}", what, r.steps, r.seconds,
+           r.mean_psnr_last, c.run.out);
+  return 0;
+}
+
+Image DepthImage(const torch::Tensor& depth, const torch::Tensor& valid, double near, double far) {
+  // Inverse depth for viewing: near is white, far black, invalid pixels black.
+  const torch::Tensor inv = ((1.0 / depth.clamp_min(1e-6) - 1.0 / far) / (1.0 / near - 1.0 / far)).clamp(0, 1) *
+                            valid.to(torch::kFloat);
+  return TensorToImage(inv.unsqueeze(0));
+}
+
+}  // namespace
+
+int RunDbarfPretrain(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Pretrain DBARF (generalizable NeRF + pose network) on many scenes. Each scene is a dataset in any "
+                  "format (transforms.json, LLFF, COLMAP) or the output of dbarf poses; poses in datasets are never "
+                  "used: cameras, depth range and view graph are estimated from the images.",
+                  "nerfreg dbarf pretrain data/fwd/scene_*/transforms.json --steps 4000 --out models/dbarf_cpu.pt");
+  TrainCli c;
+  c.train = DbarfTrainOptions::Pretrain();
+  c.train.pose_init = "cameras";
+  app.add_option("scenes", c.scenes, "Scene datasets")->required();
+  app.add_option("--config", c.config, "Network sizes: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
+  AddTrainOptions(app, &c);
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  return RunTraining(c, common, "pretrain");
+}
+
+int RunDbarfFinetune(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Finetune DBARF weights on one scene (10 sources, lower rates: the original's finetuning). The "
+                  "scene is the output of dbarf poses or any dataset (its poses are not used).",
+                  "nerfreg dbarf finetune runs/poses/transforms.json --steps 1000 --out runs/scene.dbarf.pt");
+  TrainCli c;
+  c.train = DbarfTrainOptions::Finetune();
+  c.train.pose_init = "cameras";
+  std::string scene;
+  c.weights = DefaultDbarfWeights();
+  app.add_option("scene", scene, "The scene")->required();
+  app.add_option("--weights", c.weights, "Weights to start from (default: the shipped ones)");
+  AddTrainOptions(app, &c);
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  c.scenes = {scene};
+  if (!c.run.resume) {
+    // The configuration is the starting weights'.
+    const DbarfModel start = LoadDbarfWeights(c.weights);
+    c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
+  }
+  return RunTraining(c, common, "finetune");
+}
+
+int RunDbarfRender(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Render novel views with the generalizable NeRF from posed images (the output of dbarf poses): one "
+                  "PNG per frame of T.json (cameras in the posed images' frame), named as the frame, and its inverse "
+                  "depth in DIR/depth/.",
+                  "nerfreg dbarf render runs/poses/transforms.json --transforms novel.json --out runs/novel");
+  std::string posed, transforms, out, weights = DefaultDbarfWeights();
+  int num_sources = 8;
+  DbarfSceneOptions scene_options;
+  scene_options.hold_out_test = false;
+  app.add_option("posed", posed, "Posed images: transforms.json written by dbarf poses (or any posed dataset)")->required();
+  app.add_option("--transforms", transforms, "Cameras to render (transforms.json, LLFF or COLMAP)")->required();
+  app.add_option("--out", out, "Output folder")->required();
+  app.add_option("--weights", weights, "DBARF weights (default: the shipped ones)");
+  app.add_option("--sources", num_sources, "Source views per rendered view (nearest cameras)");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (num_sources < 1) throw InputError("--sources: expected >= 1");
+  CheckCanWriteOutput(out, common.force);
+  DbarfModel model = LoadDbarfWeights(weights);
+  LoadedDbarfScene loaded = LoadDbarfScene(posed, scene_options);
+  if (loaded.estimated_here) {
+    LOG_WARN("{}: not written by dbarf poses; its cameras were estimated again, so the frame is that of this run, "
+             "not the file's", posed);
+  }
+  const Dataset cams = ReadCameras(transforms);
+  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  CreateDirectories(JoinPaths(tmp, "depth"));
+  try {
+    ProgressBar bar("dbarf render", static_cast<int64_t>(cams.frames.size()), "view");
+    for (const Frame& f : cams.frames) {
+      const torch::Tensor k = torch::tensor({f.camera.fx, 0.0, f.camera.cx, 0.0, f.camera.fy, f.camera.cy, 0.0, 0.0, 1.0},
+                                            torch::kFloat).view({3, 3});
+      torch::Tensor pose = torch::empty({4, 4}, torch::kFloat);
+      const Eigen::Matrix4d m = f.cam_from_world.ToMatrix();
+      for (int r = 0; r < 4; ++r)
+        for (int col = 0; col < 4; ++col) pose[r][col] = static_cast<float>(m(r, col));
+      const std::vector<int> sources = NearestViews(loaded.scene, pose, num_sources);
+      const NovelView v = RenderNovelView(model, loaded.scene, sources, k, pose, f.camera.height, f.camera.width);
+      std::string name = fs::path(f.name).replace_extension(".png").string();
+      WriteImage(JoinPaths(tmp, name), TensorToImage(v.rgb));
+      WriteImage(JoinPaths(tmp, "depth/" + name), DepthImage(v.depth, v.valid, loaded.scene.near, loaded.scene.far));
+      bar.Tick();
+    }
+    bar.Finish();
+    if (fs::exists(out)) fs::remove_all(out);
+    fs::rename(tmp, out);
+  } catch (...) {
+    fs::remove_all(tmp);
+    throw;
+  }
+  LOG_INFO("rendered {} views -> {}", cams.frames.size(), out);
+  return 0;
+}
+
+int RunDbarfEval(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "The pose-free pipeline against ground truth: every image of the dataset (train and test split) is "
+                  "posed from the images alone; poses are scored after a Sim(3) alignment; each test view is rendered "
+                  "at its ESTIMATED camera from its view-graph neighbours among the training views, and scored by "
+                  "PSNR / SSIM against its image. Writes DIR/eval.json, DIR/views/ (renders, inverse depth) and "
+                  "DIR/compare.png (image | render | depth per test view).",
+                  "nerfreg dbarf eval data/fwd/scene_201/transforms.json --out runs/eval_201");
+  std::string dataset, out, weights = DefaultDbarfWeights();
+  int num_sources = 8;
+  DbarfSceneOptions scene_options;
+  app.add_option("dataset", dataset, "A dataset with ground-truth poses and a test split")->required();
+  app.add_option("--weights", weights, "DBARF weights (default: the shipped ones)");
+  app.add_option("--out", out, "Output folder")->required();
+  app.add_option("--sources", num_sources, "Source views per rendered view");
+  app.add_option("--max-width", scene_options.max_width, "Downsample wider images to this width (0: as they are)");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (num_sources < 1) throw InputError("--sources: expected >= 1");
+  CheckCanWriteOutput(out, common.force);
+  DbarfModel model = LoadDbarfWeights(weights);
+  const Timer timer;
+  LoadedDbarfScene loaded = LoadDbarfScene(dataset, scene_options);
+  if (!loaded.ground_truth.defined()) ThrowInputError(dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
+  const double seconds_poses = timer.Seconds();
+  DbarfScene& scene = loaded.scene;
+
+  // Poses: every posed image against the ground truth.
+  std::vector<Rigid3d> est, gt;
+  std::vector<bool> posed(scene.NumViews(), true);
+  for (const auto& name : loaded.not_posed)
+    for (int v = 0; v < scene.NumViews(); ++v)
+      if (scene.image_names[v] == name) posed[v] = false;
+  const auto rigid = [](const torch::Tensor& t) {
+    Eigen::Matrix4d m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m(r, c) = t[r][c].item<double>();
+    return Rigid3d::FromMatrix(m, 1e-3);
+  };
+  for (int v = 0; v < scene.NumViews(); ++v) {
+    if (!posed[v]) continue;
+    est.push_back(rigid(scene.cam_from_world[v]));
+    gt.push_back(rigid(loaded.ground_truth[v]));
+  }
+  const PoseEvaluation pe = EvaluatePoses(est, gt, PoseAlignment::kRotationsAndCenters);
+
+  // Novel views: test views at their estimated cameras, from training views.
+  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  CreateDirectories(JoinPaths(tmp, "views"));
+  Json views = Json::array();
+  std::vector<double> psnrs, ssims;
+  std::vector<Image> sheet;
+  try {
+    int num_test = 0;
+    for (int v = 0; v < scene.NumViews(); ++v) num_test += loaded.is_test[v];
+    ProgressBar bar("dbarf eval", num_test, "view");
+    for (int v = 0; v < scene.NumViews(); ++v) {
+      if (!loaded.is_test[v]) continue;
+      bar.Tick();
+      const std::string& name = scene.image_names[v];
+      std::vector<int> sources = DbarfTrainer::SourcesOf(scene, v, num_sources);
+      if (!posed[v] || sources.empty()) {
+        views.push_back({{"name", name}, {"rendered", false}});
+        LOG_WARN("{}: test view {} not posed or without training neighbours; not rendered", dataset, name);
+        continue;
+      }
+      const int64_t h = scene.images.size(2), w = scene.images.size(3);
+      const NovelView nv = RenderNovelView(model, scene, sources, scene.intrinsics[v], scene.cam_from_world[v], h, w);
+      const Image render = TensorToImage(nv.rgb), truth = TensorToImage(scene.images[v]);
+      const double psnr = Psnr(render, truth), ssim = Ssim(render, truth);
+      psnrs.push_back(psnr);
+      ssims.push_back(ssim);
+      const std::string png = fs::path(name).replace_extension(".png").string();
+      WriteImage(JoinPaths(tmp, "views/" + png), render);
+      const Image depth = DepthImage(nv.depth, nv.valid, scene.near, scene.far);
+      WriteImage(JoinPaths(tmp, "views/depth_" + png), depth);
+      sheet.insert(sheet.end(), {truth, render, depth});
+      views.push_back({{"name", name}, {"rendered", true}, {"psnr", psnr}, {"ssim", ssim}, {"sources", sources.size()}});
+    }
+    bar.Finish();
+    const auto mean = [](const std::vector<double>& x) {
+      double s = 0;
+      for (double v : x) s += v;
+      return x.empty() ? 0.0 : s / x.size();
+    };
+    const Json result = {{"dataset", dataset},
+                         {"weights", weights},
+                         {"images", scene.NumViews()},
+                         {"posed", est.size()},
+                         {"not_posed", loaded.not_posed},
+                         {"rotation_deg_median", pe.aligned ? pe.median_rotation_deg : -1.0},
+                         {"rotation_deg_mean", pe.aligned ? pe.mean_rotation_deg : -1.0},
+                         {"center_median", pe.aligned ? pe.median_center : -1.0},
+                         {"center_percent_median", pe.aligned ? pe.median_center_percent : -1.0},
+                         {"test_views", views.size()},
+                         {"rendered", psnrs.size()},
+                         {"psnr_mean", mean(psnrs)},
+                         {"ssim_mean", mean(ssims)},
+                         {"seconds_poses", seconds_poses},
+                         {"seconds", timer.Seconds()},
+                         {"views", views},
+                         {"protocol", "test views rendered at their estimated cameras (posed from all images), "
+                                      "from view-graph neighbours among the training views"}};
+    WriteJsonFile(JoinPaths(tmp, "eval.json"), result);
+    if (!sheet.empty()) WriteImage(JoinPaths(tmp, "compare.png"), ContactSheet(sheet, 3));
+    if (fs::exists(out)) fs::remove_all(out);
+    fs::rename(tmp, out);
+    if (common.json) {
+      std::printf("%s\n", result.dump().c_str());
+    } else {
+      std::printf("posed              %zu / %lld\n", est.size(), static_cast<long long>(scene.NumViews()));
+      std::printf("rotation (deg)     median %.4f  mean %.4f\n", pe.median_rotation_deg, pe.mean_rotation_deg);
+      std::printf("centre             median %.5f  (%.3f %% of the widest baseline)\n", pe.median_center,
+                  pe.median_center_percent);
+      std::printf("novel views        %zu rendered: PSNR %.2f dB  SSIM %.4f\n", psnrs.size(), mean(psnrs), mean(ssims));
+      std::printf("time               %.1f s (poses %.1f s)\n", timer.Seconds(), seconds_poses);
+    }
+  } catch (...) {
+    fs::remove_all(tmp);
+    throw;
+  }
+  return 0;
+}

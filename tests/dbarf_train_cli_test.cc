@@ -1,0 +1,101 @@
+// `nerfreg dbarf pretrain / finetune / render / eval` end to end on a tiny rendered scene, as a user
+// runs them: the scene is posed from its images, DBARF trains a few steps (and resumes), renders
+// views at the estimated cameras, and is evaluated against the renderer's ground truth.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "cli_test_util.h"
+#include "nerfreg/util/image.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/test_util.h"
+
+namespace nerfreg {
+namespace {
+
+int CountLines(const std::string& path) {
+  std::ifstream in(path);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) n += !line.empty();
+  return n;
+}
+
+TEST(DbarfTrainCli, PretrainResumeFinetuneRenderAndEvalATinyScene) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene"), posed = dir.File("posed"), w = dir.File("w.pt");
+  CommandResult r = RunNerfreg("render --procedural 7 --trajectory forward --views 10 --test-every 5 --quiet --out " + data);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --quiet --out " + posed);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json poses = ReadJsonFile(posed + "/transforms.json");
+  EXPECT_GT(poses["dbarf_poses"]["far"].get<double>(), poses["dbarf_poses"]["near"].get<double>());
+  EXPECT_GE(poses["view_graph"].size(), 9u);
+
+  // Pretrain 4 steps (stages of 2: pose, nerf), then resume to 6 (pose again).
+  const std::string train = " --stage-steps 2 --rays 48 --sources 2 --checkpoint-every 2 --quiet";
+  r = RunNerfreg("dbarf pretrain " + posed + "/transforms.json --steps 4 --out " + w + train);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(CountLines(w + ".log.jsonl"), 4);
+  r = RunNerfreg("dbarf pretrain " + posed + "/transforms.json --steps 4 --out " + w + train);
+  EXPECT_NE(r.exit_code, 0);  // exists: --force or --resume
+  r = RunNerfreg("dbarf pretrain " + posed + "/transforms.json --steps 6 --resume --out " + w + train);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(CountLines(w + ".log.jsonl"), 6);
+  const Json summary = ReadJsonFile(w + ".json");
+  EXPECT_EQ(summary["steps"].get<int>(), 6);
+
+  // Finetune from those weights on the dataset itself (its poses are not used).
+  r = RunNerfreg("dbarf finetune " + data + "/transforms.json --weights " + w + " --steps 2 --out " + dir.File("ft.pt") + train);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("ft.pt")));
+
+  // Render two of the posed cameras.
+  Json two = poses;
+  two["frames"] = Json::array({poses["frames"][1], poses["frames"][2]});
+  WriteJsonFile(posed + "/two.json", two);
+  r = RunNerfreg("dbarf render " + posed + "/transforms.json --transforms " + posed + "/two.json --weights " +
+                 dir.File("ft.pt") + " --sources 2 --quiet --out " + dir.File("novel"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string name = poses["frames"][1]["file_path"].get<std::string>();
+  const std::string png = std::filesystem::path(name).filename().replace_extension(".png").string();
+  const Image view = ReadImage(dir.File("novel/" + png));
+  EXPECT_EQ(view.width, 128);
+  EXPECT_EQ(view.height, 96);
+  EXPECT_TRUE(std::filesystem::exists(dir.File("novel/depth/" + png)));
+
+  // Evaluate: every image posed, both test views rendered with finite scores.
+  r = RunNerfreg("dbarf eval " + data + "/transforms.json --weights " + dir.File("ft.pt") +
+                 " --sources 2 --json --quiet --out " + dir.File("eval"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json e = ReadJsonFile(dir.File("eval/eval.json"));
+  EXPECT_EQ(e["posed"].get<int>(), 10);
+  EXPECT_EQ(e["rendered"].get<int>(), 2);
+  EXPECT_LT(e["rotation_deg_median"].get<double>(), 0.5);
+  EXPECT_GT(e["psnr_mean"].get<double>(), 8.0);
+  EXPECT_TRUE(std::filesystem::exists(dir.File("eval/compare.png")));
+}
+
+TEST(DbarfTrainCli, WeightsOfAnotherKindOrMissingAreOneLineErrors) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene");
+  ASSERT_EQ(RunNerfreg("render --procedural 7 --trajectory forward --views 6 --quiet --out " + data).exit_code, 0);
+  {
+    std::ofstream f(dir.File("junk.pt"));
+    f << "not a torch archive";
+  }
+  CommandResult r = RunNerfreg("dbarf eval " + data + "/transforms.json --weights " + dir.File("junk.pt") + " --out " + dir.File("e"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(dir.File("junk.pt")), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("e")));
+  r = RunNerfreg("dbarf finetune " + data + "/transforms.json --weights " + dir.File("missing.pt") + " --out " + dir.File("f.pt"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("missing.pt"), std::string::npos) << r.output;
+  r = RunNerfreg("dbarf pretrain " + data + "/transforms.json --resume --out " + dir.File("none.pt"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("none.pt"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace nerfreg
