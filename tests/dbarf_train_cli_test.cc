@@ -97,5 +97,28 @@ TEST(DbarfTrainCli, WeightsOfAnotherKindOrMissingAreOneLineErrors) {
   EXPECT_NE(r.output.find("none.pt"), std::string::npos) << r.output;
 }
 
+TEST(DbarfTrainCli, AnLlffSceneTrainsLikeOurOwn) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene"), llff = dir.File("llff");
+  ASSERT_EQ(RunNerfreg("render --procedural 7 --trajectory forward --views 8 --quiet --out " + data).exit_code, 0);
+  CommandResult r = RunNerfreg("convert " + data + "/transforms.json --to llff --quiet --out " + llff);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::filesystem::copy(data + "/images", llff + "/images");
+  r = RunNerfreg("dbarf pretrain " + llff + " --steps 2 --stage-steps 1 --rays 32 --sources 2 --quiet --out " +
+                 dir.File("w.pt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json log = Json::parse("[" + [&] {
+    std::ifstream in(dir.File("w.pt.log.jsonl"));
+    std::string all, line;
+    while (std::getline(in, line)) all += (all.empty() ? "" : ",") + line;
+    return all;
+  }() + "]");
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_EQ(log[0]["stage"], "pose");
+  EXPECT_EQ(log[1]["stage"], "nerf");
+  ASSERT_TRUE(log[1].contains("psnr")) << log.dump();
+  EXPECT_GT(log[1]["psnr"].get<double>(), 5.0) << log.dump();
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -158,7 +158,8 @@ DbarfStepResult DbarfTrainer::Step() {
   const auto [s, t] = targets_[std::uniform_int_distribution<size_t>(0, targets_.size() - 1)(rng_)];
   const DbarfScene& scene = scenes_[s];
   const int jitter = std::uniform_int_distribution<int>(options_.source_jitter_min, options_.source_jitter_max)(rng_);
-  std::vector<int> sources = SourcesOf(scene, t, std::max(1, options_.num_sources + jitter));
+  // At least 2: a rendered sample needs two views that see it (ibr_render.h).
+  std::vector<int> sources = SourcesOf(scene, t, std::max(2, options_.num_sources + jitter));
   std::shuffle(sources.begin(), sources.end(), rng_);
   if (sources.size() > 1 && std::uniform_real_distribution<double>(0, 1)(rng_) < options_.self_source_probability) {
     sources.back() = t;
