@@ -263,6 +263,13 @@ int RunDbarfEval(int argc, char** argv) {
     gt.push_back(rigid(loaded.ground_truth[v]));
   }
   const PoseEvaluation pe = EvaluatePoses(est, gt, PoseAlignment::kRotationsAndCenters);
+  // Relative poses between each usable view and its view-graph neighbours (scale-free measures):
+  // the estimated cameras', and the pose network's refinement of them.
+  const RelativePoseError rel_cameras = EvaluateCameraRelativePoses(scene, loaded.ground_truth, num_sources);
+  const RelativePoseError rel_network = EvaluateRelativePoses(model, scene, loaded.ground_truth, num_sources, "cameras");
+  const auto rel_json = [](const RelativePoseError& e) {
+    return Json{{"rotation_deg", e.rotation_deg}, {"translation_direction_deg", e.translation_deg}, {"pairs", e.pairs}};
+  };
 
   // Novel views: test views at their estimated cameras, from training views.
   const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
@@ -313,6 +320,7 @@ int RunDbarfEval(int argc, char** argv) {
                          {"rotation_deg_mean", pe.aligned ? pe.mean_rotation_deg : -1.0},
                          {"center_median", pe.aligned ? pe.median_center : -1.0},
                          {"center_percent_median", pe.aligned ? pe.median_center_percent : -1.0},
+                         {"relative_poses", {{"cameras", rel_json(rel_cameras)}, {"network", rel_json(rel_network)}}},
                          {"test_views", views.size()},
                          {"rendered", psnrs.size()},
                          {"psnr_mean", mean(psnrs)},
@@ -333,6 +341,9 @@ int RunDbarfEval(int argc, char** argv) {
       std::printf("rotation (deg)     median %.4f  mean %.4f\n", pe.median_rotation_deg, pe.mean_rotation_deg);
       std::printf("centre             median %.5f  (%.3f %% of the widest baseline)\n", pe.median_center,
                   pe.median_center_percent);
+      std::printf("relative poses     cameras %.4f deg / direction %.3f deg; network %.4f / %.3f deg (%d pairs)\n",
+                  rel_cameras.rotation_deg, rel_cameras.translation_deg, rel_network.rotation_deg,
+                  rel_network.translation_deg, rel_network.pairs);
       std::printf("novel views        %zu rendered: PSNR %.2f dB  SSIM %.4f\n", psnrs.size(), mean(psnrs), mean(ssims));
       std::printf("time               %.1f s (poses %.1f s)\n", timer.Seconds(), seconds_poses);
     }
