@@ -150,11 +150,9 @@ int RunDbarfFinetune(int argc, char** argv) {
   AddTrainOptions(app, &c);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.scenes = {scene};
-  if (!c.run.resume) {
-    // The configuration is the starting weights'.
-    const DbarfModel start = LoadDbarfWeights(c.weights);
-    c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
-  }
+  // The configuration is the starting weights' (or, resuming, the run's own).
+  const DbarfModel start = LoadDbarfWeights(c.run.resume ? c.run.out : c.weights);
+  c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
   return RunTraining(c, common, "finetune");
 }
 
