@@ -69,5 +69,28 @@ TEST(CheckpointCorruption, EveryCorruptionLoadsOrIsAnInputErrorNamingTheFile) {
   RecordProperty("loaded", loaded);
 }
 
+// Found by fuzz/torch_archive_fuzz.cc: a checkpoint whose stored field options claim a huge MLP
+// (hidden_dim 400000: ~600 GB of weights) or 2*10^8 colour layers made the loader allocate until
+// the process died. Sizes the file cannot hold are now refused before the field is built.
+TEST(CheckpointCorruption, StoredSizesTheFileCannotHoldAreInputErrors) {
+  ScopedTempDir dir;
+  FieldOptions fo;
+  fo.encoding.levels = 2;
+  fo.encoding.log2_table_size = 6;
+  fo.hidden_dim = 16;
+  OccupancyGridOptions go;
+  go.resolution = 8;
+  for (int k = 0; k < 2; ++k) {
+    NerfBlock block = NerfBlock::Create(fo, go, MarchOptions{}, 1);
+    if (k == 0) block.field_options.hidden_dim = 400000;
+    if (k == 1) block.field_options.color_hidden_layers = 200000000;
+    const std::string path = dir.File("huge_" + std::to_string(k) + ".ckpt");
+    SaveNerfBlock(block, path);  // the options as stored; the tensors are the small field's
+    const std::string e = InputErrorOf([&] { LoadNerfBlock(path); });
+    EXPECT_EQ(e.rfind(path + ": field:", 0), 0u) << e;
+    EXPECT_NE(e.find("parameters"), std::string::npos) << e;
+  }
+}
+
 }  // namespace
 }  // namespace nerfreg

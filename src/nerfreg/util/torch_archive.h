@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "nerfreg/util/error.h"
@@ -45,6 +46,21 @@ inline Json LoadArchiveMeta(const std::string& path, const std::string& what, co
     ThrowInputError(path, "version", std::to_string(version) + " (written by another nerfreg version)");
   }
   return meta;
+}
+
+// Refuses stored options that imply more parameters than the file can hold, before a model is
+// built from them: a corrupt or hostile size would otherwise allocate many GB (found by
+// fuzz/torch_archive_fuzz.cc). `min_parameters` is a lower bound on the parameters the options
+// imply (the dominant weight matrices); each is stored as at least 2 bytes (float16 or wider).
+inline void CheckArchiveCanHold(const std::string& path, const std::string& field, double min_parameters) {
+  std::error_code ec;
+  const double bytes = static_cast<double>(std::filesystem::file_size(path, ec));
+  if (ec) ThrowInputError(path, "", "a readable file");
+  if (!(min_parameters >= 0) || 2 * min_parameters > bytes) {
+    ThrowInputError(path, field,
+                    "sizes whose parameters fit in the file (they imply at least " + std::to_string(min_parameters) +
+                        " parameters; the file has " + std::to_string(static_cast<std::int64_t>(bytes)) + " bytes)");
+  }
 }
 
 }  // namespace nerfreg
