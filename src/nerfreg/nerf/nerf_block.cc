@@ -178,6 +178,8 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   }
   // The training cameras, kept as transforms.json inside the checkpoint (with sizes: no image needed).
   // A block may have no cameras (an instant-ngp import without --transforms).
+  // (meta is const: operator[] on a missing key would be undefined behaviour, found by fuzzing.)
+  if (!meta.contains("cameras")) ThrowInputError(path, "cameras", "the block's cameras (transforms.json, frames may be empty)");
   const Json& cams = meta["cameras"];
   const bool no_cameras = cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
   if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));

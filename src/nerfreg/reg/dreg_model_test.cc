@@ -283,6 +283,8 @@ TEST_F(DregModelTest, WeightsWithoutOptionsOrWithSizesTheFileCannotHoldAreInputE
     EXPECT_EQ(e.rfind(path + ": options:", 0), 0u) << e;
     EXPECT_NE(e.find("parameters"), std::string::npos) << e;
   }
+  // The shipped weights pass every check before torch (zip CRCs, the size bound) and load.
+  EXPECT_EQ(InputErrorOf([&] { LoadDregWeights(std::string(NERFREG_SOURCE_DIR) + "/models/dreg_cpu.pt", &o); }), "");
   // The shipped CPU configuration is within the bound of its own file.
   const std::string cpu = dir.File("cpu.pt");
   DregNet cpu_net(DregModelOptions::Cpu());
