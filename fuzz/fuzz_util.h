@@ -12,7 +12,8 @@
 namespace nerfreg {
 
 inline std::string WriteFuzzInput(const uint8_t* data, size_t size, const char* suffix) {
-  static const std::string path = "/dev/shm/nerfreg_fuzz_" + std::to_string(::getpid()) + suffix;
+  // One file per process and suffix (the mesh fuzzer varies the extension, which picks the reader).
+  const std::string path = "/dev/shm/nerfreg_fuzz_" + std::to_string(::getpid()) + suffix;
   FILE* f = std::fopen(path.c_str(), "wb");
   if (!f) std::abort();
   if (size > 0) std::fwrite(data, 1, size, f);

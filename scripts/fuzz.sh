@@ -1,11 +1,30 @@
 #!/usr/bin/env bash
 # Builds the parsers with clang + ASan + UBSan + libFuzzer (no LibTorch: build-san/), runs the
 # sanitized unit tests of those layers, then every fuzz target for FUZZ_SECONDS each on its seed
-# corpus. `make fuzz` runs long; `make test` runs it briefly.
+# corpus. Then the torch-archive fuzzer, in its own LibTorch build (build-fuzz-torch/: only the
+# nerf, reg and dbarf libraries it links, ~60 files; FUZZ_TORCH=0 skips it). `make fuzz` runs
+# long; `make test` runs it briefly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 FUZZ_SECONDS=${FUZZ_SECONDS:-10}
 BUILD=${SAN_BUILD_DIR:-build-san}
+TORCH_BUILD=${FUZZ_TORCH_BUILD_DIR:-build-fuzz-torch}
+FUZZ_TORCH=${FUZZ_TORCH:-1}
+
+# run_fuzzer BINARY CORPUS_NAME [libFuzzer flags...] (given flags come last: libFuzzer keeps the last)
+run_fuzzer() {
+  local fuzzer=$1 name=$2
+  shift 2
+  local corpus
+  corpus=$(mktemp -d)
+  cp -r fuzz/corpus/"$name"/. "$corpus"/ 2>/dev/null || true
+  echo "== fuzz $name for ${FUZZ_SECONDS}s"
+  "$fuzzer" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -max_len=65536 -timeout=30 -print_final_stats=0 \
+    -artifact_prefix="$corpus/crash-" "$@" "$corpus" 2>"$corpus.log" || { grep -v "^    #[0-9]" "$corpus.log" | tail -30; echo "fuzz $name FAILED (input kept in $corpus)"; exit 1; }
+  grep -E "^Done|#[0-9]+ *DONE" "$corpus.log" | tail -1 || true
+  rm -rf "$corpus" "$corpus.log"
+}
+
 if [ ! -f "$BUILD/build.ninja" ]; then
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
     -DCMAKE_CXX_COMPILER=clang++ -DNERFREG_WITH_TORCH=OFF -DNERFREG_SANITIZE=ON -DNERFREG_FUZZ=ON \
@@ -15,13 +34,20 @@ cmake --build "$BUILD" -j "$(nproc)"
 echo "== sanitized unit tests (ASan + UBSan)"
 (cd "$BUILD" && ctest --output-on-failure -j "$(nproc)")
 for fuzzer in "$BUILD"/fuzz/*_fuzz; do
-  name=$(basename "$fuzzer" _fuzz)
-  corpus=$(mktemp -d)
-  cp -r fuzz/corpus/"$name"/. "$corpus"/ 2>/dev/null || true
-  echo "== fuzz $name for ${FUZZ_SECONDS}s"
-  "$fuzzer" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -max_len=65536 -print_final_stats=0 \
-    -artifact_prefix="$corpus/crash-" "$corpus" 2>"$corpus.log" || { grep -v "^    #[0-9]" "$corpus.log" | tail -30; echo "fuzz $name FAILED (input kept in $corpus)"; exit 1; }
-  grep -E "^Done|#[0-9]+ *DONE" "$corpus.log" | tail -1 || true
-  rm -rf "$corpus" "$corpus.log"
+  run_fuzzer "$fuzzer" "$(basename "$fuzzer" _fuzz)"
 done
+
+if [ "$FUZZ_TORCH" != 0 ]; then
+  # ASan + UBSan instrument our code only (Debian's LibTorch is not rebuilt); -O1 and line tables
+  # alone keep the build of the torch layers short, and without -DNDEBUG header assertions (JSON
+  # access to a missing key: one finding) stay on. No tests, benchmarks or binary are built.
+  if [ ! -f "$TORCH_BUILD/build.ninja" ]; then
+    cmake -S . -B "$TORCH_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -gline-tables-only" \
+      -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNERFREG_WITH_TORCH=ON -DNERFREG_SANITIZE=ON \
+      -DNERFREG_FUZZ=ON -DNERFREG_BUILD_TESTS=OFF -DNERFREG_BUILD_BENCH=OFF >/dev/null
+  fi
+  cmake --build "$TORCH_BUILD" -j "$(nproc)" --target torch_archive_fuzz
+  # Seed archives are up to 164 KB (a generalizable-NeRF checkpoint holds ~40 small modules).
+  run_fuzzer "$TORCH_BUILD/fuzz/torch_archive_fuzz" torch_archive -max_len=262144
+fi
 echo "fuzz: all targets ran clean"

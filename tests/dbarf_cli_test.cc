@@ -3,17 +3,30 @@
 // against the renderer's ground truth.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
 #include "cli_test_util.h"
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/util/image.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
 
 namespace nerfreg {
 namespace {
+
+// Pixels of `png` (RGB) within 2/255 of `rgb`: the camera plots' colours (render/camera_plot.h,
+// not linked here) survive 8-bit rounding to that precision.
+int CountColor(const Image& png, float r, float g, float b) {
+  int n = 0;
+  for (int y = 0; y < png.height; ++y)
+    for (int x = 0; x < png.width; ++x)
+      n += std::abs(png.at(x, y, 0) - r) < 2.f / 255 && std::abs(png.at(x, y, 1) - g) < 2.f / 255 &&
+           std::abs(png.at(x, y, 2) - b) < 2.f / 255;
+  return n;
+}
 
 TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   ScopedTempDir dir;
@@ -31,6 +44,12 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   const ColmapModel model = ReadColmapModel(out + "/sparse/0");
   EXPECT_EQ(model.images.size(), 10u);
   EXPECT_GT(model.points3d.size(), 100u);
+  // The posed cameras seen from above: 10 red discs (and viewing lines) on white.
+  const Image cameras_png = ReadImage(out + "/cameras.png", 3);
+  EXPECT_EQ(cameras_png.width, 512);
+  EXPECT_EQ(cameras_png.height, 512);
+  EXPECT_GT(CountColor(cameras_png, 0.85f, 0.15f, 0.1f), 10 * 30);
+  EXPECT_GT(CountColor(cameras_png, 1, 1, 1), 512 * 512 * 9 / 10);
 
   // Aligned on rotations then centres: with centres this close, a centre-only Umeyama fit adds
   // ~1 deg of its own (measured here: 0.08 deg after the rotation fit, 1.1 deg after Umeyama).
@@ -40,6 +59,16 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   EXPECT_EQ(e["posed"].get<int>(), 10);
   EXPECT_LT(e["rotation_deg_median"].get<double>(), 0.5) << r.output;
   EXPECT_LT(e["center_percent_median"].get<double>(), 2.0) << r.output;
+
+  // --png: the aligned estimate (red) against the ground truth (blue), seen from above.
+  const std::string png = dir.File("eval.png");
+  r = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data + "/transforms.json --png " + png);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("scale bar"), std::string::npos) << r.output;
+  const Image eval_png = ReadImage(png, 3);
+  EXPECT_EQ(eval_png.width, 512);
+  EXPECT_GT(CountColor(eval_png, 0.85f, 0.15f, 0.1f), 10 * 10);  // red drawn last, over blue
+  EXPECT_GT(CountColor(eval_png, 0.1f, 0.3f, 0.9f), 10 * 10);
 
   // An existing output is refused without --force, replaced with it; --focal works too.
   r = RunNerfreg("dbarf poses " + data + "/images --focal 140.8 --quiet --out " + out);

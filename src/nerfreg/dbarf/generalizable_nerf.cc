@@ -111,6 +111,23 @@ void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& pa
   WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
 }
 
+namespace {
+// The dominant weights the options imply (resunet.cc, ibrnet.cc): the 7x7 stem, the 3x3 residual
+// blocks, the decoder convolutions, and IBRNet's first layers, whose width follows the features.
+double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {
+  const ResUNetOptions& f = o.features;
+  double n = 49.0 * f.in_channels * f.stem_channels + double(f.out_channels) * f.out_channels;
+  for (size_t l = 0; l < f.layer_channels.size() && l < f.layer_blocks.size(); ++l) {
+    n += f.layer_blocks[l] * 9.0 * f.layer_channels[l] * f.layer_channels[l];
+  }
+  if (f.layer_channels.size() >= 3) {
+    const double c0 = f.layer_channels[0], c1 = f.layer_channels[1], c2 = f.layer_channels[2];
+    n += 9.0 * (c2 * c1 + 2 * c1 * c1 + c1 * c0 + 2 * c0 * f.out_channels);
+  }
+  return n + 208.0 * (3.0 + o.ibrnet.feature_channels);
+}
+}  // namespace
+
 GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
                                         const GeneralizableNerfOptions* expected) {
   torch::serialize::InputArchive archive;
@@ -124,6 +141,7 @@ GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
                     "the configuration " + GeneralizableNerfOptionsToJson(*expected).dump() +
                         " (the checkpoint has another configuration)");
   }
+  CheckArchiveCanHold(path, "options", GeneralizableNerfParameterLowerBound(options));
   GeneralizableNerf model(options);
   try {
     torch::serialize::InputArchive features, ibrnet;

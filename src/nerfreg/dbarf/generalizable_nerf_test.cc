@@ -87,5 +87,18 @@ TEST(GeneralizableNerf, LoadRejectsForeignTruncatedAndOtherConfigurations) {
   EXPECT_NE(InputErrorOf([&] { LoadGeneralizableNerf(dir.File("text.pt")); }), "");
 }
 
+// Found by fuzz/torch_archive_fuzz.cc: a checkpoint whose options claim a 100000-channel ResUNet
+// layer built ~360 GB of convolutions before the tensors were read. Refused from the file size.
+TEST(GeneralizableNerf, StoredSizesTheFileCannotHoldAreInputErrors) {
+  ScopedTempDir dir;
+  GeneralizableNerf model(GeneralizableNerfOptions::Cpu());
+  model.options.features.layer_channels = {16, 32, 100000};
+  const std::string path = dir.File("huge.pt");
+  SaveGeneralizableNerf(model, path);  // the CPU network's tensors under the huge options
+  const std::string e = InputErrorOf([&] { LoadGeneralizableNerf(path); });
+  EXPECT_EQ(e.rfind(path + ": options:", 0), 0u) << e;
+  EXPECT_NE(e.find("parameters"), std::string::npos) << e;
+}
+
 }  // namespace
 }  // namespace nerfreg

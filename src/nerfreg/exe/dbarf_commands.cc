@@ -10,6 +10,7 @@
 #include "nerfreg/dbarf/dbarf_scene.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/render/camera_plot.h"
 #include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/pose_evaluation.h"
 #include "nerfreg/util/error.h"
@@ -127,8 +128,9 @@ int RunDbarfPoses(int argc, char** argv) {
                   "Estimate every image's camera from a folder of unposed images with known intrinsics: SIFT view "
                   "graph, robust rotation and translation averaging, triangulation and bundle adjustment (the "
                   "classical initialisation of DBARF). Writes OUT/transforms.json (camera 0 at the identity, mean "
-                  "distance of the others to it 1; images that could not be posed under \"not_posed\") and a COLMAP "
-                  "model in OUT/sparse/0.",
+                  "distance of the others to it 1; images that could not be posed under \"not_posed\"), a COLMAP "
+                  "model in OUT/sparse/0 and OUT/cameras.png (the posed cameras seen from above: centres and "
+                  "viewing directions, with a scale bar whose length is logged).",
                   "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");
   std::string images_dir, intrinsics, out;
   double focal = 0;
@@ -203,6 +205,11 @@ int RunDbarfPoses(int argc, char** argv) {
                            {"frame", "first posed camera at the identity; mean distance of the others to it = 1"}};
     WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
+    std::vector<Rigid3d> posed;
+    for (const Frame& f : dataset.frames) posed.push_back(f.cam_from_world);
+    const CameraPlot plot = PlotCamerasFromAbove({{posed, kEstimateColor}}, false);
+    WriteImage(JoinPaths(tmp, "cameras.png"), plot.image);
+    LOG_INFO("{}/cameras.png: posed cameras seen from above, scale bar {:g} units", out, plot.scale_bar_length);
     if (fs::exists(out)) fs::remove_all(out);
     fs::rename(tmp, out);
   } catch (...) {
@@ -223,12 +230,16 @@ int RunDbarfEvalPoses(int argc, char** argv) {
                   "Rotation and camera-centre errors of estimated cameras against ground truth, after a Sim(3) "
                   "alignment: Umeyama on the centres (--align centers, as DBARF evaluates) or the rotations then the "
                   "centres (--align rotations, also defined for collinear or 2-3 cameras). Frames are matched by image "
-                  "name; ground-truth frames missing from the estimate count as not posed.",
-                  "nerfreg dbarf eval-poses runs/poses/transforms.json --ground-truth data/scene/transforms.json");
-  std::string estimate_path, gt_path, align = "centers";
+                  "name; ground-truth frames missing from the estimate count as not posed. With --png, a picture of the "
+                  "aligned estimated cameras (red) against the ground truth (blue) seen from above, grey lines "
+                  "joining matching cameras, with a scale bar in ground-truth units (its length is logged).",
+                  "nerfreg dbarf eval-poses runs/poses/transforms.json --ground-truth data/scene/transforms.json "
+                  "--png runs/poses/eval_cameras.png");
+  std::string estimate_path, gt_path, align = "centers", png;
   app.add_option("estimate", estimate_path, "Estimated transforms.json (e.g. from dbarf poses)")->required();
   app.add_option("--ground-truth", gt_path, "Ground-truth transforms.json")->required();
   app.add_option("--align", align, "centers or rotations")->check(CLI::IsMember({"centers", "rotations"}));
+  app.add_option("--png", png, "Also write the aligned cameras against the ground truth, seen from above, to this PNG");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   const Json est_json = ReadJsonFile(estimate_path), gt_json = ReadJsonFile(gt_path);
   // Sizes are in both files' intrinsics; images are not needed.
@@ -249,6 +260,15 @@ int RunDbarfEvalPoses(int argc, char** argv) {
   }
   const PoseEvaluation r = EvaluatePoses(e, g, align == "centers" ? PoseAlignment::kCenters : PoseAlignment::kRotationsAndCenters);
   if (!r.aligned) ThrowInputError(estimate_path, "frames", "at least 3 cameras (not collinear for --align centers) matching the ground truth by name");
+  if (!png.empty()) {
+    // The estimate moved into the ground truth's frame by the alignment the errors were measured after.
+    std::vector<Rigid3d> aligned;
+    for (const Rigid3d& cam_from_est : e) aligned.push_back(r.gt_from_estimate.TransformCamera(cam_from_est));
+    const CameraPlot plot = PlotCamerasFromAbove({{aligned, kEstimateColor}, {g, kGroundTruthColor}}, true);
+    WriteImage(png, plot.image);
+    LOG_INFO("{}: aligned estimate (red) against ground truth (blue) from above, scale bar {:g} units", png,
+             plot.scale_bar_length);
+  }
   const double base = r.widest_baseline > 0 ? 100.0 / r.widest_baseline : 0;
   const Json result = {{"images", gt.frames.size()},
                        {"posed", e.size()},

@@ -12,6 +12,7 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/test_util.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 namespace {
@@ -67,6 +68,90 @@ TEST(CheckpointCorruption, EveryCorruptionLoadsOrIsAnInputErrorNamingTheFile) {
   }
   EXPECT_GE(refused, 45);  // every truncation at least
   RecordProperty("loaded", loaded);
+}
+
+// Found by fuzz/torch_archive_fuzz.cc: a checkpoint whose stored field options claim a huge MLP
+// (hidden_dim 400000: ~600 GB of weights) or 2*10^8 colour layers made the loader allocate until
+// the process died. Sizes the file cannot hold are now refused before the field is built.
+TEST(CheckpointCorruption, StoredSizesTheFileCannotHoldAreInputErrors) {
+  ScopedTempDir dir;
+  FieldOptions fo;
+  fo.encoding.levels = 2;
+  fo.encoding.log2_table_size = 6;
+  fo.hidden_dim = 16;
+  OccupancyGridOptions go;
+  go.resolution = 8;
+  for (int k = 0; k < 2; ++k) {
+    NerfBlock block = NerfBlock::Create(fo, go, MarchOptions{}, 1);
+    if (k == 0) block.field_options.hidden_dim = 400000;
+    if (k == 1) block.field_options.color_hidden_layers = 200000000;
+    const std::string path = dir.File("huge_" + std::to_string(k) + ".ckpt");
+    SaveNerfBlock(block, path);  // the options as stored; the tensors are the small field's
+    const std::string e = InputErrorOf([&] { LoadNerfBlock(path); });
+    EXPECT_EQ(e.rfind(path + ": field:", 0), 0u) << e;
+    EXPECT_NE(e.find("parameters"), std::string::npos) << e;
+  }
+}
+
+// Found by fuzz/torch_archive_fuzz.cc: LibTorch reads zip entries without checking their CRC-32,
+// so a changed length inside data.pkl reached its unpickler, which reserved 4 GB for it. Every
+// stored entry's CRC is now checked first: one changed byte of the pickle is refused, naming it.
+TEST(CheckpointCorruption, AChangedByteInsideThePickleFailsItsCrc) {
+  ScopedTempDir dir;
+  FieldOptions fo;
+  fo.encoding.levels = 2;
+  fo.encoding.log2_table_size = 6;
+  fo.hidden_dim = 16;
+  OccupancyGridOptions go;
+  go.resolution = 8;
+  NerfBlock block = NerfBlock::Create(fo, go, MarchOptions{}, 1);
+  const std::string good = dir.File("good.ckpt"), path = dir.File("flipped.ckpt");
+  SaveNerfBlock(block, good);
+  EXPECT_EQ(ZipArchiveProblem(ReadFileToString(good)), "");
+  std::string bytes = ReadFileToString(good);
+  // The local header of the first data.pkl: name and extra lengths at +26 / +28, data after them.
+  const size_t name = bytes.find("data.pkl");
+  ASSERT_NE(name, std::string::npos);
+  size_t local = bytes.rfind("PK\x03\x04", name);
+  ASSERT_NE(local, std::string::npos);
+  auto u16 = [&](size_t o) { return size_t(std::uint8_t(bytes[o])) | size_t(std::uint8_t(bytes[o + 1])) << 8; };
+  const size_t data = local + 30 + u16(local + 26) + u16(local + 28);
+  bytes[data + 2] = static_cast<char>(bytes[data + 2] ^ 0x40);
+  WriteFileAtomic(path, bytes);
+  const std::string e = InputErrorOf([&] { LoadNerfBlock(path); });
+  EXPECT_EQ(e.rfind(path + ": expected a nerfreg NeRF checkpoint", 0), 0u) << e;
+  EXPECT_NE(e.find("data.pkl fails its CRC-32"), std::string::npos) << e;
+}
+
+// Found by fuzz/torch_archive_fuzz.cc: a checkpoint whose meta has no "cameras" read a missing key
+// of a const JSON object (undefined behaviour; an assertion in the fuzz build). Now an InputError.
+TEST(CheckpointCorruption, MetaWithoutCamerasIsAnInputErrorNamingTheField) {
+  ScopedTempDir dir;
+  FieldOptions fo;
+  fo.encoding.levels = 2;
+  fo.encoding.log2_table_size = 6;
+  fo.hidden_dim = 16;
+  OccupancyGridOptions go;
+  go.resolution = 8;
+  NerfBlock block = NerfBlock::Create(fo, go, MarchOptions{}, 1);
+  const std::string good = dir.File("good.ckpt"), path = dir.File("no_cameras.ckpt");
+  SaveNerfBlock(block, good);
+  // The same archive with "cameras" taken out of its meta.
+  torch::serialize::InputArchive in;
+  in.load_from(good);
+  torch::Tensor meta_tensor;
+  in.read("meta", meta_tensor);
+  Json meta = Json::parse(TensorString(meta_tensor));
+  meta.erase("cameras");
+  torch::serialize::OutputArchive out, field;
+  out.write("meta", StringTensor(meta.dump()));
+  block.field->save(field);
+  out.write("field", field);
+  out.write("grid_density", block.grid->density());
+  out.write("grid_occupied", block.grid->occupied().to(torch::kUInt8));
+  out.save_to(path);
+  const std::string e = InputErrorOf([&] { LoadNerfBlock(path); });
+  EXPECT_EQ(e.rfind(path + ": cameras:", 0), 0u) << e;
 }
 
 }  // namespace

@@ -156,6 +156,12 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   if (double(enc.levels) * double(enc.TableSize()) * enc.features * 4 > double(std::int64_t(1) << 32)) {
     ThrowInputError(path, "field", "a hash table of at most 4 GiB");
   }
+  // The stored tensors (field.cc, occupancy_grid.cc): hash table, density and colour MLPs, grid.
+  const double h = b.field_options.hidden_dim, geo = b.field_options.geo_feature_dim;
+  const double g = b.grid_options.resolution;
+  CheckArchiveCanHold(path, "field",
+                      double(enc.levels) * double(enc.TableSize()) * enc.features + h * enc.OutputDim() + h * (1 + geo) +
+                          h * (16 + geo) + (b.field_options.color_hidden_layers - 1) * h * h + 3 * h + g * g * g);
   b.field = NerfField(b.field_options);
   b.grid = std::make_unique<OccupancyGrid>(b.grid_options, b.field_options.aabb_min, b.field_options.aabb_max);
   try {
@@ -172,6 +178,8 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   }
   // The training cameras, kept as transforms.json inside the checkpoint (with sizes: no image needed).
   // A block may have no cameras (an instant-ngp import without --transforms).
+  // (meta is const: operator[] on a missing key would be undefined behaviour, found by fuzzing.)
+  if (!meta.contains("cameras")) ThrowInputError(path, "cameras", "the block's cameras (transforms.json, frames may be empty)");
   const Json& cams = meta["cameras"];
   const bool no_cameras = cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
   if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));

@@ -325,10 +325,28 @@ void SaveDregWeights(DregNet& net, const DregModelOptions& options, const std::s
   WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
 }
 
+namespace {
+// The dominant weights the options imply (backbone.cc, transformer.cc): convolutions of the stem,
+// the bottlenecks (3x3x3 and 1x1x1), FPN laterals and smoothing, the projection to d_model, and
+// per transformer layer self and cross attention (4 d^2 each) and the FFN.
+double DregParameterLowerBound(const DregModelOptions& o) {
+  const BackboneOptions& b = o.backbone;
+  const double fpn = b.fpn_channels, d = o.d_model;
+  double n = 125.0 * b.in_channels * b.stem_channels + 27.0 * b.stem_channels * fpn + fpn * d;
+  for (size_t s = 0; s < b.stage_widths.size() && s < b.stage_blocks.size(); ++s) {
+    const double w = b.stage_widths[s];
+    n += b.stage_blocks[s] * 31.0 * w * w + 4.0 * w * fpn + 27.0 * fpn * fpn;
+  }
+  return n + o.layers * (8.0 * d * d + 2.0 * d * o.ffn);
+}
+}  // namespace
+
 DregNet LoadDregWeights(const std::string& path, DregModelOptions* options) {
   torch::serialize::InputArchive archive;
   const Json meta = LoadArchiveMeta(path, "DReg-NeRF weights file", kWeightsFormatTag, kDregWeightsVersion, &archive);
-  const DregModelOptions stored = DregModelOptions::FromJson(meta.at("options"), path + " (options)");
+  if (!meta.contains("options")) ThrowInputError(path, "options", "the network options (written by reg train)");
+  const DregModelOptions stored = DregModelOptions::FromJson(meta["options"], path + " (options)");
+  CheckArchiveCanHold(path, "options", DregParameterLowerBound(stored));
   DregNet net(stored);
   // Module::load replaces tensors whatever their shape, so the shapes the stored options imply
   // are recorded first and compared afterwards.

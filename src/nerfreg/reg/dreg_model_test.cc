@@ -258,6 +258,40 @@ TEST_F(DregModelTest, LoadRejectsBadFilesAndOtherConfigs) {
   EXPECT_EQ(InputErrorOf([&] { CheckDregOptionsMatch(TinyOptions(), renamed, good); }), "");
 }
 
+// Found by fuzz/torch_archive_fuzz.cc: weights whose meta has no "options" escaped as a JSON
+// out_of_range (not an InputError), and options claiming d_model 600000 or a 60000-wide stage
+// built a network of hundreds of GB before the tensors were compared.
+TEST_F(DregModelTest, WeightsWithoutOptionsOrWithSizesTheFileCannotHoldAreInputErrors) {
+  ScopedTempDir dir;
+  DregNet net(TinyOptions());
+  DregModelOptions o;
+  const std::string no_options = dir.File("no_options.pt");
+  torch::serialize::OutputArchive archive;
+  const std::string meta = R"({"format": "nerfreg-dreg-weights", "version": 1})";
+  archive.write("meta", torch::from_blob(const_cast<char*>(meta.data()), {int64_t(meta.size())}, torch::kUInt8).clone());
+  archive.save_to(no_options);
+  std::string e = InputErrorOf([&] { LoadDregWeights(no_options, &o); });
+  EXPECT_EQ(e.rfind(no_options + ": options:", 0), 0u) << e;
+
+  for (int k = 0; k < 2; ++k) {
+    DregModelOptions huge = TinyOptions();
+    if (k == 0) huge.d_model = 600000;
+    if (k == 1) huge.backbone.stage_widths = {60000, 16, 32};
+    const std::string path = dir.File("huge_" + std::to_string(k) + ".pt");
+    SaveDregWeights(net, huge, path);  // the small network's tensors under the huge options
+    e = InputErrorOf([&] { LoadDregWeights(path, &o); });
+    EXPECT_EQ(e.rfind(path + ": options:", 0), 0u) << e;
+    EXPECT_NE(e.find("parameters"), std::string::npos) << e;
+  }
+  // The shipped weights pass every check before torch (zip CRCs, the size bound) and load.
+  EXPECT_EQ(InputErrorOf([&] { LoadDregWeights(std::string(NERFREG_SOURCE_DIR) + "/models/dreg_cpu.pt", &o); }), "");
+  // The shipped CPU configuration is within the bound of its own file.
+  const std::string cpu = dir.File("cpu.pt");
+  DregNet cpu_net(DregModelOptions::Cpu());
+  SaveDregWeights(cpu_net, DregModelOptions::Cpu(), cpu);
+  EXPECT_EQ(InputErrorOf([&] { LoadDregWeights(cpu, &o); }), "");
+}
+
 // The key test: the network can learn one pair. The target block is the same shape rotated by
 // 75 degrees and translated; 100 AdamW steps must bring the rotation error from the untrained
 // network's (> 30 deg) to < 10 deg. Measured: 50 -> ~3.5 deg (it is ~1 deg by step 40), 12 s of

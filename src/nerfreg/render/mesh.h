@@ -27,7 +27,9 @@ struct TriangleMesh {
 };
 
 // Loads OFF, PLY, OBJ, STL, glTF or GLB. Throws InputError naming the file when it is missing,
-// unreadable or has no triangles.
+// unreadable or has no triangles, and, before Open3D reads them, when an OFF, PLY or STL file
+// claims more elements than it holds or has a face of fewer than 3 vertices or with an index out of
+// range (Open3D would allocate or read out of bounds). OBJ / glTF / GLB are not pre-checked.
 TriangleMesh LoadMesh(const std::string& path);
 
 // Centres the bounding box at the origin and scales the largest side to `largest_side`

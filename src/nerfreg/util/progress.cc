@@ -64,7 +64,8 @@ void ProgressBar::Draw(bool final) {
                        ",\"total\":" + std::to_string(total_) + ",\"rate\":" +
                        std::to_string(rate) + ",\"elapsed_s\":" + std::to_string(elapsed);
     if (std::isfinite(eta)) line += ",\"eta_s\":" + std::to_string(eta);
-    for (const auto& [k, v] : metrics_) line += ",\"" + k + "\":" + std::to_string(v);
+    // A diverged loss is NaN, which JSON cannot write: null.
+    for (const auto& [k, v] : metrics_) line += ",\"" + k + "\":" + (std::isfinite(v) ? std::to_string(v) : "null");
     std::fprintf(stderr, "%s}\n", line.c_str());
     return;
   }
