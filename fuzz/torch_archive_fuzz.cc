@@ -1,9 +1,11 @@
 // Fuzzes the loaders of our torch-archive files: NeRF block checkpoints (LoadNerfBlock),
 // registration grids (LoadRegGrid), DReg-NeRF weights (LoadDregWeights) and generalizable-NeRF
-// checkpoints (LoadGeneralizableNerf), all behind LoadArchiveMeta. Built only in the LibTorch
+// checkpoints (LoadGeneralizableNerf) and DBARF weights (LoadDbarfWeights), all behind
+// LoadArchiveMeta. Built only in the LibTorch
 // fuzz build (scripts/fuzz.sh, build-fuzz-torch/).
 //
-// Input: byte 0 picks the loader (bits 0-1) and the mode (bit 2); the rest is
+// Input: byte 0 picks the loader (bits 0-1, and bit 3 for the fifth: (b & 3) | (b & 8) >> 1,
+// modulo 5) and the mode (bit 2); the rest is
 //   raw mode:  the whole file. Torch archives are zip files whose entries carry CRC-32s that the
 //              reader checks, so random mutations mostly exercise the zip container, the pickle
 //              header and LoadArchiveMeta's error paths;
@@ -27,6 +29,7 @@
 #include <vector>
 
 #include "fuzz_util.h"
+#include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf/generalizable_nerf.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/reg/dreg_model.h"
@@ -46,6 +49,25 @@ struct TinyObjects {
   DregModelOptions dreg_options;
   DregNet dreg{nullptr};
   GeneralizableNerf gnerf{TinyGeneralizableOptions()};
+  DbarfModel dbarf{TinyDbarfOptions()};
+
+  static DbarfOptions TinyDbarfOptions() {
+    DbarfOptions o;
+    o.nerf = TinyGeneralizableOptions();
+    o.pose = PoseDepthNetOptions::Cpu();
+    o.pose.encoder_widths = {4, 4, 4};
+    o.pose.fuse_channels = 4;
+    o.pose.feature_channels = 4;
+    o.pose.hidden_channels = 4;
+    o.pose.context_channels = 2;
+    o.pose.motion_channels = 8;
+    o.pose.state_channels = 2;
+    o.pose.head_channels = 4;
+    o.pose.mask_channels = 4;
+    o.pose.outer_iterations = 1;
+    o.pose.inner_iterations = 1;
+    return o;
+  }
 
   static GeneralizableNerfOptions TinyGeneralizableOptions() {
     GeneralizableNerfOptions o = GeneralizableNerfOptions::Cpu();
@@ -94,7 +116,8 @@ TinyObjects& Tiny() {
   return *tiny;
 }
 
-enum Kind { kNerfBlock = 0, kRegGrid = 1, kDregWeights = 2, kGeneralizableNerf = 3 };
+enum Kind { kNerfBlock = 0, kRegGrid = 1, kDregWeights = 2, kGeneralizableNerf = 3, kDbarfWeights = 4 };
+constexpr int kNumKinds = 5;
 
 // The archive of `kind` with `meta` as its meta entry, laid out as the kind's Save* lays it out
 // (nerf_block.cc, reg_grid.cc, dreg_model.cc, generalizable_nerf.cc).
@@ -117,6 +140,14 @@ void WriteWithMeta(Kind kind, const std::string& meta, const std::string& path) 
     torch::serialize::OutputArchive model;
     t.dreg->save(model);
     archive.write("model", model);
+  } else if (kind == kDbarfWeights) {
+    torch::serialize::OutputArchive features, ibrnet, pose;
+    t.dbarf.nerf.feature_net->save(features);
+    t.dbarf.nerf.ibrnet->save(ibrnet);
+    t.dbarf.pose_net->save(pose);
+    archive.write("feature_net", features);
+    archive.write("ibrnet", ibrnet);
+    archive.write("pose_net", pose);
   } else {
     torch::serialize::OutputArchive features, ibrnet;
     t.gnerf.feature_net->save(features);
@@ -143,6 +174,9 @@ void Load(Kind kind, const std::string& path) {
     case kGeneralizableNerf:
       LoadGeneralizableNerf(path, nullptr);
       break;
+    case kDbarfWeights:
+      LoadDbarfWeights(path, nullptr);
+      break;
   }
 }
 
@@ -150,20 +184,22 @@ void WriteSeeds(const std::string& dir) {
   TinyObjects& t = Tiny();
   CreateDirectories(dir);
   const std::string tmp = JoinPaths(dir, "tmp.pt");
-  const char* names[] = {"nerf_block", "reg_grid", "dreg_weights", "generalizable_nerf"};
-  for (int k = 0; k < 4; ++k) {
+  const char* names[] = {"nerf_block", "reg_grid", "dreg_weights", "generalizable_nerf", "dbarf_weights"};
+  for (int k = 0; k < kNumKinds; ++k) {
     if (k == kNerfBlock) SaveNerfBlock(t.block, tmp);
     if (k == kRegGrid) SaveRegGrid(t.grid, tmp);
     if (k == kDregWeights) SaveDregWeights(t.dreg, t.dreg_options, tmp);
     if (k == kGeneralizableNerf) SaveGeneralizableNerf(t.gnerf, tmp);
+    if (k == kDbarfWeights) SaveDbarfWeights(t.dbarf, tmp);
     Load(static_cast<Kind>(k), tmp);  // every seed must load
     const std::string bytes = ReadFileToString(tmp);
-    WriteFileAtomic(JoinPaths(dir, std::string("raw_") + names[k]), std::string(1, char(k)) + bytes);
+    const auto selector = [](int kind, int mode) { return char((kind & 3) | ((kind & 4) << 1) | mode); };
+    WriteFileAtomic(JoinPaths(dir, std::string("raw_") + names[k]), std::string(1, selector(k, 0)) + bytes);
     torch::serialize::InputArchive archive;
     archive.load_from(tmp);
     torch::Tensor meta;
     archive.read("meta", meta);
-    WriteFileAtomic(JoinPaths(dir, std::string("meta_") + names[k]), std::string(1, char(4 | k)) + TensorString(meta));
+    WriteFileAtomic(JoinPaths(dir, std::string("meta_") + names[k]), std::string(1, selector(k, 4)) + TensorString(meta));
   }
   std::filesystem::remove(tmp);
 }
@@ -187,7 +223,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace nerfreg;
   if (size < 1) return 0;
-  const Kind kind = static_cast<Kind>(data[0] & 3);
+  const Kind kind = static_cast<Kind>(((data[0] & 3) | ((data[0] & 8) >> 1)) % kNumKinds);
   const bool meta_mode = data[0] & 4;
   std::string path;
   if (meta_mode) {

@@ -16,6 +16,16 @@ std::vector<int64_t> Int64s(const JsonField& j) {
   return out;
 }
 
+// A lower bound on the pose network's parameters (pose_depth_net.cc): the 3x3 residual blocks of
+// its three encoders and the six 1x5 / 5x1 convolutions of each of its two GRUs. With the
+// generalizable NeRF's bound, what a weights file must be able to hold before anything is built.
+double PoseDepthNetParameterLowerBound(const PoseDepthNetOptions& o) {
+  double n = 0;
+  for (const int64_t w : o.encoder_widths) n += 3.0 * o.blocks_per_stage * 2 * 9.0 * double(w) * w;
+  const double hid = o.hidden_channels, in = o.context_channels + o.motion_channels;
+  return n + 2.0 * 6 * 5 * hid * (hid + in) + 9.0 * o.head_channels * o.hidden_channels;
+}
+
 }  // namespace
 
 DbarfOptions DbarfOptions::Paper() { return {GeneralizableNerfOptions::Paper(), PoseDepthNetOptions::Paper()}; }
@@ -115,6 +125,8 @@ DbarfModel LoadDbarfWeights(const std::string& path, const DbarfOptions* expecte
                     "the configuration " + DbarfOptionsToJson(*expected).dump() +
                         " (the weights are of another configuration)");
   }
+  CheckArchiveCanHold(path, "options",
+                      GeneralizableNerfParameterLowerBound(options.nerf) + PoseDepthNetParameterLowerBound(options.pose));
   DbarfModel model(options);
   if (meta.contains("training") && meta["training"].is_object()) model.training = meta["training"];
   try {

@@ -111,9 +111,6 @@ void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& pa
   WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
 }
 
-namespace {
-// The dominant weights the options imply (resunet.cc, ibrnet.cc): the 7x7 stem, the 3x3 residual
-// blocks, the decoder convolutions, and IBRNet's first layers, whose width follows the features.
 double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {
   const ResUNetOptions& f = o.features;
   double n = 49.0 * f.in_channels * f.stem_channels + double(f.out_channels) * f.out_channels;
@@ -126,7 +123,6 @@ double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {
   }
   return n + 208.0 * (3.0 + o.ibrnet.feature_channels);
 }
-}  // namespace
 
 GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
                                         const GeneralizableNerfOptions* expected) {

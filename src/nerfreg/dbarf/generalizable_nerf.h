@@ -62,6 +62,11 @@ struct GeneralizableNerf {
   IbrNet ibrnet{nullptr};
 };
 
+// A lower bound on the parameters the options imply (resunet.cc, ibrnet.cc: the 7x7 stem, the 3x3
+// residual blocks, the decoder convolutions, and IBRNet's first layers, whose width follows the
+// features): loaders check that a file can hold them before allocating (CheckArchiveCanHold).
+double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& options);
+
 // Writes the checkpoint atomically (creating parent directories).
 void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& path);
 

@@ -190,11 +190,73 @@ void CheckPly(const std::string& path, std::int64_t size, std::istream* in) {
   }
 }
 
+// OBJ through Open3D + Assimp: Open3D takes every face Assimp returns as a triangle, and Assimp
+// returns a face of fewer than 3 corners as a line or point, which Open3D then reads out of bounds
+// (found by fuzz/mesh_fuzz.cc: "f 1/1/3/1 4/4/1"). So every face must have >= 3 corners, each
+// "v", "v/vt", "v//vn" or "v/vt/vn" with non-zero indices within the file's counts (negative ones
+// count back from the last), and line / point statements ("l", "p"), which are not surfaces, are
+// refused.
+void CheckObj(const std::string& path, std::istream* in) {
+  // Assimp dispatches on a line's first character ("f1/1 2 3" is a face), so this does too; it
+  // counts vertices only on "v", "vt" and "vn" words, so an index is never accepted here that
+  // Assimp could read past.
+  std::vector<std::string> lines;
+  std::int64_t counts[3] = {0, 0, 0};  // v, vt, vn
+  for (std::string line; std::getline(*in, line);) {
+    const size_t a = line.find_first_not_of(" \t\r\v\f");
+    if (a == std::string::npos) continue;
+    line = line.substr(a);
+    std::istringstream ls(line);
+    std::string word;
+    ls >> word;
+    if (word == "v") ++counts[0];
+    else if (word == "vt") ++counts[1];
+    else if (word == "vn") ++counts[2];
+    if (line[0] == 'f' || line[0] == 'l' || line[0] == 'p') lines.push_back(line);
+  }
+  const auto parse_index = [](const std::string& text, std::int64_t count, bool optional, bool* ok) {
+    if (text.empty()) {
+      *ok = optional;
+      return;
+    }
+    size_t used = 0;
+    long long v = 0;
+    try {
+      v = std::stoll(text, &used);
+    } catch (const std::exception&) {
+      *ok = false;
+      return;
+    }
+    *ok = used == text.size() && v != 0 && v <= count && -v <= count;
+  };
+  for (const std::string& line : lines) {
+    const std::string field = "\"" + line.substr(0, 40) + "\"";
+    if (line[0] != 'f') ThrowInputError(path, field, "faces (\"f\"); line and point statements are not surfaces");
+    std::istringstream ls(line.substr(line.compare(0, 2, "fo") == 0 ? 2 : 1));
+    std::string corner;
+    int corners = 0;
+    while (ls >> corner) {
+      std::vector<std::string> parts;
+      size_t start = 0;
+      for (size_t slash; (slash = corner.find('/', start)) != std::string::npos; start = slash + 1)
+        parts.push_back(corner.substr(start, slash - start));
+      parts.push_back(corner.substr(start));
+      bool ok = parts.size() <= 3;
+      for (size_t k = 0; ok && k < parts.size(); ++k) parse_index(parts[k], counts[k], k > 0, &ok);
+      if (!ok) ThrowInputError(path, field, "face corners v, v/vt, v//vn or v/vt/vn with indices within the file's " +
+                                                std::to_string(counts[0]) + " vertices");
+      ++corners;
+    }
+    if (corners < 3) ThrowInputError(path, field, "a face of at least 3 corners");
+  }
+}
+
 // Open3D's OFF, PLY and STL readers size their arrays from the counts in the header before
 // reading any element, and its OFF and PLY readers triangulate faces unchecked, so a corrupt or
 // hostile file asked for tens of GB or read out of bounds (found by fuzz/mesh_fuzz.cc). Those
 // formats are checked here first; every element takes at least one byte of the file, so a count
-// above the file's size is refused. OBJ, glTF and GLB (Open3D + Assimp) are not checked.
+// above the file's size is refused. OBJ faces are checked too (CheckObj); glTF and GLB (Open3D +
+// Assimp) are not.
 void CheckBeforeOpen3d(const std::string& path, const std::string& ext) {
   std::ifstream in(path, std::ios::binary);
   if (!in) ThrowInputError(path, "", "a readable mesh file");
@@ -220,6 +282,8 @@ void CheckBeforeOpen3d(const std::string& path, const std::string& ext) {
     CheckOff(path, size, &in);
   } else if (ext == ".ply") {
     CheckPly(path, size, &in);
+  } else if (ext == ".obj") {
+    CheckObj(path, &in);
   }
 }
 

@@ -98,6 +98,28 @@ TEST(Mesh, OffFacesWithFewerThanThreeVerticesOrIndicesOutOfRangeAreInputErrors) 
 
 // Found by fuzz/mesh_fuzz.cc: Open3D's PLY reader crashed the same way on a binary face list of
 // length 0 (the fuzzer shifted the body so the count byte read 0), and would on indices out of range.
+TEST(Mesh, ObjFacesOfFewerThanThreeCornersLinesOrBadIndicesAreInputErrors) {
+  ScopedTempDir dir;
+  const std::string vertices = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+  const auto error_of = [&](const std::string& name, const std::string& faces) {
+    WriteFileAtomic(dir.File(name), vertices + faces);
+    return InputErrorOf([&] { LoadMesh(dir.File(name)); });
+  };
+  // The input the fuzzer found (Open3D read it out of bounds: SEGV), then its relatives.
+  EXPECT_NE(error_of("a.obj", "f 1/1/3/1 4/4/1\n").find("a.obj"), std::string::npos);
+  EXPECT_NE(error_of("b.obj", "f 1 2\n").find("at least 3 corners"), std::string::npos);
+  EXPECT_NE(error_of("c.obj", "l 1 2 3\n").find("not surfaces"), std::string::npos);
+  EXPECT_NE(error_of("d.obj", "f 1 2 9\n").find("4 vertices"), std::string::npos);
+  EXPECT_NE(error_of("e.obj", "f 1 0 2\n"), "");
+  EXPECT_NE(error_of("f.obj", "f 1/2 2/1 3/1\n"), "");  // one texture coordinate only
+  EXPECT_NE(error_of("g.obj", "f 1 2 x\n"), "");
+  EXPECT_NE(error_of("h.obj", "f1/1 -2/1/1 -1/1/1\nf 1 2 3\n"), "");  // Assimp reads "f1/1 ..." as a face
+  EXPECT_NE(error_of("i.obj", "f 1 2 3 # a comment Assimp reads as corners\n"), "");
+  // Valid corner forms and negative (relative) indices load.
+  EXPECT_EQ(error_of("ok.obj", "f 1/1 2/1 3/1\nf 1//1 3//1 4//1\nf -4/1/1 -3/1/1 -2/1/1\n"), "");
+  EXPECT_EQ(LoadMesh(dir.File("ok.obj")).triangles.size(), 3u);
+}
+
 TEST(Mesh, PlyFacesWithFewerThanThreeVerticesOrIndicesOutOfRangeAreInputErrors) {
   ScopedTempDir dir;
   const std::string path = dir.File("bad.ply");
