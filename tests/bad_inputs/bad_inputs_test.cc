@@ -43,7 +43,7 @@ const std::vector<BadInputCase>& Cases() {
          WriteFileAtomic(d + "/bad.off", "OFF\n3 1 0\n0 0 0\n1 0\n");
          return "render --mesh " + d + "/bad.off --out " + d + "/out";
        },
-       "bad.off: expected a readable triangle mesh", "out"},
+       "bad.off: face 0: expected a line", "out"},
       {"render_bad_size",
        [](const std::string& d) { return "render --procedural 1 --size 0x5 --out " + d + "/out"; },
        "--size", "out"},

@@ -197,9 +197,9 @@ void CheckPly(const std::string& path, std::int64_t size, std::istream* in) {
 // count back from the last), and line / point statements ("l", "p"), which are not surfaces, are
 // refused.
 void CheckObj(const std::string& path, std::istream* in) {
-  // Assimp dispatches on a line's first character ("f1/1 2 3" is a face), so this does too; it
-  // counts vertices only on "v", "vt" and "vn" words, so an index is never accepted here that
-  // Assimp could read past.
+  // Assimp dispatches on a line's first character ("f1/1 2 3" is a face, its corners those after
+  // the first word), so this does too; it counts vertices only on "v", "vt" and "vn" words, so an
+  // index is never accepted here that Assimp could read past.
   std::vector<std::string> lines;
   std::int64_t counts[3] = {0, 0, 0};  // v, vt, vn
   for (std::string line; std::getline(*in, line);) {
@@ -232,8 +232,10 @@ void CheckObj(const std::string& path, std::istream* in) {
   for (const std::string& line : lines) {
     const std::string field = "\"" + line.substr(0, 40) + "\"";
     if (line[0] != 'f') ThrowInputError(path, field, "faces (\"f\"); line and point statements are not surfaces");
-    std::istringstream ls(line.substr(line.compare(0, 2, "fo") == 0 ? 2 : 1));
+    // Corners follow the first word, whatever it is ("f1/1 2 3" has two).
+    std::istringstream ls(line);
     std::string corner;
+    ls >> corner;
     int corners = 0;
     while (ls >> corner) {
       std::vector<std::string> parts;

@@ -1,7 +1,11 @@
 #include "nerfreg/util/file_util.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
 
 #include <atomic>
 #include <cstdio>
@@ -41,6 +45,26 @@ std::string TempPathFor(const std::string& path) {
       .string();
 }
 
+// Temporary files of `path` left by a writer that was killed (SIGKILL cannot be caught, so its
+// own clean-up never ran): ".NAME.tmp.PID.N" whose PID is no longer a running process. Removed by
+// the next write of the same path, so a killed and resumed run ends with no leftovers.
+void RemoveStaleTempFiles(const std::string& path) {
+  const fs::path p(path);
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const std::string prefix = "." + p.filename().string() + ".tmp.";
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = name.substr(prefix.size());  // "PID.N"
+    char* end = nullptr;
+    const long pid = std::strtol(rest.c_str(), &end, 10);
+    if (end == rest.c_str() || *end != '.' || pid <= 0) continue;
+    if (pid == ::getpid() || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    fs::remove(entry.path(), ec);
+  }
+}
+
 void FsyncPath(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY);
   if (fd >= 0) {
@@ -54,6 +78,7 @@ void WriteAtomically(const std::string& path,
                      const std::function<void(const std::string& tmp_path)>& write) {
   const std::string parent = ParentDir(path);
   if (!parent.empty()) CreateDirectories(parent);
+  RemoveStaleTempFiles(path);
   const std::string tmp = TempPathFor(path);
   try {
     write(tmp);

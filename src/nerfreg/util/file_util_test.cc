@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 
 #include "nerfreg/util/error.h"
@@ -21,6 +23,19 @@ TEST(FileUtil, AtomicWriteRoundTripAndNoTempLeft) {
     ++n;
   }
   EXPECT_EQ(n, 1);
+}
+
+// A writer killed with SIGKILL leaves its temporary file; the next write of the same path removes
+// it when its process is gone, and leaves those of live processes (this one) alone.
+TEST(FileUtil, NextWriteRemovesTempFilesOfDeadWriters) {
+  ScopedTempDir dir;
+  const std::string dead = dir.File(".x.json.tmp.2147483646.3"), live = dir.File(".x.json.tmp." + std::to_string(::getpid()) + ".99");
+  const std::string other = dir.File(".y.json.tmp.2147483646.3");
+  for (const auto& f : {dead, live, other}) WriteFileAtomic(f, "partial");
+  WriteFileAtomic(dir.File("x.json"), "{}");
+  EXPECT_FALSE(std::filesystem::exists(dead));
+  EXPECT_TRUE(std::filesystem::exists(live));
+  EXPECT_TRUE(std::filesystem::exists(other));  // another file's
 }
 
 TEST(FileUtil, FailedWriterLeavesOldFileUntouched) {
