@@ -14,17 +14,6 @@
 namespace nerfreg {
 namespace {
 
-torch::Tensor MatrixTensor(const Eigen::Matrix4d& m) {
-  torch::Tensor t = torch::empty({4, 4}, torch::kFloat);
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) t[r][c] = static_cast<float>(m(r, c));
-  return t;
-}
-
-torch::Tensor IntrinsicsTensor(const Camera& c) {
-  return torch::tensor({c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
-}
-
 // The transforms.json behind `path` (a file or a folder holding one), or "" for other formats.
 std::string TransformsJsonPath(const std::string& path) {
   if (DetectCameraFormat(path) != CameraFormat::kTransformsJson) return "";
@@ -32,6 +21,21 @@ std::string TransformsJsonPath(const std::string& path) {
 }
 
 }  // namespace
+
+torch::Tensor Matrix4ToTensor(const Eigen::Matrix4d& m) {
+  const Eigen::Matrix<float, 4, 4, Eigen::RowMajor> f = m.cast<float>();
+  return torch::from_blob(const_cast<float*>(f.data()), {4, 4}, torch::kFloat).clone();
+}
+
+Eigen::Matrix4d TensorToMatrix4(const torch::Tensor& t) {
+  TORCH_CHECK(t.sizes() == torch::IntArrayRef({4, 4}), "TensorToMatrix4: expected [4, 4], got ", t.sizes());
+  const torch::Tensor c = t.detach().to(torch::kCPU, torch::kDouble).contiguous();
+  return Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(c.data_ptr<double>());
+}
+
+torch::Tensor IntrinsicsToTensor(const Camera& c) {
+  return torch::tensor({c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
+}
 
 void DbarfSceneOptions::Check() const {
   if (max_width < 0) throw InputError("--max-width: expected >= 0, got " + std::to_string(max_width));
@@ -166,7 +170,7 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
                                     std::to_string(tensors[0].size(1)) + ")");
     }
     tensors.push_back(t);
-    intrinsics.push_back(IntrinsicsTensor(f.camera));
+    intrinsics.push_back(IntrinsicsToTensor(f.camera));
     images.push_back(std::move(image));
     scene.image_names.push_back(f.name);
     out.is_test.push_back(f.split == "test");
@@ -182,7 +186,7 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
   Json json;
   if (!json_path.empty()) json = ReadJsonFile(json_path);
   std::vector<torch::Tensor> poses;
-  for (const Frame& f : d.frames) poses.push_back(MatrixTensor(f.cam_from_world.ToMatrix()));
+  for (const Frame& f : d.frames) poses.push_back(Matrix4ToTensor(f.cam_from_world.ToMatrix()));
   if (json.is_object() && json.contains("dbarf_poses")) {
     scene.cam_from_world = torch::stack(poses);
     const JsonField root(json, json_path);
@@ -214,7 +218,7 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     const SfmResult sfm = PoseImages(images, cameras, scene.image_names, options.sfm);
     std::vector<torch::Tensor> estimated;
     for (int64_t i = 0; i < v; ++i) {
-      estimated.push_back(MatrixTensor(sfm.cam_from_world[i].ToMatrix()));
+      estimated.push_back(Matrix4ToTensor(sfm.cam_from_world[i].ToMatrix()));
       if (!sfm.posed[i]) {
         scene.usable[i] = false;
         out.not_posed.push_back(scene.image_names[i]);

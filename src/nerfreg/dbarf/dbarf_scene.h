@@ -65,6 +65,12 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
                           const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
                           int64_t width);
 
+// Cameras between the data layer and tensors: 4x4 matrices [4, 4] float32 and back, and a
+// camera's intrinsics [3, 3] float32.
+torch::Tensor Matrix4ToTensor(const Eigen::Matrix4d& m);
+Eigen::Matrix4d TensorToMatrix4(const torch::Tensor& t);
+torch::Tensor IntrinsicsToTensor(const Camera& camera);
+
 // Image [H, W, C] in [0, 1] -> tensor [3, H, W] float32 (alpha composited over white), and back.
 torch::Tensor ImageToTensor(const Image& image);
 Image TensorToImage(const torch::Tensor& chw);

@@ -190,12 +190,8 @@ int RunDbarfRender(int argc, char** argv) {
   try {
     ProgressBar bar("dbarf render", static_cast<int64_t>(cams.frames.size()), "view");
     for (const Frame& f : cams.frames) {
-      const torch::Tensor k = torch::tensor({f.camera.fx, 0.0, f.camera.cx, 0.0, f.camera.fy, f.camera.cy, 0.0, 0.0, 1.0},
-                                            torch::kFloat).view({3, 3});
-      torch::Tensor pose = torch::empty({4, 4}, torch::kFloat);
-      const Eigen::Matrix4d m = f.cam_from_world.ToMatrix();
-      for (int r = 0; r < 4; ++r)
-        for (int col = 0; col < 4; ++col) pose[r][col] = static_cast<float>(m(r, col));
+      const torch::Tensor k = IntrinsicsToTensor(f.camera);
+      const torch::Tensor pose = Matrix4ToTensor(f.cam_from_world.ToMatrix());
       const std::vector<int> sources = NearestViews(loaded.scene, pose, num_sources);
       const NovelView v = RenderNovelView(model, loaded.scene, sources, k, pose, f.camera.height, f.camera.width);
       std::string name = fs::path(f.name).replace_extension(".png").string();
@@ -249,12 +245,7 @@ int RunDbarfEval(int argc, char** argv) {
   for (const auto& name : loaded.not_posed)
     for (int v = 0; v < scene.NumViews(); ++v)
       if (scene.image_names[v] == name) posed[v] = false;
-  const auto rigid = [](const torch::Tensor& t) {
-    Eigen::Matrix4d m;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m(r, c) = t[r][c].item<double>();
-    return Rigid3d::FromMatrix(m, 1e-3);
-  };
+  const auto rigid = [](const torch::Tensor& t) { return Rigid3d::FromMatrix(TensorToMatrix4(t), 1e-3); };
   for (int v = 0; v < scene.NumViews(); ++v) {
     if (!posed[v]) continue;
     est.push_back(rigid(scene.cam_from_world[v]));
