@@ -10,12 +10,6 @@ namespace {
 
 const char* kFormatTag = "nerfreg-dbarf-weights";
 
-std::vector<int64_t> Int64s(const JsonField& j) {
-  std::vector<int64_t> out;
-  for (size_t i = 0; i < j.ArraySize(); ++i) out.push_back(j[i].Int());
-  return out;
-}
-
 // A lower bound on the pose network's parameters (pose_depth_net.cc): the 3x3 residual blocks of
 // its three encoders and the six 1x5 / 5x1 convolutions of each of its two GRUs. With the
 // generalizable NeRF's bound, what a weights file must be able to hold before anything is built.
@@ -51,7 +45,7 @@ Json PoseDepthNetOptionsToJson(const PoseDepthNetOptions& o) {
 
 PoseDepthNetOptions PoseDepthNetOptionsFromJson(const JsonField& j) {
   PoseDepthNetOptions o;
-  o.encoder_widths = Int64s(j["encoder_widths"]);
+  o.encoder_widths = j["encoder_widths"].Int64s();
   o.blocks_per_stage = j["blocks_per_stage"].Int();
   o.fuse_channels = j["fuse_channels"].Int();
   o.feature_channels = j["feature_channels"].Int();

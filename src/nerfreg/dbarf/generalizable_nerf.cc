@@ -10,13 +10,6 @@ namespace {
 
 const char* kFormatTag = "nerfreg-generalizable-nerf";
 
-
-std::vector<int64_t> Int64s(const JsonField& j) {
-  std::vector<int64_t> out;
-  for (size_t i = 0; i < j.ArraySize(); ++i) out.push_back(j[i].Int());
-  return out;
-}
-
 }  // namespace
 
 GeneralizableNerfOptions GeneralizableNerfOptions::Paper() {
@@ -62,8 +55,8 @@ GeneralizableNerfOptions GeneralizableNerfOptionsFromJson(const JsonField& j) {
   const JsonField f = j["features"];
   o.features.in_channels = f["in_channels"].Int();
   o.features.stem_channels = f["stem_channels"].Int();
-  o.features.layer_channels = Int64s(f["layer_channels"]);
-  o.features.layer_blocks = Int64s(f["layer_blocks"]);
+  o.features.layer_channels = f["layer_channels"].Int64s();
+  o.features.layer_blocks = f["layer_blocks"].Int64s();
   o.features.out_channels = f["out_channels"].Int();
   o.features.nerf_channels = f["nerf_channels"].Int();
   const JsonField n = j["ibrnet"];

@@ -77,6 +77,13 @@ std::vector<double> JsonField::Doubles() const {
   return out;
 }
 
+std::vector<std::int64_t> JsonField::Int64s() const {
+  const size_t n = ArraySize();
+  std::vector<std::int64_t> out(n);
+  for (size_t i = 0; i < n; ++i) out[i] = (*this)[i].Int();
+  return out;
+}
+
 Eigen::MatrixXd JsonField::Matrix(int rows, int cols) const {
   const std::string shape = std::to_string(rows) + "x" + std::to_string(cols);
   if (!json_->is_array() || static_cast<int>(json_->size()) != rows) {

@@ -3,6 +3,7 @@
 // ("frames[3].transform_matrix") in its error, so a bad input produces one actionable line.
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,7 @@ class JsonField {
   std::string String() const;
   bool Bool() const;
   std::vector<double> Doubles() const;
+  std::vector<std::int64_t> Int64s() const;  // an array of integers (each as Int())
   // A rows x cols numeric matrix written as an array of row arrays (row-major, as in
   // transforms.json). Throws on wrong shape, non-numbers, NaN or inf.
   Eigen::MatrixXd Matrix(int rows, int cols) const;
