@@ -55,6 +55,16 @@ TEST(DbarfTrainCli, PretrainThenResume) {
   EXPECT_EQ(CountLines(w + ".log.jsonl"), 6);
   const Json summary = ReadJsonFile(w + ".json");
   EXPECT_EQ(summary["steps"].get<int>(), 6);
+  // Continue pretraining from those weights in a new run, with perturbed camera initialisations.
+  const std::string w2 = s.dir.File("w2.pt");
+  r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --weights " + w + " --steps 2 --init-noise-deg 1 " +
+                 "--init-noise-translation 0.05 --out " + w2 + train);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(CountLines(w2 + ".log.jsonl"), 2);
+  r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --steps 2 --init-noise-deg 45 --out " +
+                 s.dir.File("w3.pt") + train);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--init-noise-deg"), std::string::npos) << r.output;
 }
 
 TEST(DbarfTrainCli, FinetuneRenderAndEval) {
@@ -83,9 +93,14 @@ TEST(DbarfTrainCli, FinetuneRenderAndEval) {
 
   // Evaluate: every image posed, both test views rendered with finite scores.
   r = RunNerfreg("dbarf eval " + s.data + "/transforms.json --weights " + ft + " --sources 2 --json --quiet --out " +
-                 s.dir.File("eval"));
+                 s.dir.File("eval") + " --perturb-deg 2 --perturb-translation 0.1");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json e = ReadJsonFile(s.dir.File("eval/eval.json"));
+  // The perturbed rows: the same worse initialisation for the cameras and the network.
+  const Json& rel = e["relative_poses"];
+  EXPECT_GT(rel["perturbed"]["cameras"]["rotation_deg"].get<double>(),
+            rel["cameras"]["rotation_deg"].get<double>() + 1.0) << rel.dump();
+  EXPECT_EQ(rel["perturbed"]["network"]["pairs"], rel["network"]["pairs"]);
   EXPECT_EQ(e["posed"].get<int>(), 10);
   EXPECT_EQ(e["rendered"].get<int>(), 2);
   EXPECT_LT(e["rotation_deg_median"].get<double>(), 0.5);

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <ATen/CPUGeneratorImpl.h>
+
 #include "nerfreg/dbarf/ibr_render.h"
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/dbarf/sfm_loss.h"
@@ -110,6 +112,13 @@ void DbarfTrainOptions::Check() const {
   if (nerf_poses != "network" && nerf_poses != "cameras") {
     throw InputError("--nerf-poses: expected \"network\" or \"cameras\", got \"" + nerf_poses + "\"");
   }
+  if (!(init_noise_deg >= 0 && init_noise_deg <= 30)) throw InputError("--init-noise-deg: expected 0 to 30");
+  if (!(init_noise_translation >= 0 && init_noise_translation <= 1)) {
+    throw InputError("--init-noise-translation: expected 0 to 1 (a fraction of each baseline)");
+  }
+  if ((init_noise_deg > 0 || init_noise_translation > 0) && pose_init != "cameras") {
+    throw InputError("--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
+  }
 }
 
 DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options)
@@ -150,6 +159,18 @@ torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, c
   return torch::matmul(cam_from_world.index_select(0, idx), world_from_tgt);
 }
 
+torch::Tensor PerturbRelativePoses(const torch::Tensor& src_from_tgt, double deg, double translation,
+                                   c10::optional<at::Generator> generator) {
+  TORCH_CHECK(src_from_tgt.dim() == 3 && src_from_tgt.size(1) == 4 && src_from_tgt.size(2) == 4,
+              "PerturbRelativePoses: expected [N, 4, 4], got ", src_from_tgt.sizes());
+  const int64_t n = src_from_tgt.size(0);
+  const auto options = src_from_tgt.options();
+  const torch::Tensor baseline = src_from_tgt.slice(1, 0, 3).select(2, 3).norm(2, 1, true);  // [N, 1]
+  const torch::Tensor rho = torch::randn({n, 3}, generator, options) * translation * baseline;
+  const torch::Tensor omega = torch::randn({n, 3}, generator, options) * (deg * M_PI / 180.0);
+  return Se3Update(torch::cat({rho, omega}, 1), src_from_tgt);
+}
+
 DbarfStepResult DbarfTrainer::Step() {
   DbarfStepResult result;
   result.stage = options_.schedule == "nerf" ? DbarfStage::kNerf : DbarfStageOfStep(step_, options_.stage_steps);
@@ -184,8 +205,11 @@ DbarfStepResult DbarfTrainer::Step() {
   torch::Tensor src_from_tgt;  // [N, 4, 4]
   if (pose_grad || options_.nerf_poses == "network") {
     torch::AutoGradMode grad(pose_grad);
-    const torch::Tensor init =
+    torch::Tensor init =
         options_.pose_init == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources) : torch::Tensor();
+    if (pose_grad && init.defined() && (options_.init_noise_deg > 0 || options_.init_noise_translation > 0)) {
+      init = PerturbRelativePoses(init, options_.init_noise_deg, options_.init_noise_translation);
+    }
     pred = model_->pose_net->forward(target, source_images, k_t, init);
     src_from_tgt = pred.src_from_tgt.back();
   }
@@ -368,14 +392,24 @@ struct PoseErrorSum {
 
 }  // namespace
 
+// The initial relative poses of target t: the scene's cameras, perturbed by a draw that depends
+// only on (noise.seed, t), so cameras and network see the same initialisation.
+static torch::Tensor InitialRelativePoses(const DbarfScene& scene, int t, const std::vector<int>& sources,
+                                   const RelativePoseNoise& noise) {
+  const torch::Tensor cameras = RelativeCameras(scene.cam_from_world, t, sources);
+  if (!noise.Active()) return cameras;
+  at::Generator generator = at::detail::createCPUGenerator(noise.seed * 1000003ULL + static_cast<uint64_t>(t));
+  return PerturbRelativePoses(cameras, noise.deg, noise.translation, generator);
+}
+
 RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
-                                              int num_sources) {
+                                              int num_sources, const RelativePoseNoise& noise) {
   PoseErrorSum sum;
   for (int t = 0; t < scene.NumViews(); ++t) {
     if (!scene.usable[t]) continue;
     const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
     if (!sources.empty()) {
-      sum.Add(RelativeCameras(scene.cam_from_world, t, sources), RelativeCameras(true_cam_from_world, t, sources));
+      sum.Add(InitialRelativePoses(scene, t, sources, noise), RelativeCameras(true_cam_from_world, t, sources));
     }
   }
   return sum.Result();
@@ -383,7 +417,7 @@ RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const tor
 
 RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& scene,
                                         const torch::Tensor& true_cam_from_world, int num_sources,
-                                        const std::string& pose_init) {
+                                        const std::string& pose_init, const RelativePoseNoise& noise) {
   torch::NoGradGuard no_grad;
   model.Train(false);
   model.pose_net->SetDepthRange(scene.near, scene.far);
@@ -394,7 +428,7 @@ RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& sce
     if (sources.empty()) continue;
     const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
     const torch::Tensor init =
-        pose_init == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources) : torch::Tensor();
+        pose_init == "cameras" ? InitialRelativePoses(scene, t, sources, noise) : torch::Tensor();
     const auto pred = model.pose_net->forward(scene.images.slice(0, t, t + 1), scene.images.index_select(0, idx),
                                               scene.intrinsics[t], init);
     sum.Add(pred.src_from_tgt.back(), RelativeCameras(true_cam_from_world, t, sources));

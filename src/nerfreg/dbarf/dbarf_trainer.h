@@ -72,6 +72,12 @@ struct DbarfTrainOptions {
   // "dbarf": the stage rule above; "nerf": the NeRF-only stage throughout (the renderer alone, on
   // the scene's cameras or the network's poses as nerf_poses says).
   std::string schedule = "dbarf";
+  // Pose stages with pose_init "cameras": each source's initial relative pose is perturbed by a
+  // random twist (PerturbRelativePoses), so that the network sees initial errors and learns to
+  // correct them from its cost maps. Without it, cameras that are already nearly right teach it
+  // to output zero corrections. 0: no perturbation.
+  double init_noise_deg = 0;
+  double init_noise_translation = 0;
   uint64_t seed = 0;
 
   static DbarfTrainOptions Pretrain();
@@ -137,6 +143,22 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
 // src_from_tgt [N, 4, 4] of views `sources` relative to `target` from the scene's cameras.
 torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources);
 
+// src_from_tgt [N, 4, 4] moved by a random twist per pose: a rotation about a random axis whose
+// per-axis components have standard deviation `deg` degrees, and a translation whose per-axis
+// standard deviation is `translation` times that pose's baseline |t| (scale-free). Draws from
+// `generator` (the global one when undefined).
+torch::Tensor PerturbRelativePoses(const torch::Tensor& src_from_tgt, double deg, double translation,
+                                   c10::optional<at::Generator> generator = c10::nullopt);
+
+// A fixed perturbation of the initial relative poses for evaluation: the same draw for the
+// cameras' error and the network's refinement of them.
+struct RelativePoseNoise {
+  double deg = 0;
+  double translation = 0;
+  uint64_t seed = 0;
+  bool Active() const { return deg > 0 || translation > 0; }
+};
+
 struct RelativePoseError {
   double rotation_deg = 0;     // mean geodesic angle
   double translation = 0;      // mean |t_pred - t_true| (scene units)
@@ -150,9 +172,10 @@ struct RelativePoseError {
 // With `pose_init` "cameras" the network starts from the scene's cameras (as in training).
 RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& scene,
                                         const torch::Tensor& true_cam_from_world, int num_sources,
-                                        const std::string& pose_init = "network");
+                                        const std::string& pose_init = "network",
+                                        const RelativePoseNoise& noise = {});
 // The error of the scene's own cameras, measured the same way (what the network should improve on).
 RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
-                                              int num_sources);
+                                              int num_sources, const RelativePoseNoise& noise = {});
 
 }  // namespace nerfreg

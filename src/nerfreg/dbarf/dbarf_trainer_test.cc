@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+
+#include <ATen/CPUGeneratorImpl.h>
 
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/dbarf/test_scene.h"
@@ -110,9 +113,67 @@ TEST(DbarfTrainer, AnUntrainedNetworkReturnsTheCamerasItStartsFrom) {
   EXPECT_GT(cameras.rotation_deg, 1.0);
   EXPECT_NEAR(network.rotation_deg, cameras.rotation_deg, 0.05);
   EXPECT_NEAR(network.translation, cameras.translation, 1e-3);
+  // From a perturbed initialisation it returns that initialisation, the same draw as the cameras'
+  // row gets.
+  const RelativePoseNoise perturb{2.0, 0.1, 5};
+  const RelativePoseError perturbed = EvaluateCameraRelativePoses(scene, truth, 3, perturb);
+  const RelativePoseError network_perturbed = EvaluateRelativePoses(model, scene, truth, 3, "cameras", perturb);
+  EXPECT_NE(perturbed.rotation_deg, cameras.rotation_deg);
+  EXPECT_NEAR(network_perturbed.rotation_deg, perturbed.rotation_deg, 0.05);
+  EXPECT_NEAR(network_perturbed.translation, perturbed.translation, 1e-3);
   // Without cameras it starts at the identity.
   const RelativePoseError identity = EvaluateRelativePoses(model, scene, truth, 3, "network");
   EXPECT_GT(identity.translation, 3 * cameras.translation);
+}
+
+TEST(DbarfTrainer, PerturbRelativePosesHasTheRequestedSpreadAndIsSeeded) {
+  // 4000 copies of one pose with a 0.5 baseline.
+  const torch::Tensor pose = Se3Exp(torch::tensor({{0.3, -0.2, 0.3, 0.05, 0.1, -0.02}}, torch::kFloat));
+  const double baseline = pose[0].slice(0, 0, 3).select(1, 3).norm().item<double>();
+  const torch::Tensor poses = pose.repeat({4000, 1, 1});
+  const auto draw = [&](double deg, double translation, uint64_t seed) {
+    return PerturbRelativePoses(poses, deg, translation, at::detail::createCPUGenerator(seed));
+  };
+  // A per-axis standard deviation s gives a Maxwell-distributed magnitude of mean 2 s sqrt(2 / pi).
+  const double maxwell = 2.0 * std::sqrt(2.0 / M_PI);
+  const torch::Tensor rotated = draw(2.0, 0.0, 1);
+  const torch::Tensor angle = Se3Log(torch::matmul(rotated, Se3Inverse(poses))).slice(1, 3, 6).norm(2, 1);
+  EXPECT_NEAR(angle.mean().item<double>() * 180.0 / M_PI, 2.0 * maxwell, 0.1 * 2.0 * maxwell);
+  // Translation alone adds rho to t (a per-axis spread of 0.1 baseline) and keeps the rotation.
+  const torch::Tensor shifted = draw(0.0, 0.1, 2);
+  const torch::Tensor moved = (shifted.slice(1, 0, 3).select(2, 3) - poses.slice(1, 0, 3).select(2, 3)).norm(2, 1);
+  EXPECT_NEAR(moved.mean().item<double>(), 0.1 * baseline * maxwell, 0.1 * 0.1 * baseline * maxwell);
+  EXPECT_TRUE(torch::allclose(shifted.slice(1, 0, 3).slice(2, 0, 3), poses.slice(1, 0, 3).slice(2, 0, 3)));
+  // Seeded: the same generator seed gives the same draw, another seed another.
+  EXPECT_TRUE(torch::equal(draw(1.0, 0.05, 3), draw(1.0, 0.05, 3)));
+  EXPECT_FALSE(torch::equal(draw(1.0, 0.05, 3), draw(1.0, 0.05, 4)));
+  EXPECT_TRUE(torch::allclose(draw(0.0, 0.0, 3), poses));
+}
+
+TEST(DbarfTrainer, InitialisationNoiseReachesThePoseNetworkAndNeedsCameras) {
+  torch::Tensor truth;
+  DbarfScene scene = RidgeScene(&truth);
+  scene.cam_from_world = truth;
+  DbarfTrainOptions options = SmallOptions();
+  options.pose_init = "cameras";
+  // An untrained network returns its initial poses: with exact cameras and no noise the first
+  // pose step's SfM loss is that of the true poses; perturbed, it is higher.
+  const auto first_sfm = [&](double deg) {
+    torch::manual_seed(0);
+    DbarfModel model(DbarfOptions::Cpu());
+    DbarfTrainOptions o = options;
+    o.init_noise_deg = deg;
+    DbarfTrainer trainer(&model, {scene}, o);
+    return trainer.Step().sfm_loss;
+  };
+  EXPECT_GT(first_sfm(3.0), first_sfm(0.0));
+  DbarfTrainOptions bad = options;
+  bad.init_noise_deg = 1.0;
+  bad.pose_init = "network";
+  EXPECT_THROW(bad.Check(), InputError);
+  bad.pose_init = "cameras";
+  bad.init_noise_translation = 2.0;
+  EXPECT_THROW(bad.Check(), InputError);
 }
 
 TEST(DbarfTrainer, WeightsAndStateRoundTripAndResumeReproducesTheNextStep) {

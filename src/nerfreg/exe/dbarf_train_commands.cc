@@ -54,6 +54,11 @@ void AddTrainOptions(CLI::App& app, TrainCli* c) {
       ->check(CLI::IsMember({"network", "cameras"}));
   app.add_option("--nerf-poses", c->train.nerf_poses, "Sources of the NeRF-only stage placed by: network or cameras")
       ->check(CLI::IsMember({"network", "cameras"}));
+  app.add_option("--init-noise-deg", c->train.init_noise_deg,
+                 "Pose stages: perturb each camera initialisation by this rotation (deg, per-axis std) so the network "
+                 "learns to correct errors");
+  app.add_option("--init-noise-translation", c->train.init_noise_translation,
+                 "Pose stages: perturb each camera initialisation's translation (per-axis std, fraction of its baseline)");
   app.add_option("--lr-feature", c->train.lr_feature, "Feature-net learning rate");
   app.add_option("--lr-mlp", c->train.lr_mlp, "IBRNet learning rate");
   app.add_option("--lr-pose", c->train.lr_pose, "Pose-network learning rate");
@@ -127,8 +132,14 @@ int RunDbarfPretrain(int argc, char** argv) {
   c.train.pose_init = "cameras";
   app.add_option("scenes", c.scenes, "Scene datasets")->required();
   app.add_option("--config", c.config, "Network sizes: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
+  app.add_option("--weights", c.weights, "Weights to continue pretraining from (default: a fresh network)");
   AddTrainOptions(app, &c);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (!c.weights.empty() && !c.run.resume) {
+    // The configuration is the starting weights'.
+    const DbarfOptions expected = DbarfOptions::Named(c.config);
+    LoadDbarfWeights(c.weights, &expected);
+  }
   return RunTraining(c, common, "pretrain");
 }
 
@@ -229,8 +240,16 @@ int RunDbarfEval(int argc, char** argv) {
   app.add_option("--out", out, "Output folder")->required();
   app.add_option("--sources", num_sources, "Source views per rendered view");
   app.add_option("--max-width", scene_options.max_width, "Downsample wider images to this width (0: as they are)");
+  RelativePoseNoise perturb;
+  app.add_option("--perturb-deg", perturb.deg,
+                 "Also score the network refining cameras perturbed by this rotation (deg, per-axis std)");
+  app.add_option("--perturb-translation", perturb.translation,
+                 "... and this translation (per-axis std, fraction of each baseline)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (num_sources < 1) throw InputError("--sources: expected >= 1");
+  if (!(perturb.deg >= 0 && perturb.deg <= 30 && perturb.translation >= 0 && perturb.translation <= 1)) {
+    throw InputError("--perturb-deg / --perturb-translation: expected 0 to 30 degrees and 0 to 1");
+  }
   CheckCanWriteOutput(out, common.force);
   DbarfModel model = LoadDbarfWeights(weights);
   const Timer timer;
@@ -259,6 +278,16 @@ int RunDbarfEval(int argc, char** argv) {
   const auto rel_json = [](const RelativePoseError& e) {
     return Json{{"rotation_deg", e.rotation_deg}, {"translation_direction_deg", e.translation_deg}, {"pairs", e.pairs}};
   };
+  Json relative = {{"cameras", rel_json(rel_cameras)}, {"network", rel_json(rel_network)}};
+  if (perturb.Active()) {
+    // What the network does with a worse initialisation than the cameras: the same perturbation
+    // for both rows.
+    relative["perturbed"] = {
+        {"deg", perturb.deg},
+        {"translation", perturb.translation},
+        {"cameras", rel_json(EvaluateCameraRelativePoses(scene, loaded.ground_truth, num_sources, perturb))},
+        {"network", rel_json(EvaluateRelativePoses(model, scene, loaded.ground_truth, num_sources, "cameras", perturb))}};
+  }
 
   // Novel views: test views at their estimated cameras, from training views.
   const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
@@ -309,7 +338,7 @@ int RunDbarfEval(int argc, char** argv) {
                          {"rotation_deg_mean", pe.aligned ? pe.mean_rotation_deg : -1.0},
                          {"center_median", pe.aligned ? pe.median_center : -1.0},
                          {"center_percent_median", pe.aligned ? pe.median_center_percent : -1.0},
-                         {"relative_poses", {{"cameras", rel_json(rel_cameras)}, {"network", rel_json(rel_network)}}},
+                         {"relative_poses", relative},
                          {"test_views", views.size()},
                          {"rendered", psnrs.size()},
                          {"psnr_mean", mean(psnrs)},

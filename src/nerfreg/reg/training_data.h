@@ -42,7 +42,7 @@ struct MakeDataOptions {
   unsigned procedural_seed = 1000;
   int mesh_pairs = 4;               // synthesised pairs per object (different random frames)
   int nerf_objects = 0;             // the first n objects also get real trained blocks
-  int blocks = 2;                   // blocks per object; with 4, adjacent pairs give low overlap
+  int blocks = 2;                   // blocks per object (4: fewer views per block; see README)
   double min_overlap = 0.05;        // pairs of blocks overlapping less are not written
   std::string split = "train";      // the split of every pair written
   int image_size = 100;             // NeRF renders (orbit), pixels
