@@ -21,7 +21,8 @@ struct IbrRenderOptions {
   // A ray is valid when more than num_samples * valid_sample_fraction of its samples have >= 2
   // valid source views; the original's "> 8 samples" at 64 samples is the fraction 1/8.
   double valid_sample_fraction = 0.125;
-  // Rays per chunk in RenderIbrImage (memory: chunk * num_samples * V per-view entries).
+  // Most rays per chunk in RenderIbrImage (memory: chunk * num_samples * V per-view entries); on
+  // the CPU it renders at most 256 a chunk, in parallel chunks.
   int64_t chunk_rays = 1024;
 
   // The original sizes, and a CPU configuration (fewer samples).

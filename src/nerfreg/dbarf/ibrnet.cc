@@ -8,6 +8,7 @@ namespace nerfreg {
 namespace {
 
 namespace nn = torch::nn;
+namespace F = torch::nn::functional;
 
 constexpr int64_t kBaseWidth = 32;   // base_fc output / vis_fc width
 constexpr int64_t kModelWidth = 16;  // geometry_fc output, transformer d_model
@@ -125,8 +126,14 @@ IbrNetOutput IbrNetImpl::forward(const torch::Tensor& rgb_feat, const torch::Ten
 
   torch::Tensor weight = PoolingWeights(ray_diff, mask);
   auto [mean, var] = FusedMeanVariance(f, weight);  // [R,S,1,view_ch]
-  torch::Tensor x =
-      base_fc_->forward(torch::cat({torch::cat({mean, var}, -1).expand({r, n, v, 2 * view_ch}), f}, -1));
+  // base_fc on cat(mean, var, f) per view, with its first layer split by input: the mean / variance
+  // part is the same for every view of a sample, so it is applied once per sample and broadcast
+  // (a quarter of a rendered view's multiply-adds, and no [R,S,V,3 view_ch] copy).
+  const auto* first = base_fc_->ptr(0)->as<nn::Linear>();
+  const torch::Tensor w = first->weight;  // [64, 3 view_ch]: (mean, var, f) columns
+  torch::Tensor x = F::linear(torch::cat({mean, var}, -1), w.narrow(1, 0, 2 * view_ch), first->bias) +
+                    F::linear(f, w.narrow(1, 2 * view_ch, view_ch));  // [R,S,V,64]
+  for (auto layer = std::next(base_fc_->begin()); layer != base_fc_->end(); ++layer) x = layer->forward(x);
 
   const torch::Tensor x_vis = vis_fc_->forward(x * weight);
   const torch::Tensor vis_logit = x_vis.narrow(3, kBaseWidth, 1);
