@@ -12,15 +12,11 @@
 #include "nerfreg/util/logging.h"
 
 namespace nerfreg {
-namespace {
 
-// The transforms.json behind `path` (a file or a folder holding one), or "" for other formats.
 std::string TransformsJsonPath(const std::string& path) {
   if (DetectCameraFormat(path) != CameraFormat::kTransformsJson) return "";
   return DirExists(path) ? JoinPaths(path, "transforms.json") : path;
 }
-
-}  // namespace
 
 torch::Tensor Matrix4ToTensor(const Eigen::Matrix4d& m) {
   const Eigen::Matrix<float, 4, 4, Eigen::RowMajor> f = m.cast<float>();

@@ -46,6 +46,9 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
 // camera depths, widened by 0.7 / 1.4. Throws InputError (source) with fewer than 10 depths.
 void DepthRangeFromPoints(const SfmResult& sfm, const std::string& source, double* near, double* far);
 
+// The transforms.json behind `path` (a file or a folder holding one), or "" for other formats.
+std::string TransformsJsonPath(const std::string& path);
+
 // The view graph as written into transforms.json by dbarf poses: [[name_i, name_j, inliers], ...].
 Json ViewGraphToJson(const ViewGraph& graph);
 

@@ -116,6 +116,10 @@ void DbarfTrainOptions::Check() const {
   if (!(init_noise_translation >= 0 && init_noise_translation <= 1)) {
     throw InputError("--init-noise-translation: expected 0 to 1 (a fraction of each baseline)");
   }
+  if (refine_cameras && nerf_poses != "cameras") {
+    throw InputError("--refine-cameras: the RGB loss reaches the cameras only with --nerf-poses cameras");
+  }
+  if (!(lr_cameras > 0)) throw InputError("--lr-cameras: expected > 0");
   if ((init_noise_deg > 0 || init_noise_translation > 0) && pose_init != "cameras") {
     throw InputError("--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
   }
@@ -142,6 +146,28 @@ DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, co
   nerf_optimizer_ = std::make_unique<torch::optim::Adam>(nerf_groups, torch::optim::AdamOptions(options_.lr_mlp));
   pose_optimizer_ =
       std::make_unique<torch::optim::Adam>(model_->PoseParameters(), torch::optim::AdamOptions(options_.lr_pose));
+  if (options_.refine_cameras) {
+    for (const DbarfScene& scene : scenes_) {
+      const int64_t v = scene.NumViews();
+      camera_twists_.push_back(torch::zeros({v, 6}, torch::kFloat).requires_grad_(true));
+      torch::Tensor mask = torch::ones({v, 1}, torch::kFloat);
+      for (int64_t i = 0; i < v; ++i) {
+        if (scene.usable[i]) {
+          mask[i] = 0.0;
+          break;
+        }
+      }
+      camera_masks_.push_back(mask);
+    }
+    camera_optimizer_ =
+        std::make_unique<torch::optim::Adam>(camera_twists_, torch::optim::AdamOptions(options_.lr_cameras));
+  }
+}
+
+torch::Tensor DbarfTrainer::Cameras(int s) const {
+  const DbarfScene& scene = scenes_.at(s);
+  if (!options_.refine_cameras) return scene.cam_from_world;
+  return Se3Update(camera_twists_[s] * camera_masks_[s], scene.cam_from_world);
 }
 
 std::vector<int> DbarfTrainer::SourcesOf(const DbarfScene& scene, int target, int k) {
@@ -199,6 +225,8 @@ DbarfStepResult DbarfTrainer::Step() {
   model_->pose_net->SetDepthRange(scene.near, scene.far);
   nerf_optimizer_->zero_grad();
   pose_optimizer_->zero_grad();
+  if (camera_optimizer_) camera_optimizer_->zero_grad();
+  const torch::Tensor cameras = Cameras(s);  // [V, 4, 4], with gradients to the twists when refined
 
   // The pose network (with gradients only where the pose optimiser steps).
   PoseDepthPrediction pred;
@@ -206,7 +234,7 @@ DbarfStepResult DbarfTrainer::Step() {
   if (pose_grad || options_.nerf_poses == "network") {
     torch::AutoGradMode grad(pose_grad);
     torch::Tensor init =
-        options_.pose_init == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources) : torch::Tensor();
+        options_.pose_init == "cameras" ? RelativeCameras(cameras.detach(), t, sources) : torch::Tensor();
     if (pose_grad && init.defined() && (options_.init_noise_deg > 0 || options_.init_noise_translation > 0)) {
       init = PerturbRelativePoses(init, options_.init_noise_deg, options_.init_noise_translation);
     }
@@ -222,8 +250,7 @@ DbarfStepResult DbarfTrainer::Step() {
   bool rgb_valid = false;
   if (nerf_on) {
     if (result.stage == DbarfStage::kNerf) {
-      src_from_tgt = options_.nerf_poses == "cameras" ? RelativeCameras(scene.cam_from_world, t, sources)
-                                                      : src_from_tgt.detach();
+      src_from_tgt = options_.nerf_poses == "cameras" ? RelativeCameras(cameras, t, sources) : src_from_tgt.detach();
     }
     const IbrSourceViews views =
         model_->nerf.PrepareSources(source_images, scene.intrinsics.index_select(0, src_idx), src_from_tgt);
@@ -259,6 +286,10 @@ DbarfStepResult DbarfTrainer::Step() {
     SetLearningRates(pose_optimizer_.get(), {options_.lr_pose}, decay);
     pose_optimizer_->step();
   }
+  if (camera_optimizer_ && result.stage == DbarfStage::kNerf && rgb_valid) {
+    SetLearningRates(camera_optimizer_.get(), {options_.lr_cameras}, decay);
+    camera_optimizer_->step();
+  }
   ++step_;
   return result;
 }
@@ -274,6 +305,14 @@ void DbarfTrainer::SaveState(const std::string& path) const {
   pose_optimizer_->save(pose);
   archive.write("nerf_optimizer", nerf);
   archive.write("pose_optimizer", pose);
+  if (camera_optimizer_) {
+    torch::serialize::OutputArchive cameras;
+    camera_optimizer_->save(cameras);
+    archive.write("camera_optimizer", cameras);
+    for (size_t s = 0; s < camera_twists_.size(); ++s) {
+      archive.write("camera_twists_" + std::to_string(s), camera_twists_[s].detach());
+    }
+  }
   WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
 }
 
@@ -292,6 +331,18 @@ void DbarfTrainer::LoadState(const std::string& path) {
     archive.read("pose_optimizer", pose);
     nerf_optimizer_->load(nerf);
     pose_optimizer_->load(pose);
+    if (camera_optimizer_) {
+      torch::serialize::InputArchive cameras;
+      archive.read("camera_optimizer", cameras);
+      camera_optimizer_->load(cameras);
+      for (size_t s = 0; s < camera_twists_.size(); ++s) {
+        torch::Tensor twist;
+        archive.read("camera_twists_" + std::to_string(s), twist);
+        if (twist.sizes() != camera_twists_[s].sizes()) ThrowInputError(path, "camera_twists", "one twist per image");
+        torch::NoGradGuard no_grad;
+        camera_twists_[s].copy_(twist);
+      }
+    }
   } catch (const c10::Error&) {
     ThrowInputError(path, "", "a complete DBARF training state for this configuration");
   }
@@ -363,6 +414,11 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
   };
   result.mean_psnr_last = tail_mean(psnrs);
   result.mean_sfm_last = tail_mean(sfms);
+  torch::NoGradGuard no_grad;
+  for (size_t s = 0; s < trainer.scenes().size(); ++s) {
+    const torch::Tensor c = trainer.Cameras(static_cast<int>(s));
+    result.cameras.push_back(c.defined() ? c.detach().clone() : c);
+  }
   return result;
 }
 

@@ -78,6 +78,13 @@ struct DbarfTrainOptions {
   // to output zero corrections. 0: no perturbation.
   double init_noise_deg = 0;
   double init_noise_translation = 0;
+  // Also refine each scene's cameras, BARF-style: one SE(3) twist per image (the first usable
+  // image's held at zero: it fixes the frame), optimised by the RGB loss of the NeRF stages, whose
+  // sources the cameras place (so it needs nerf_poses "cameras"). Its own Adam, lr_cameras with the
+  // same step decay. The rendering loss pulls a camera that is a degree or more off towards the
+  // others; it does not sharpen cameras that are already within ~0.1 deg (README).
+  bool refine_cameras = false;
+  double lr_cameras = 3e-3;
   uint64_t seed = 0;
 
   static DbarfTrainOptions Pretrain();
@@ -109,11 +116,17 @@ class DbarfTrainer {
   // The sources of `target` in `scene`: its usable view-graph neighbours, best first, at most `k`.
   static std::vector<int> SourcesOf(const DbarfScene& scene, int target, int k);
 
+  // Scene s's cameras [V, 4, 4] as training uses them: refined when refine_cameras, else the
+  // scene's own (undefined when it has none).
+  torch::Tensor Cameras(int s) const;
+
  private:
   DbarfModel* model_;
   std::vector<DbarfScene> scenes_;
   DbarfTrainOptions options_;
-  std::unique_ptr<torch::optim::Adam> nerf_optimizer_, pose_optimizer_;
+  std::unique_ptr<torch::optim::Adam> nerf_optimizer_, pose_optimizer_, camera_optimizer_;
+  std::vector<torch::Tensor> camera_twists_;  // per scene [V, 6] when refine_cameras
+  std::vector<torch::Tensor> camera_masks_;   // per scene [V, 1]: 0 for the frame's image
   int64_t step_ = 0;
   std::mt19937_64 rng_;
   std::vector<std::pair<int, int>> targets_;  // (scene, view) with at least one usable neighbour
@@ -136,6 +149,7 @@ struct DbarfRunResult {
   double seconds = 0;           // this run's wall time
   double mean_psnr_last = 0;    // over the last 10% of the steps that rendered
   double mean_sfm_last = 0;     // over the last 10% of the steps with an SfM loss
+  std::vector<torch::Tensor> cameras;  // per scene [V, 4, 4] as trained (refined with refine_cameras)
 };
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
                                 const DbarfRunOptions& run);

@@ -176,6 +176,37 @@ TEST(DbarfTrainer, InitialisationNoiseReachesThePoseNetworkAndNeedsCameras) {
   EXPECT_THROW(bad.Check(), InputError);
 }
 
+TEST(DbarfTrainer, CameraRefinementStepsInNerfStagesHoldsTheFrameAndResumes) {
+  torch::manual_seed(2);
+  torch::Tensor truth;
+  DbarfScene scene = RidgeScene(&truth);
+  scene.cam_from_world = truth;
+  DbarfModel model(DbarfOptions::Cpu());
+  DbarfTrainOptions options = SmallOptions();
+  options.stage_steps = 1;  // pose, nerf, pose, joint
+  options.pose_init = "cameras";
+  options.refine_cameras = true;
+  EXPECT_THROW(options.Check(), InputError);  // the RGB loss reaches cameras only when they place the sources
+  options.nerf_poses = "cameras";
+  DbarfTrainer trainer(&model, {scene}, options);
+  EXPECT_TRUE(torch::allclose(trainer.Cameras(0), truth, 0, 1e-6));
+  const std::vector<bool> moves = {false, true, false, false};  // only the NeRF stage steps the cameras
+  for (bool expected : moves) {
+    const torch::Tensor before = trainer.Cameras(0).detach().clone();
+    const DbarfStepResult r = trainer.Step();
+    const torch::Tensor after = trainer.Cameras(0).detach();
+    EXPECT_EQ(!torch::allclose(before, after, 0, 1e-7), expected) << DbarfStageName(r.stage);
+    EXPECT_TRUE(torch::allclose(after[0], truth[0], 0, 1e-6));  // view 0 fixes the frame
+  }
+  // The refined cameras are part of the training state.
+  ScopedTempDir dir;
+  trainer.SaveState(dir.File("state"));
+  DbarfTrainer resumed(&model, {scene}, options);
+  resumed.LoadState(dir.File("state"));
+  EXPECT_TRUE(torch::equal(resumed.Cameras(0).detach(), trainer.Cameras(0).detach()));
+  EXPECT_FALSE(torch::allclose(resumed.Cameras(0).detach(), truth, 0, 1e-7));
+}
+
 TEST(DbarfTrainer, WeightsAndStateRoundTripAndResumeReproducesTheNextStep) {
   const ScopedTempDir tmp;
   const std::string dir = tmp.path();

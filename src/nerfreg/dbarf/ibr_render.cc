@@ -134,15 +134,16 @@ IbrRenderOutput RenderIbrImage(ResUNet& feature_net, IbrNet& net, IbrSourceViews
   const IbrRays all = TargetRays(intrinsics, cam_from_world, height, width);
   const int64_t num_pixels = height * width;
   // On the CPU at most 256 rays a chunk whatever the cap: each chunk's per-view tensors (256 x S x V
-  // x 64 floats) then stay near the caches; 512 took 5.1-5.5 s a 128x96 view, 256 3.2-4.4 s
-  // (bench/dbarf_bench.cc, 2 cores). On a GPU, larger chunks fill the device.
+  // x 64 floats) then stay near the caches: after a first view, 512 took 5.1-5.5 s a 128x96 view and
+  // 256 3.2-4.4 s (bench/dbarf_bench.cc, 2 cores). On a GPU, larger chunks fill the device.
   const int64_t chunk_rays = all.origins.is_cuda() ? options.chunk_rays : std::min<int64_t>(options.chunk_rays, 256);
   const int64_t num_chunks = (num_pixels + chunk_rays - 1) / chunk_rays;
   std::vector<torch::Tensor> rgb(num_chunks), depth(num_chunks), valid(num_chunks), weights(num_chunks);
   // Chunks in parallel, each on one thread (torch ops inside a parallel region run serially): the
   // per-sample MLPs are small matrix products that one thread's BLAS call cannot spread over the
   // cores, so chunk-level parallelism keeps them busy (bench/dbarf_bench.cc).
-  at::parallel_for(0, num_chunks, 1, [&](int64_t begin, int64_t end) {
+  // (On a GPU the grain of num_chunks keeps it to one thread: the device is what runs in parallel.)
+  at::parallel_for(0, num_chunks, all.origins.is_cuda() ? num_chunks : 1, [&](int64_t begin, int64_t end) {
     torch::NoGradGuard no_grad_here;  // grad mode is per thread
     for (int64_t c = begin; c < end; ++c) {
       const int64_t start = c * chunk_rays, n = std::min(chunk_rays, num_pixels - start);

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "nerfreg/data/convert.h"
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf/dbarf_scene.h"
 #include "nerfreg/dbarf/dbarf_trainer.h"
@@ -35,6 +36,7 @@ namespace {
 struct TrainCli {
   std::vector<std::string> scenes;
   std::string out, config = "cpu", weights;
+  std::string cameras_out;  // finetune --refine-cameras: where the refined cameras go
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;
@@ -68,17 +70,36 @@ void AddTrainOptions(CLI::App& app, TrainCli* c) {
   app.add_option("--seed", c->train.seed, "Seed");
 }
 
-std::vector<DbarfScene> LoadScenes(const std::vector<std::string>& paths, const DbarfSceneOptions& options) {
-  std::vector<DbarfScene> scenes;
+std::vector<LoadedDbarfScene> LoadScenes(const std::vector<std::string>& paths, const DbarfSceneOptions& options) {
+  std::vector<LoadedDbarfScene> scenes;
   ProgressBar bar("loading scenes", static_cast<int64_t>(paths.size()), "scene");
   for (const auto& p : paths) {
-    LoadedDbarfScene s = LoadDbarfScene(p, options);
-    for (const auto& name : s.not_posed) LOG_WARN("{}: {} could not be posed; left out", p, name);
-    scenes.push_back(std::move(s.scene));
+    scenes.push_back(LoadDbarfScene(p, options));
+    for (const auto& name : scenes.back().not_posed) LOG_WARN("{}: {} could not be posed; left out", p, name);
     bar.Tick();
   }
   bar.Finish();
   return scenes;
+}
+
+// The input posed-images file (written by dbarf poses) with every frame's camera replaced by the
+// refined one; image paths relative to the output's folder; view graph and depth range kept.
+void WriteRefinedCameras(const std::string& input, const LoadedDbarfScene& loaded, const torch::Tensor& cam_from_world,
+                         const std::string& path) {
+  const Json original = ReadJsonFile(TransformsJsonPath(input));
+  Dataset d = loaded.dataset;
+  const fs::path out_dir = fs::absolute(fs::path(path)).parent_path();
+  for (size_t k = 0; k < d.frames.size(); ++k) {
+    Frame& f = d.frames[k];
+    f.file_path = fs::relative(fs::absolute(d.ImagePath(f)), out_dir).generic_string();
+    f.cam_from_world = Rigid3d::FromMatrix(TensorToMatrix4(cam_from_world[static_cast<int64_t>(k)]), 1e-3);
+  }
+  d.root = out_dir.string();
+  Json json = TransformsJsonFromDataset(d);
+  for (const char* key : {"view_graph", "not_posed", "dbarf_poses"})
+    if (original.contains(key)) json[key] = original[key];
+  json["dbarf_poses"]["refined"] = "dbarf finetune --refine-cameras (RGB loss of the NeRF stages)";
+  WriteJsonFile(path, json);
 }
 
 int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
@@ -92,7 +113,12 @@ int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
   const DbarfOptions expected = DbarfOptions::Named(c.config);
   DbarfModel model = c.run.resume ? LoadDbarfWeights(c.run.out, &expected)
                                   : (c.weights.empty() ? DbarfModel(expected) : LoadDbarfWeights(c.weights));
-  const std::vector<DbarfScene> scenes = LoadScenes(c.scenes, c.scene);
+  const std::vector<LoadedDbarfScene> loaded = LoadScenes(c.scenes, c.scene);
+  if (!c.cameras_out.empty() && loaded[0].estimated_here) {
+    ThrowInputError(c.scenes[0], "dbarf_poses", "posed images written by dbarf poses (--refine-cameras refines their cameras)");
+  }
+  std::vector<DbarfScene> scenes;
+  for (const auto& l : loaded) scenes.push_back(l.scene);
   if (!c.run.resume) {
     model.training = Json::object();
     model.training["kind"] = what;
@@ -103,6 +129,10 @@ int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
   const Json summary = {{"steps", r.steps}, {"seconds", r.seconds}, {"psnr_train_last", r.mean_psnr_last},
                         {"sfm_loss_last", r.mean_sfm_last}, {"weights", c.run.out}, {"scenes", c.scenes.size()}};
   WriteJsonFile(c.run.out + ".json", summary);
+  if (!c.cameras_out.empty()) {
+    WriteRefinedCameras(c.scenes[0], loaded[0], r.cameras[0], c.cameras_out);
+    LOG_INFO("refined cameras -> {}", c.cameras_out);
+  }
   if (common.json) std::printf("%s\n", summary.dump().c_str());
   LOG_INFO("{}: {} steps in {:.1f} s, training PSNR (last 10%) {:.2f} dB -> {}", what, r.steps, r.seconds,
            r.mean_psnr_last, c.run.out);
@@ -158,9 +188,15 @@ int RunDbarfFinetune(int argc, char** argv) {
   c.weights = DefaultDbarfWeights();
   app.add_option("scene", scene, "The scene")->required();
   app.add_option("--weights", c.weights, "Weights to start from (default: the shipped ones)");
+  app.add_option("--refine-cameras", c.cameras_out,
+                 "Also refine the scene's cameras (one SE(3) correction per image, by the RGB loss of the NeRF stages; "
+                 "needs --nerf-poses cameras and a scene written by dbarf poses) and write them to this transforms.json");
+  app.add_option("--lr-cameras", c.train.lr_cameras, "Camera-refinement learning rate");
   AddTrainOptions(app, &c);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.scenes = {scene};
+  c.train.refine_cameras = !c.cameras_out.empty();
+  if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force);
   // The configuration is the starting weights' (or, resuming, the run's own).
   const DbarfModel start = LoadDbarfWeights(c.run.resume ? c.run.out : c.weights);
   c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
