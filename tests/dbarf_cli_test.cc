@@ -88,5 +88,33 @@ TEST(DbarfCli, TooFewImagesIsAOneLineErrorNamingTheFolder) {
   EXPECT_FALSE(std::filesystem::exists(dir.File("o")));
 }
 
+// Missing intrinsics, and an image whose size is not its camera's: one-line errors naming what is
+// wrong, exit code 2, no output left behind.
+TEST(DbarfCli, MissingIntrinsicsAndAnImageOfAnotherSizeAreOneLineErrors) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene");
+  ASSERT_EQ(RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data).exit_code, 0);
+  CommandResult r = RunNerfreg("dbarf poses " + data + "/images --out " + dir.File("o"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--intrinsics"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("o")));
+
+  const Json t = ReadJsonFile(data + "/transforms.json");
+  std::string first = t["frames"][1]["file_path"].get<std::string>();
+  if (std::filesystem::path(first).extension().empty()) first += ".png";
+  const std::string image = data + "/" + first;
+  const Image original = ReadImage(image);
+  WriteImage(image, Image(original.width / 2, original.height / 2, 3));
+  r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --out " + dir.File("p"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(std::filesystem::path(first).filename().string()), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("p")));
+  r = RunNerfreg("dbarf eval " + data + "/transforms.json --out " + dir.File("e"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(std::filesystem::path(first).filename().string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("size"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("e")));
+}
+
 }  // namespace
 }  // namespace nerfreg
