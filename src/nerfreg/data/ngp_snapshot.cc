@@ -24,7 +24,9 @@ std::int64_t IntIn(const JsonField& f, std::int64_t lo, std::int64_t hi) {
   if (!j.is_number_integer()) f.Fail(range);
   if (j.is_number_unsigned()) {
     const auto u = j.get<std::uint64_t>();
-    if (u > static_cast<std::uint64_t>(hi)) f.Fail(range);
+    // Both bounds: msgpack stores non-negative integers unsigned, so 0 arrives here (found by
+    // fuzzing: base_resolution 0 passed as "in [1, 65536]").
+    if (u > static_cast<std::uint64_t>(hi) || static_cast<std::int64_t>(u) < lo) f.Fail(range);
     return static_cast<std::int64_t>(u);
   }
   const auto v = j.get<std::int64_t>();

@@ -144,6 +144,9 @@ TEST(NgpSnapshot, BadInputsAreInputErrors) {
   j["encoding"]["n_levels"] = -3;
   EXPECT_NE(error_of(j).find("encoding.n_levels: expected an integer in [1, 32]"), std::string::npos);
   j = t.json;
+  j["encoding"]["base_resolution"] = 0u;  // msgpack's unsigned 0 (found by fuzzing: it slipped past the lower bound)
+  EXPECT_NE(error_of(j).find("encoding.base_resolution: expected an integer in [1, 65536]"), std::string::npos);
+  j = t.json;
   j["network"]["otype"] = "CutlassMLP";
   EXPECT_NE(error_of(j).find("network.otype: expected"), std::string::npos);
   j = t.json;
