@@ -446,17 +446,17 @@ struct PoseErrorSum {
   }
 };
 
-}  // namespace
-
 // The initial relative poses of target t: the scene's cameras, perturbed by a draw that depends
 // only on (noise.seed, t), so cameras and network see the same initialisation.
-static torch::Tensor InitialRelativePoses(const DbarfScene& scene, int t, const std::vector<int>& sources,
+torch::Tensor InitialRelativePoses(const DbarfScene& scene, int t, const std::vector<int>& sources,
                                    const RelativePoseNoise& noise) {
   const torch::Tensor cameras = RelativeCameras(scene.cam_from_world, t, sources);
   if (!noise.Active()) return cameras;
   at::Generator generator = at::detail::createCPUGenerator(noise.seed * 1000003ULL + static_cast<uint64_t>(t));
   return PerturbRelativePoses(cameras, noise.deg, noise.translation, generator);
 }
+
+}  // namespace
 
 RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
                                               int num_sources, const RelativePoseNoise& noise) {
