@@ -32,7 +32,7 @@ void BM_DregRegisterCpu(benchmark::State& state) {
   DregNet net(DregModelOptions::Cpu());
   int points = 0;
   for (auto _ : state) {
-    const DregRegistration reg = Register(net, pair.src, pair.tgt, 0.1);
+    const DregRegistration reg = Register(net, pair.src, pair.tgt, DregSolveOptions{});
     points = reg.src_points + reg.tgt_points;
   }
   state.counters["keypoints"] = points;

@@ -7,6 +7,7 @@
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg/register_grids.h"
 #include "nerfreg/reg/training_data.h"
@@ -59,6 +60,20 @@ std::string DefaultDregWeights() {
 // else FPFH + RANSAC.
 std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "auto" : "ransac"; }
 
+// --refine field: the pose (after ICP) refined on the blocks' density fields; `json` records it.
+Eigen::Matrix4d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
+                               const Eigen::Matrix3Xd& tgt_points, const Eigen::Matrix4d& target_from_source,
+                               FieldAlignmentOptions options, double spread, Json* json) {
+  const Sim3d start = Sim3d::FromMatrix(target_from_source, 1e-3);
+  options.sample_spread = spread;
+  const FieldAlignmentResult f = AlignFields(BlockDensityField(source), BlockDensityField(target), src_points, tgt_points,
+                                             start.ToRigid(), options, start.scale);
+  if (f.iterations == 0) LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
+  *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
+           {"samples", f.samples}, {"seconds", f.seconds}, {"before", MatrixToJson(target_from_source)}};
+  return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation).ToMatrix();
+}
+
 int RunRegRegister(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
@@ -82,7 +97,15 @@ int RunRegRegister(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "ransac", "fgr", "dreg"}));
   double min_confidence = 0.3;
   app.add_option("--min-confidence", min_confidence, "auto: dreg answers below this confidence fall back to ransac (0.3)");
-  app.add_option("--refine", refine, "none or icp")->check(CLI::IsMember({"none", "icp"}));
+  app.add_option("--refine", refine,
+                 "none, icp (point-to-plane ICP on the surface points) or field (ICP, then the two density fields "
+                 "aligned: finer than the grid)")
+      ->check(CLI::IsMember({"none", "icp", "field"}));
+  FieldAlignmentOptions field_options;
+  app.add_option("--field-iterations", field_options.iterations, "field: Levenberg-Marquardt iterations at most (default 30)");
+  app.add_option("--field-occupancy-scale", field_options.occupancy_scale,
+                 "field: occupancy = 1 - exp(-scale * density) (default 0.05)");
+  app.add_option("--field-samples", field_options.max_samples, "field: samples per block at most (default 6000)");
   app.add_option("--weights", weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
   app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 32, as the shipped weights were trained)");
   std::string config;
@@ -90,8 +113,14 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
   app.add_option("--seed", seed, "Random seed");
+  std::string dreg_solver = "procrustes";
+  app.add_option("--dreg-solver", dreg_solver,
+                 "dreg: pose from the network's correspondences by procrustes (default: the paper's weighted Kabsch "
+                 "over all of them) or ransac (RANSAC over them, then Kabsch on its inliers)")
+      ->check(CLI::IsMember({"ransac", "procrustes"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force);
+  field_options.Check();
   Timer timer;
   NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
   Json fallback;
@@ -114,7 +143,8 @@ int RunRegRegister(int argc, char** argv) {
     dreg_grid_seconds = t_grid.Seconds();
     GridRegistrationOptions ro;
     ro.method = "dreg";
-    ro.icp = refine == "icp";
+    ro.dreg_solver = dreg_solver;
+    ro.icp = refine != "none";
     ro.voxel = voxel;
     ro.seed = seed;
     dreg_result = RegisterGrids(gs, gt, ro, &net);
@@ -128,11 +158,18 @@ int RunRegRegister(int argc, char** argv) {
       method = "ransac";
     }
   }
+  const double grid_cell = grid_options.side / grid_options.resolution;
   if (method == "dreg" || method == "auto") {
-    const GridRegistrationResult r = dreg_result;
+    GridRegistrationResult r = dreg_result;
     const double grid_seconds = dreg_grid_seconds;
     if (r.confidence < 0.3) LOG_WARN("{}: low confidence {:.2f}: the blocks may not overlap; do not trust this pose", out, r.confidence);
-    const Json result = {{"target_from_source", MatrixToJson(r.target_from_source)}, {"scale", r.scale},
+    Json field = nullptr;
+    if (refine == "field") {
+      r.target_from_source = RefineOnFields(source, target, ToEigen(gs.MaskedXyz()), ToEigen(gt.MaskedXyz()),
+                                            r.target_from_source, field_options, grid_cell, &field);
+      r.method += "+field";
+    }
+    const Json result = {{"target_from_source", MatrixToJson(r.target_from_source)}, {"scale", r.scale}, {"field", field},
                          {"confidence", r.confidence}, {"seconds", timer.Seconds()}, {"register_seconds", r.seconds},
                          {"grid_seconds", grid_seconds}, {"method", r.method}, {"weights", weights},
                          {"source_points", r.source_points}, {"target_points", r.target_points}};
@@ -149,7 +186,7 @@ int RunRegRegister(int argc, char** argv) {
   }
   ClassicalRegistrationOptions options;
   options.method = method;
-  options.icp = refine == "icp";
+  options.icp = refine != "none";
   options.voxel_size = voxel;
   options.normal_radius = 2 * voxel;
   options.feature_radius = 5 * voxel;
@@ -158,12 +195,20 @@ int RunRegRegister(int argc, char** argv) {
   if (src.cols() >= 3 && tgt.cols() >= 3) r = RegisterPointClouds(src, tgt, options);
   const double confidence = r.fitness;
   if (confidence < 0.3) LOG_WARN("{}: low confidence {:.2f}: the blocks may not overlap", out, confidence);
+  Json field = nullptr;
+  std::string name = method + (options.icp ? "+icp" : "");
+  if (refine == "field" && src.cols() >= 3 && tgt.cols() >= 3) {
+    r.target_from_source = Rigid3d::FromMatrix(
+        RefineOnFields(source, target, src, tgt, r.target_from_source.ToMatrix(), field_options, grid_cell, &field), 1e-3);
+    name += "+field";
+  }
   result = {{"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
             {"scale", 1.0},
+            {"field", field},
             {"confidence", confidence},
             {"inlier_rmse", r.inlier_rmse},
             {"seconds", timer.Seconds()},
-            {"method", method + (options.icp ? "+icp" : "")},
+            {"method", name},
             {"fallback_from", fallback.is_null() ? Json() : fallback},
             {"source_points", src.cols()},
             {"target_points", tgt.cols()}};
@@ -196,7 +241,8 @@ void Errors(const Eigen::Matrix4d& est_m, const Eigen::Matrix4d& gt_m, double* r
 
 // `reg eval --pairs`: every method on every pair's grids, one table.
 int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
-              const std::string& split, const std::string& weights, double voxel, int max_pairs, const std::string& out) {
+              const std::vector<std::string>& dreg_solvers, const std::string& split, const std::string& weights,
+              double voxel, int max_pairs, const std::string& out) {
   std::vector<PairRecord> pairs;
   for (const auto& p : ReadPairs(pairs_path))
     if (split == "all" || p.split == split) pairs.push_back(p);
@@ -214,13 +260,35 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   std::printf("%-32s %-12s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
   for (const auto& p : pairs) {
     const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
+    // --refine field needs the blocks themselves: real pairs keep block_K.ckpt beside block_K.grid.
+    std::unique_ptr<NerfBlock> src_block, tgt_block;
+    for (const auto& rf : refines) {
+      if (rf != "field" || src_block) continue;
+      if (p.kind != "nerf") {
+        LOG_WARN("{}: --refine field skipped: a synthesised pair has no NeRF blocks", p.name);
+        continue;
+      }
+      auto ckpt = [](const std::string& grid) { return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt"; };
+      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source)));
+      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target)));
+    }
     for (const auto& m : methods) {
+      for (const auto& solver : m == "dreg" ? dreg_solvers : std::vector<std::string>{"ransac"})
       for (const auto& rf : refines) {
+        if (rf == "field" && !src_block) continue;
         GridRegistrationOptions o;
         o.method = m;
-        o.icp = rf == "icp";
+        o.dreg_solver = solver;
+        o.icp = rf != "none";
         o.voxel = voxel;
-        const GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
+        GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
+        if (rf == "field") {
+          Json field;
+          r.target_from_source = RefineOnFields(*src_block, *tgt_block, ToEigen(src.MaskedXyz()), ToEigen(tgt.MaskedXyz()),
+                                                r.target_from_source, FieldAlignmentOptions{}, src.CellSize(), &field);
+          r.seconds += field["seconds"].get<double>();
+          r.method += "+field";
+        }
         EvalRow row;
         row.pair = p.name;
         row.method = r.method;
@@ -287,7 +355,7 @@ int RunRegEval(int argc, char** argv) {
                   "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
                   "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
   std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights();
-  std::vector<std::string> methods = {"ransac"}, refines = {"icp"};
+  std::vector<std::string> methods = {"ransac"}, refines = {"icp"}, dreg_solvers = {"procrustes"};
   int source = 0, target = 1, max_pairs = 0;
   double voxel = 0.05;
   app.add_option("--pair", pair, "Registration output (reg register)");
@@ -296,7 +364,12 @@ int RunRegEval(int argc, char** argv) {
   app.add_option("--target", target, "Target block index (default 1)");
   app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
   app.add_option("--methods", methods, "With --pairs: dreg, ransac, fgr (comma separated)")->delimiter(',');
-  app.add_option("--refine", refines, "With --pairs: none, icp or both (comma separated)")->delimiter(',');
+  app.add_option("--refine", refines,
+                 "With --pairs: none, icp, field (ICP, then the density fields aligned; real NeRF pairs only), comma "
+                 "separated")
+      ->delimiter(',');
+  app.add_option("--dreg-solver", dreg_solvers, "With --pairs: dreg's pose by ransac, procrustes or both (comma separated)")
+      ->delimiter(',');
   app.add_option("--split", split, "With --pairs: the pairs of this split (train, val or all; default val)");
   app.add_option("--max-pairs", max_pairs, "With --pairs: at most this many pairs");
   app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
@@ -308,8 +381,10 @@ int RunRegEval(int argc, char** argv) {
     for (const auto& m : methods)
       if (m != "dreg" && m != "ransac" && m != "fgr") ThrowInputError("--methods", "", "dreg, ransac or fgr, got " + m);
     for (const auto& r : refines)
-      if (r != "none" && r != "icp") ThrowInputError("--refine", "", "none or icp, got " + r);
-    return EvalPairs(pairs_path, methods, refines, split, weights, voxel, max_pairs, out);
+      if (r != "none" && r != "icp" && r != "field") ThrowInputError("--refine", "", "none, icp or field, got " + r);
+    for (const auto& s : dreg_solvers)
+      if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
+    return EvalPairs(pairs_path, methods, refines, dreg_solvers, split, weights, voxel, max_pairs, out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);

@@ -21,6 +21,33 @@ bool EstimateSim3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
                    const Eigen::VectorXd& weights, const AlignmentOptions& options,
                    Sim3d* tgt_from_src);
 
+// RANSAC over weighted correspondences, for matches of which many are wrong (a learned
+// matcher's; DReg-NeRF's weighted Kabsch over all of them is pulled away from the truth by every
+// outlier). Hypotheses come from 3 correspondences drawn in proportion to their weight; a
+// hypothesis scores the weight of the correspondences it moves within inlier_radius (truncated:
+// sum w_i (1 - d_i^2 / r^2)), and the best is refined by weighted Kabsch / Umeyama on its inliers,
+// re-scored, refine_iterations times.
+struct RobustAlignmentOptions {
+  bool estimate_scale = false;
+  double inlier_radius = 0.1;  // in the units of the points
+  int iterations = 2000;       // hypotheses drawn
+  int refine_iterations = 3;
+  unsigned seed = 0;           // the draws are deterministic given the seed
+  void Check() const;          // throws std::invalid_argument naming the field
+};
+
+struct RobustAlignmentResult {
+  Sim3d tgt_from_src;
+  double inlier_weight_fraction = 0;  // weight within inlier_radius of the result / total weight
+  int inliers = 0;
+  bool valid = false;  // false: fewer than 3 weighted points or no non-degenerate hypothesis
+};
+
+// src, tgt: [3, N]; weights: [N] >= 0 or empty for all ones. Throws std::invalid_argument on
+// mismatched sizes.
+RobustAlignmentResult EstimateSim3dRansac(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
+                                          const Eigen::VectorXd& weights, const RobustAlignmentOptions& options);
+
 // Convenience: rigid (Kabsch) alignment.
 bool EstimateRigid3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
                      const Eigen::VectorXd& weights, Rigid3d* tgt_from_src);

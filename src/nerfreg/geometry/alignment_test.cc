@@ -90,5 +90,75 @@ TEST(Alignment, DegenerateInputsFailCleanly) {
   EXPECT_FALSE(EstimateRigid3d(src, src, neg, &est));
 }
 
+// Learned matches: most are wrong. Kabsch over all of them is pulled far off; RANSAC over the
+// same weighted correspondences recovers the pose to the noise level, deterministically.
+TEST(Alignment, RansacRecoversThePoseWithMostMatchesWrong) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  const Sim3d gt(1.0, RandomRotation(0.2, 0.7, 0.4), Eigen::Vector3d(0.5, -0.3, 0.8));
+  const int n = 400;
+  const Eigen::Matrix3Xd src = RandomPoints(rng, n);
+  Eigen::Matrix3Xd tgt = Apply(gt, src);
+  std::normal_distribution<double> noise(0, 0.005);
+  Eigen::VectorXd w(n);
+  for (int i = 0; i < n; ++i) {
+    if (i % 10 < 7) {  // 70 % outliers: matched to another point of the target
+      tgt.col(i) = Apply(gt, src.col((i * 37 + 5) % n));
+    } else {
+      tgt.col(i) += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    }
+    w(i) = 0.5 + 0.5 * u(rng);
+  }
+  Rigid3d all;
+  ASSERT_TRUE(EstimateRigid3d(src, tgt, w, &all));
+  EXPECT_GT(RotationErrorDeg(all.rotation, gt.rotation), 5.0);
+
+  RobustAlignmentOptions o;
+  o.inlier_radius = 0.05;
+  const RobustAlignmentResult r = EstimateSim3dRansac(src, tgt, w, o);
+  ASSERT_TRUE(r.valid);
+  EXPECT_LT(RotationErrorDeg(r.tgt_from_src.rotation, gt.rotation), 0.5);
+  EXPECT_LT((r.tgt_from_src.translation - gt.translation).norm(), 0.01);
+  EXPECT_NEAR(r.inlier_weight_fraction, 0.3, 0.05);
+  EXPECT_GE(r.inliers, 110);
+  const RobustAlignmentResult again = EstimateSim3dRansac(src, tgt, w, o);
+  EXPECT_EQ(again.tgt_from_src.ToMatrix(), r.tgt_from_src.ToMatrix());
+
+  // Scale too, when asked.
+  const Sim3d gt_sim(1.7, gt.rotation, gt.translation);
+  Eigen::Matrix3Xd tgt_sim = Apply(gt_sim, src);
+  for (int i = 0; i < n; ++i) {
+    if (i % 10 < 6) tgt_sim.col(i) = Apply(gt_sim, src.col((i * 37 + 5) % n));
+  }
+  o.estimate_scale = true;
+  const RobustAlignmentResult s = EstimateSim3dRansac(src, tgt_sim, Eigen::VectorXd(), o);
+  ASSERT_TRUE(s.valid);
+  EXPECT_NEAR(s.tgt_from_src.scale, 1.7, 1e-6);
+  EXPECT_LT(RotationErrorDeg(s.tgt_from_src.rotation, gt.rotation), 1e-4);
+}
+
+TEST(Alignment, RansacDegenerateInputsAreInvalidNotErrors) {
+  std::mt19937 rng(3);
+  const Eigen::Matrix3Xd src = RandomPoints(rng, 20);
+  RobustAlignmentOptions o;
+  // Weight on two points only.
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(20);
+  w(0) = w(1) = 1;
+  EXPECT_FALSE(EstimateSim3dRansac(src, src, w, o).valid);
+  // All points on a line: no hypothesis is well posed.
+  Eigen::Matrix3Xd line(3, 20);
+  for (int i = 0; i < 20; ++i) line.col(i) = Eigen::Vector3d(0.1 * i, 0.2 * i, 0);
+  EXPECT_FALSE(EstimateSim3dRansac(line, line, Eigen::VectorXd(), o).valid);
+  // Non-finite points carry no weight instead of poisoning the result.
+  Eigen::Matrix3Xd bad = src;
+  bad(0, 3) = std::nan("");
+  const RobustAlignmentResult r = EstimateSim3dRansac(bad, src, Eigen::VectorXd(), o);
+  ASSERT_TRUE(r.valid);
+  EXPECT_LT(RotationErrorDeg(r.tgt_from_src.rotation, Eigen::Quaterniond::Identity()), 1e-6);
+  EXPECT_THROW(EstimateSim3dRansac(src, src.leftCols(5), Eigen::VectorXd(), o), std::invalid_argument);
+  o.inlier_radius = 0;
+  EXPECT_THROW(EstimateSim3dRansac(src, src, Eigen::VectorXd(), o), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -1,8 +1,10 @@
 #include "nerfreg/reg/dreg_model.h"
 
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
+#include "nerfreg/geometry/alignment.h"
 #include "nerfreg/reg/positional_encoding.h"
 #include "nerfreg/reg/weighted_procrustes.h"
 #include "nerfreg/util/error.h"
@@ -278,7 +280,23 @@ RegistrationAgreement ScoreRegistration(const torch::Tensor& x_src, const torch:
   return a;
 }
 
-DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, double inlier_radius) {
+void DregSolveOptions::Check() const {
+  if (solver != "procrustes" && solver != "ransac") ThrowInputError("--dreg-solver", "", "procrustes or ransac");
+  if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
+  if (ransac_iterations < 1) ThrowInputError("--ransac-iterations", "", ">= 1");
+}
+
+namespace {
+Eigen::Matrix3Xd ToMatrix3X(const torch::Tensor& xyz) {
+  const torch::Tensor c = xyz.to(torch::kDouble).cpu().contiguous();
+  Eigen::Matrix3Xd m(3, c.size(0));
+  if (c.size(0) > 0) std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
+  return m;
+}
+}  // namespace
+
+DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, const DregSolveOptions& options) {
+  options.Check();
   DregRegistration r;
   if (src.mask.sum().item<int64_t>() < 3 || tgt.mask.sum().item<int64_t>() < 3) return r;
   // Eval mode for the duration of the call, restored even if the forward pass throws.
@@ -291,19 +309,42 @@ DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, 
   torch::NoGradGuard no_grad;
   const DregOutput out = net->forward(src, tgt);
   const int64_t l = out.num_layers() - 1;
-  const torch::Tensor rot = out.rotation[l].to(torch::kDouble).cpu();
-  const torch::Tensor trans = out.translation[l].to(torch::kDouble).cpu();
+  // Both directions of the last layer: source keypoints with their matches in the target, and
+  // the target keypoints' matches in the source with the target keypoints.
+  const torch::Tensor x_src = torch::cat({out.src_xyz, out.tgt_corr[l]}).to(torch::kDouble).cpu();
+  const torch::Tensor x_tgt = torch::cat({out.src_corr[l], out.tgt_xyz}).to(torch::kDouble).cpu();
+  const torch::Tensor conf = torch::cat({out.src_conf[l], out.tgt_conf[l]}).to(torch::kDouble).cpu();
+  torch::Tensor rot = out.rotation[l].to(torch::kDouble).cpu();
+  torch::Tensor trans = out.translation[l].to(torch::kDouble).cpu();
   r.scale = out.scale[l].item<double>();
   r.valid = out.pose_valid[l].item<bool>();
+  if (options.solver == "ransac") {
+    RobustAlignmentOptions ro;
+    ro.estimate_scale = net->options().estimate_scale;
+    ro.inlier_radius = options.inlier_radius;
+    ro.iterations = options.ransac_iterations;
+    ro.seed = options.seed;
+    const torch::Tensor c = conf.contiguous();
+    const Eigen::VectorXd w = Eigen::Map<const Eigen::VectorXd>(c.data_ptr<double>(), c.size(0));
+    const RobustAlignmentResult robust = EstimateSim3dRansac(ToMatrix3X(x_src), ToMatrix3X(x_tgt), w, ro);
+    // Without a consistent hypothesis the network's own pose (and its validity) stands.
+    if (robust.valid) {
+      const Eigen::Matrix3d R = robust.tgt_from_src.rotation.toRotationMatrix();
+      rot = torch::from_blob(const_cast<double*>(Eigen::Matrix<double, 3, 3, Eigen::RowMajor>(R).data()), {3, 3},
+                             torch::kDouble)
+                .clone();
+      trans = torch::from_blob(const_cast<double*>(robust.tgt_from_src.translation.data()), {3}, torch::kDouble).clone();
+      r.scale = robust.tgt_from_src.scale;
+      r.valid = true;
+    }
+  }
   r.src_points = static_cast<int>(out.src_xyz.size(0));
   r.tgt_points = static_cast<int>(out.tgt_xyz.size(0));
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) r.target_from_source(i, j) = r.scale * rot[i][j].item<double>();
     r.target_from_source(i, 3) = trans[i].item<double>();
   }
-  const RegistrationAgreement a = ScoreRegistration(
-      torch::cat({out.src_xyz, out.tgt_corr[l]}).cpu(), torch::cat({out.src_corr[l], out.tgt_xyz}).cpu(),
-      torch::cat({out.src_conf[l], out.tgt_conf[l]}).cpu(), rot, trans, r.scale, inlier_radius);
+  const RegistrationAgreement a = ScoreRegistration(x_src, x_tgt, conf, rot, trans, r.scale, options.inlier_radius);
   if (r.valid) {
     r.confidence = a.confidence;
     r.inlier_fraction = a.inlier_fraction;

@@ -57,7 +57,9 @@ DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double 
   int success = 0;
   for (const auto& p : val) {
     const LoadedPair lp = Load(p);
-    const DregRegistration reg = Register(net, lp.source, lp.target, inlier_radius);
+    DregSolveOptions solve;
+    solve.inlier_radius = inlier_radius;
+    const DregRegistration reg = Register(net, lp.source, lp.target, solve);
     const Sim3d est = Sim3d::FromMatrix(reg.target_from_source, 1e-3);
     const Sim3d gt = Sim3d::FromMatrix(p.target_from_source, 1e-3);
     rot.push_back(RotationErrorDeg(est.rotation, gt.rotation));

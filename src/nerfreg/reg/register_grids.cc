@@ -13,6 +13,7 @@ void GridRegistrationOptions::Check() const {
   if (method != "dreg" && method != "ransac" && method != "fgr") ThrowInputError("--method", "", "dreg, ransac or fgr");
   if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
+  if (dreg_solver != "ransac" && dreg_solver != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes");
 }
 
 namespace {
@@ -51,7 +52,11 @@ GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& targe
   Rigid3d estimate;
   if (o.method == "dreg") {
     if (!net) throw std::logic_error("RegisterGrids: method dreg needs the network");
-    const DregRegistration d = Register(*net, source, target, o.inlier_radius);
+    DregSolveOptions solve;
+    solve.solver = o.dreg_solver;
+    solve.inlier_radius = o.inlier_radius;
+    solve.seed = o.seed;
+    const DregRegistration d = Register(*net, source, target, solve);
     r.scale = d.scale;
     r.confidence = d.confidence;
     const Eigen::Matrix3d sr = d.target_from_source.topLeftCorner<3, 3>() / d.scale;

@@ -18,10 +18,14 @@ struct GridRegistrationOptions {
   bool icp = true;              // refine with point-to-plane ICP on the masked points
   double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x, ICP distance 2x);
                                 // at least 1.1 x the grids' cell is used
-  double inlier_radius = 0.1;   // dreg: the radius of its confidence (DregRegistration)
+  double inlier_radius = 0.1;   // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)
+  std::string dreg_solver = "procrustes";  // dreg: "procrustes" (the paper's) or "ransac" (DregSolveOptions)
   unsigned seed = 0;
   void Check() const;           // throws InputError naming the option
-  std::string Name() const { return method + (icp ? "+icp" : ""); }
+  // "dreg", "dreg+icp", "ransac+icp", ...; dreg's RANSAC solve is "dreg/ransac".
+  std::string Name() const {
+    return method + (method == "dreg" && dreg_solver == "ransac" ? "/ransac" : "") + (icp ? "+icp" : "");
+  }
 };
 
 struct GridRegistrationResult {

@@ -1,0 +1,194 @@
+#include "nerfreg/reg/field_alignment.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+void FieldAlignmentOptions::Check() const {
+  if (!(occupancy_scale > 0)) ThrowInputError("--field-occupancy-scale", "", "> 0");
+  if (!(sample_spread > 0)) ThrowInputError("field alignment", "sample_spread", "> 0");
+  if (max_samples < 10) ThrowInputError("field alignment", "max_samples", ">= 10");
+  if (!(gradient_step > 0)) ThrowInputError("field alignment", "gradient_step", "> 0");
+  if (iterations < 0) ThrowInputError("--field-iterations", "", ">= 0");
+  if (!(tolerance_deg >= 0)) ThrowInputError("field alignment", "tolerance_deg", ">= 0");
+}
+
+DensityField BlockDensityField(NerfBlock& block) {
+  DensityField f;
+  f.density = [&block](const torch::Tensor& x) { return QueryDensity(block, x); };
+  const auto& o = block.field_options;
+  f.box = Eigen::AlignedBox3d(Eigen::Vector3d(o.aabb_min[0], o.aabb_min[1], o.aabb_min[2]),
+                              Eigen::Vector3d(o.aabb_max[0], o.aabb_max[1], o.aabb_max[2]));
+  return f;
+}
+
+namespace {
+
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
+// Two samples per surface point (a band across the surface), at most max_samples in all.
+Eigen::Matrix3Xd BandSamples(const Eigen::Matrix3Xd& points, const FieldAlignmentOptions& o, std::mt19937& rng) {
+  std::vector<Eigen::Index> order(points.cols());
+  for (Eigen::Index i = 0; i < points.cols(); ++i) order[i] = i;
+  const Eigen::Index keep = std::min<Eigen::Index>(points.cols(), o.max_samples / 2);
+  if (keep < points.cols()) {
+    std::shuffle(order.begin(), order.end(), rng);
+    order.resize(keep);
+  }
+  std::normal_distribution<double> n(0, 1);
+  Eigen::Matrix3Xd out(3, 2 * keep);
+  for (Eigen::Index k = 0; k < keep; ++k) {
+    const Eigen::Vector3d p = points.col(order[k]);
+    out.col(2 * k) = p + 0.25 * o.sample_spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
+    out.col(2 * k + 1) = p + 0.5 * o.sample_spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
+  }
+  return out;
+}
+
+Eigen::VectorXd Occupancy(const DensityField& f, const Eigen::Matrix3Xd& p, double scale) {
+  if (p.cols() == 0) return Eigen::VectorXd();
+  const torch::Tensor x =
+      torch::from_blob(const_cast<double*>(p.data()), {p.cols(), 3}, torch::kDouble).to(torch::kFloat).contiguous();
+  const torch::Tensor sigma = f.density(x).to(torch::kDouble).contiguous().view({-1});
+  TORCH_CHECK(sigma.size(0) == p.cols(), "AlignFields: the density field returned ", sigma.size(0), " values for ",
+              p.cols(), " points");
+  const Eigen::VectorXd s = Eigen::Map<const Eigen::VectorXd>(sigma.data_ptr<double>(), sigma.size(0));
+  return (1.0 - (-scale * s.array().max(0.0)).exp()).matrix();
+}
+
+// Occupancy at p and its central-difference gradient (one batched query of 7 points per sample).
+void OccupancyAndGradient(const DensityField& f, const Eigen::Matrix3Xd& p, double scale, double h, Eigen::VectorXd* o,
+                          Eigen::Matrix3Xd* g) {
+  const Eigen::Index n = p.cols();
+  Eigen::Matrix3Xd all(3, 7 * n);
+  all.leftCols(n) = p;
+  for (int a = 0; a < 3; ++a) {
+    all.middleCols((1 + 2 * a) * n, n) = p;
+    all.middleCols((1 + 2 * a) * n, n).row(a).array() += h;
+    all.middleCols((2 + 2 * a) * n, n) = p;
+    all.middleCols((2 + 2 * a) * n, n).row(a).array() -= h;
+  }
+  const Eigen::VectorXd occ = Occupancy(f, all, scale);
+  *o = occ.head(n);
+  g->resize(3, n);
+  for (int a = 0; a < 3; ++a) {
+    g->row(a) = ((occ.segment((1 + 2 * a) * n, n) - occ.segment((2 + 2 * a) * n, n)) / (2 * h)).transpose();
+  }
+}
+
+struct Linearisation {
+  double cost = 0;  // mean squared residual over weighted samples
+  int samples = 0;
+  Matrix6 h = Matrix6::Zero();
+  Vector6 b = Vector6::Zero();
+};
+
+}  // namespace
+
+FieldAlignmentResult AlignFields(const DensityField& source, const DensityField& target,
+                                 const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
+                                 const Rigid3d& initial, const FieldAlignmentOptions& o, double scale) {
+  o.Check();
+  if (!(scale > 0)) throw std::invalid_argument("AlignFields: scale must be > 0");
+  Timer timer;
+  FieldAlignmentResult result;
+  result.target_from_source = initial;
+  std::mt19937 rng(o.seed);
+  const Eigen::Matrix3Xd ys = BandSamples(source_points, o, rng);  // source frame
+  const Eigen::Matrix3Xd xt = BandSamples(target_points, o, rng);  // target frame
+  const Eigen::VectorXd os = Occupancy(source, ys, o.occupancy_scale);
+  const Eigen::VectorXd ot = Occupancy(target, xt, o.occupancy_scale);
+  const double h = o.gradient_step * o.sample_spread;
+
+  auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+    Linearisation l;
+    // Source samples in the target field: residual o_t(T y) - o_s(y), J = [z x g, g].
+    const Eigen::Matrix3Xd z = ((scale * r) * ys).colwise() + t;
+    Eigen::VectorXd o1;
+    Eigen::Matrix3Xd g1;
+    OccupancyAndGradient(target, z, o.occupancy_scale, h, &o1, &g1);
+    double sum = 0;
+    for (Eigen::Index i = 0; i < z.cols(); ++i) {
+      if (!target.box.contains(Eigen::Vector3d(z.col(i)))) continue;
+      const double res = o1(i) - os(i);
+      Vector6 j;
+      j << Eigen::Vector3d(z.col(i)).cross(Eigen::Vector3d(g1.col(i))), g1.col(i);
+      l.h.noalias() += j * j.transpose();
+      l.b.noalias() += j * res;
+      sum += res * res;
+      ++l.samples;
+    }
+    // Target samples in the source field: residual o_s(T^-1 x) - o_t(x), with g the source
+    // gradient carried into the target frame, J = [g x x, -g].
+    const Eigen::Matrix3Xd p = (r.transpose() * (xt.colwise() - t)) / scale;
+    Eigen::VectorXd o2;
+    Eigen::Matrix3Xd g2;
+    OccupancyAndGradient(source, p, o.occupancy_scale, h, &o2, &g2);
+    for (Eigen::Index i = 0; i < p.cols(); ++i) {
+      if (!source.box.contains(Eigen::Vector3d(p.col(i)))) continue;
+      const double res = o2(i) - ot(i);
+      const Eigen::Vector3d g = r * g2.col(i) / scale;
+      Vector6 j;
+      j << g.cross(Eigen::Vector3d(xt.col(i))), -g;
+      l.h.noalias() += j * j.transpose();
+      l.b.noalias() += j * res;
+      sum += res * res;
+      ++l.samples;
+    }
+    l.cost = l.samples > 0 ? sum / l.samples : 0;
+    return l;
+  };
+
+  Eigen::Matrix3d r = initial.RotationMatrix();
+  Eigen::Vector3d t = initial.translation;
+  Linearisation cur = linearise(r, t);
+  result.initial_cost = result.final_cost = cur.cost;
+  result.samples = cur.samples;
+  if (cur.samples < 10) {
+    result.seconds = timer.Seconds();
+    return result;
+  }
+  double lambda = 1e-3;
+  for (int it = 0; it < o.iterations; ++it) {
+    Matrix6 a = cur.h;
+    a.diagonal() *= 1 + lambda;
+    a.diagonal().array() += 1e-12;
+    const Vector6 dx = -a.ldlt().solve(cur.b);
+    if (!dx.allFinite()) break;
+    const double angle = dx.head<3>().norm();
+    const Eigen::Matrix3d dr =
+        angle > 0 ? Eigen::AngleAxisd(angle, dx.head<3>() / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d r_new = dr * r;
+    const Eigen::Vector3d t_new = dr * t + dx.tail<3>();
+    Linearisation next = linearise(r_new, t_new);
+    result.iterations = it + 1;
+    // Accept only what lowers the cost on at least half the samples (a step that moves the
+    // samples out of the other box must not win by leaving them out).
+    if (next.samples >= cur.samples / 2 && next.cost < cur.cost) {
+      r = r_new;
+      t = t_new;
+      cur = next;
+      lambda = std::max(lambda / 3, 1e-7);
+      if (angle * 180 / M_PI < o.tolerance_deg && dx.tail<3>().norm() < 1e-5) break;
+    } else {
+      lambda *= 4;
+      if (lambda > 1e6) break;
+    }
+  }
+  result.target_from_source = Rigid3d(Eigen::Quaterniond(r), t);
+  result.final_cost = cur.cost;
+  result.samples = cur.samples;
+  result.seconds = timer.Seconds();
+  return result;
+}
+
+}  // namespace nerfreg
