@@ -20,11 +20,17 @@ for k in 0 1; do
   $BIN nerf train "$OUT/data/block_$k" --out "$OUT/block_$k.ckpt" --preset fast --iters "$ITERS"
 done
 
-echo "== 3/4 register block 0 into block 1 (auto: DReg-NeRF with the shipped weights; then FPFH + RANSAC)"
-METHODS="ransac"
-[ -f models/dreg_cpu.pt ] && METHODS="auto ransac"  # auto: DReg-NeRF, FPFH + RANSAC when its confidence is low
-for m in $METHODS; do
-  $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --method "$m" --out "$OUT/target_from_source_$m.json"
+echo "== 3/4 register block 0 into block 1 (auto: DReg-NeRF and FPFH + RANSAC, each refined on the two fields, the best kept)"
+# name:method:refine. auto: every method refined on the fields, the best kept; "ransac": the
+# classical pipeline alone (FPFH + RANSAC + ICP), for comparison.
+RUNS="ransac:ransac:field"
+[ -f models/dreg_cpu.pt ] && RUNS="auto:auto:field ransac:ransac:icp"
+METHODS=""
+for run in $RUNS; do
+  IFS=: read -r name method refine <<< "$run"
+  METHODS="$METHODS $name"
+  $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --method "$method" --refine "$refine" \
+    --out "$OUT/target_from_source_$name.json"
 done
 
 echo "== 4/4 errors against the ground truth, pictures, report"
