@@ -116,6 +116,20 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   }
   for (const auto& e : m["edges"]) EXPECT_TRUE(e["field"].is_object()) << e.dump();
 
+  // reg eval --refine field on a real pair (block_K.ckpt beside block_K.grid): the block against
+  // itself, identity.
+  ASSERT_EQ(RunNerfreg("reg extract " + block + " --quiet --out " + dir.File("b.grid")).exit_code, 0);
+  const Json pairs = {{"pairs", Json::array({{{"name", "self"}, {"kind", "nerf"}, {"split", "val"}, {"source", "b.grid"},
+                                              {"target", "b.grid"},
+                                              {"target_from_source", MatrixToJson(Eigen::Matrix4d::Identity())}}})}};
+  WriteJsonFile(dir.File("pairs.json"), pairs);
+  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") + " --methods ransac --refine icp,field --out " +
+                                        dir.File("eval.json"));
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  const Json table = ReadJsonFile(dir.File("eval.json"));
+  ASSERT_TRUE(table["summary"].contains("ransac+icp+field")) << table.dump();
+  EXPECT_LT(table["summary"]["ransac+icp+field"]["median_rotation_deg"].get<double>(), 0.2);
+
   // Bad refinement options are one-line errors before any work.
   const CommandResult bad = RunNerfreg("reg register " + block + " " + block + " --field-iterations -1 --out " + dir.File("x.json"));
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
