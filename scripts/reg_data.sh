@@ -4,6 +4,7 @@
 # below and procedural objects are used (see README, Data).
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
+#   train_nerf: real block pairs of two training meshes (tuning the field refinement);
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs AND
 #          pairs of real trained NeRF blocks (2-block split; 4-block split for low overlap).
 set -euo pipefail
@@ -29,6 +30,10 @@ common=(--grid-resolution "$RES" --quiet)
   --split val --out "$OUT/val_mesh" "${common[@]}"
 # Held-out pairs of real NeRF blocks (the slow part: ~3 min a block on 2 cores).
 [ "${SKIP_NERF:-0}" = 1 ] && exit 0
+# Real block pairs of two training meshes: the tuning set of the field refinement
+# (reg/field_alignment.h; README, "Fine registration on the fields").
+"$BIN" reg make-data --meshes "$A/OBJ/WusonOBJ.obj" "$A/OBJ/regr01.obj" --mesh-pairs 0 --nerf-objects 2 --split train \
+  --out "$OUT/train_nerf" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
   --out "$OUT/val_nerf" "${common[@]}"
 # Low overlap: adjacent blocks of a 4-block split.

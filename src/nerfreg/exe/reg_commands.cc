@@ -297,7 +297,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   }
   std::vector<EvalRow> rows;
   bool warned_field = false;
-  std::printf("%-32s %-12s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
   for (const auto& p : pairs) {
     const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
     // --refine field needs the blocks themselves: real pairs keep block_K.ckpt beside block_K.grid.
@@ -338,7 +338,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
         row.overlap = p.overlap;
         Errors(r.target_from_source, p.target_from_source, &row.rotation_deg, &row.translation);
         rows.push_back(row);
-        std::printf("%-32s %-12s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
+        std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
                     row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
         std::fflush(stdout);
       }
@@ -346,7 +346,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   }
   // Summary per method: mean, median, success at (5 deg, 0.05 extent) and (10 deg, 0.1 extent).
   Json summary = Json::object();
-  std::printf("\n%-12s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
+  std::printf("\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
               "succ 5/.05", "succ 10/.1", "med time");
   std::vector<std::string> names;
   for (const auto& r : rows)
@@ -368,7 +368,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
     summary[name] = {{"pairs", rot.size()}, {"mean_rotation_deg", mean}, {"median_rotation_deg", Median(rot)},
                      {"median_translation_fraction", Median(trans)}, {"success_5deg_0.05", s5 / n},
                      {"success_10deg_0.1", s10 / n}, {"median_seconds", Median(secs)}};
-    std::printf("%-12s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean, Median(rot),
+    std::printf("%-20s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean, Median(rot),
                 Median(trans), 100 * s5 / n, 100 * s10 / n, Median(secs));
   }
   if (!out.empty()) {
@@ -446,8 +446,8 @@ int RunRegEval(int argc, char** argv) {
   const Json j = {{"rotation_error_deg", rot}, {"translation_error", trans}, {"translation_error_fraction", trans / extent},
                   {"success", success}, {"method", p.StringOr("method", "?")}, {"seconds", p.DoubleOr("seconds", 0)}};
   if (!out.empty()) WriteJsonFile(out, j);
-  std::printf("%-14s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
-  std::printf("%-14s %10.3f %12.4f %10.4f %8s\n", p.StringOr("method", "?").c_str(), rot, trans, trans / extent,
+  std::printf("%-22s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
+  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", p.StringOr("method", "?").c_str(), rot, trans, trans / extent,
               success ? "yes" : "no");
   return 0;
 }

@@ -42,6 +42,16 @@ NerfBlock TrainSmallBlock(const ScopedTempDir& dir, TriangleMesh* mesh_out) {
   return block;
 }
 
+// Grid options for that block: D = 32; the block is blurry (its surfaces spread their weight over
+// several samples: max alpha T averages ~0.3 on dense voxels), so the mask threshold is lowered.
+GridExtractionOptions SmallBlockGridOptions() {
+  GridExtractionOptions go;
+  go.resolution = 32;
+  go.surface.max_cameras = 8;
+  go.surface_threshold = 0.2;
+  return go;
+}
+
 // A grid extracted from a trained block lies on the object's true surface: it overlaps the
 // ground-truth grid of the same object (ray-cast, same frame) and not a rotated copy of it.
 TEST(GridExtraction, TrainedBlockGridMatchesTheTrueSurface) {
@@ -50,12 +60,7 @@ TEST(GridExtraction, TrainedBlockGridMatchesTheTrueSurface) {
   TriangleMesh mesh;
   NerfBlock block = TrainSmallBlock(dir, &mesh);
 
-  GridExtractionOptions go;
-  go.resolution = 32;
-  go.surface.max_cameras = 8;
-  // This 250-iteration 32x32 block is blurry: its surfaces spread their weight over several
-  // samples (max alpha T averages ~0.3 on dense voxels), so the mask threshold is lowered.
-  go.surface_threshold = 0.2;
+  GridExtractionOptions go = SmallBlockGridOptions();
   const RegGrid g = ExtractRegGrid(block, go);
   const std::int64_t masked = g.mask.sum().item<std::int64_t>();
   ASSERT_GT(masked, 100);
@@ -98,11 +103,7 @@ TEST(GridExtraction, FieldAlignmentRecoversAKnownMoveOfATrainedBlock) {
   ScopedTempDir dir;
   TriangleMesh mesh;
   NerfBlock block = TrainSmallBlock(dir, &mesh);
-  GridExtractionOptions go;
-  go.resolution = 32;
-  go.surface.max_cameras = 8;
-  go.surface_threshold = 0.2;
-  const RegGrid g = ExtractRegGrid(block, go);
+  const RegGrid g = ExtractRegGrid(block, SmallBlockGridOptions());
   const Rigid3d moved_from_block(Eigen::Quaterniond(Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -1, 0.6).normalized())),
                                  Eigen::Vector3d(0.2, 0.1, -0.3));
   const DensityField src = BlockDensityField(block);
