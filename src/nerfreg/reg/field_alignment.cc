@@ -109,40 +109,52 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
   const Eigen::VectorXd ot = Occupancy(target, xt, o.occupancy_scale);
   const double h = o.gradient_step * o.sample_spread;
 
-  auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+  // The cost at (r, t), and with `jacobian` its normal equations. A trial step needs the cost only:
+  // one density query per sample instead of seven (LM rejects many steps before it stops).
+  auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, bool jacobian) {
     Linearisation l;
     // Source samples in the target field: residual o_t(T y) - o_s(y), J = [z x g, g].
     const Eigen::Matrix3Xd z = ((scale * r) * ys).colwise() + t;
     Eigen::VectorXd o1;
     Eigen::Matrix3Xd g1;
-    OccupancyAndGradient(target, z, o.occupancy_scale, h, &o1, &g1);
+    if (jacobian) {
+      OccupancyAndGradient(target, z, o.occupancy_scale, h, &o1, &g1);
+    } else {
+      o1 = Occupancy(target, z, o.occupancy_scale);
+    }
     double sum = 0;
     for (Eigen::Index i = 0; i < z.cols(); ++i) {
       if (!target.box.contains(Eigen::Vector3d(z.col(i)))) continue;
       const double res = o1(i) - os(i);
+      sum += res * res;
+      ++l.samples;
+      if (!jacobian) continue;
       Vector6 j;
       j << Eigen::Vector3d(z.col(i)).cross(Eigen::Vector3d(g1.col(i))), g1.col(i);
       l.h.noalias() += j * j.transpose();
       l.b.noalias() += j * res;
-      sum += res * res;
-      ++l.samples;
     }
     // Target samples in the source field: residual o_s(T^-1 x) - o_t(x), with g the source
     // gradient carried into the target frame, J = [g x x, -g].
     const Eigen::Matrix3Xd p = (r.transpose() * (xt.colwise() - t)) / scale;
     Eigen::VectorXd o2;
     Eigen::Matrix3Xd g2;
-    OccupancyAndGradient(source, p, o.occupancy_scale, h, &o2, &g2);
+    if (jacobian) {
+      OccupancyAndGradient(source, p, o.occupancy_scale, h, &o2, &g2);
+    } else {
+      o2 = Occupancy(source, p, o.occupancy_scale);
+    }
     for (Eigen::Index i = 0; i < p.cols(); ++i) {
       if (!source.box.contains(Eigen::Vector3d(p.col(i)))) continue;
       const double res = o2(i) - ot(i);
+      sum += res * res;
+      ++l.samples;
+      if (!jacobian) continue;
       const Eigen::Vector3d g = r * g2.col(i) / scale;
       Vector6 j;
       j << g.cross(Eigen::Vector3d(xt.col(i))), -g;
       l.h.noalias() += j * j.transpose();
       l.b.noalias() += j * res;
-      sum += res * res;
-      ++l.samples;
     }
     l.cost = l.samples > 0 ? sum / l.samples : 0;
     return l;
@@ -150,7 +162,7 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
 
   Eigen::Matrix3d r = initial.RotationMatrix();
   Eigen::Vector3d t = initial.translation;
-  Linearisation cur = linearise(r, t);
+  Linearisation cur = linearise(r, t, true);
   result.initial_cost = result.final_cost = cur.cost;
   result.samples = cur.samples;
   if (cur.samples < 10) {
@@ -169,16 +181,21 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
         angle > 0 ? Eigen::AngleAxisd(angle, dx.head<3>() / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
     const Eigen::Matrix3d r_new = dr * r;
     const Eigen::Vector3d t_new = dr * t + dx.tail<3>();
-    Linearisation next = linearise(r_new, t_new);
+    const Linearisation trial = linearise(r_new, t_new, false);
     result.iterations = it + 1;
     // Accept only what lowers the cost on at least half the samples (a step that moves the
     // samples out of the other box must not win by leaving them out).
-    if (next.samples >= cur.samples / 2 && next.cost < cur.cost) {
+    if (trial.samples >= cur.samples / 2 && trial.cost < cur.cost) {
       r = r_new;
       t = t_new;
-      cur = next;
       lambda = std::max(lambda / 3, 1e-7);
-      if (angle * 180 / M_PI < o.tolerance_deg && dx.tail<3>().norm() < 1e-5) break;
+      const bool converged = angle * 180 / M_PI < o.tolerance_deg && dx.tail<3>().norm() < 1e-5;
+      if (converged || it + 1 == o.iterations) {
+        cur.cost = trial.cost;
+        cur.samples = trial.samples;
+        break;
+      }
+      cur = linearise(r, t, true);
     } else {
       lambda *= 4;
       if (lambda > 1e6) break;
