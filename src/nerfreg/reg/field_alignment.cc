@@ -113,49 +113,45 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
   // one density query per sample instead of seven (LM rejects many steps before it stops).
   auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, bool jacobian) {
     Linearisation l;
+    double sum = 0;
+    // Samples carried into `field` at `mapped`, against their own occupancy `reference`;
+    // jacobian_row(i, g) is d residual_i / d increment given the field's gradient g there.
+    auto accumulate = [&](const DensityField& field, const Eigen::Matrix3Xd& mapped, const Eigen::VectorXd& reference,
+                          auto jacobian_row) {
+      Eigen::VectorXd occ;
+      Eigen::Matrix3Xd grad;
+      if (jacobian) {
+        OccupancyAndGradient(field, mapped, o.occupancy_scale, h, &occ, &grad);
+      } else {
+        occ = Occupancy(field, mapped, o.occupancy_scale);
+      }
+      for (Eigen::Index i = 0; i < mapped.cols(); ++i) {
+        if (!field.box.contains(Eigen::Vector3d(mapped.col(i)))) continue;
+        const double res = occ(i) - reference(i);
+        sum += res * res;
+        ++l.samples;
+        if (!jacobian) continue;
+        const Vector6 j = jacobian_row(i, Eigen::Vector3d(grad.col(i)));
+        l.h.noalias() += j * j.transpose();
+        l.b.noalias() += j * res;
+      }
+    };
     // Source samples in the target field: residual o_t(T y) - o_s(y), J = [z x g, g].
     const Eigen::Matrix3Xd z = ((scale * r) * ys).colwise() + t;
-    Eigen::VectorXd o1;
-    Eigen::Matrix3Xd g1;
-    if (jacobian) {
-      OccupancyAndGradient(target, z, o.occupancy_scale, h, &o1, &g1);
-    } else {
-      o1 = Occupancy(target, z, o.occupancy_scale);
-    }
-    double sum = 0;
-    for (Eigen::Index i = 0; i < z.cols(); ++i) {
-      if (!target.box.contains(Eigen::Vector3d(z.col(i)))) continue;
-      const double res = o1(i) - os(i);
-      sum += res * res;
-      ++l.samples;
-      if (!jacobian) continue;
+    accumulate(target, z, os, [&](Eigen::Index i, const Eigen::Vector3d& g) {
       Vector6 j;
-      j << Eigen::Vector3d(z.col(i)).cross(Eigen::Vector3d(g1.col(i))), g1.col(i);
-      l.h.noalias() += j * j.transpose();
-      l.b.noalias() += j * res;
-    }
-    // Target samples in the source field: residual o_s(T^-1 x) - o_t(x), with g the source
-    // gradient carried into the target frame, J = [g x x, -g].
+      j << Eigen::Vector3d(z.col(i)).cross(g), g;
+      return j;
+    });
+    // Target samples in the source field: residual o_s(T^-1 x) - o_t(x), with the source gradient
+    // carried into the target frame (g_t = R g / scale), J = [g_t x x, -g_t].
     const Eigen::Matrix3Xd p = (r.transpose() * (xt.colwise() - t)) / scale;
-    Eigen::VectorXd o2;
-    Eigen::Matrix3Xd g2;
-    if (jacobian) {
-      OccupancyAndGradient(source, p, o.occupancy_scale, h, &o2, &g2);
-    } else {
-      o2 = Occupancy(source, p, o.occupancy_scale);
-    }
-    for (Eigen::Index i = 0; i < p.cols(); ++i) {
-      if (!source.box.contains(Eigen::Vector3d(p.col(i)))) continue;
-      const double res = o2(i) - ot(i);
-      sum += res * res;
-      ++l.samples;
-      if (!jacobian) continue;
-      const Eigen::Vector3d g = r * g2.col(i) / scale;
+    accumulate(source, p, ot, [&](Eigen::Index i, const Eigen::Vector3d& g) {
+      const Eigen::Vector3d gt = r * g / scale;
       Vector6 j;
-      j << g.cross(Eigen::Vector3d(xt.col(i))), -g;
-      l.h.noalias() += j * j.transpose();
-      l.b.noalias() += j * res;
-    }
+      j << gt.cross(Eigen::Vector3d(xt.col(i))), -gt;
+      return j;
+    });
     l.cost = l.samples > 0 ? sum / l.samples : 0;
     return l;
   };
