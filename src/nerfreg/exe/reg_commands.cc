@@ -22,13 +22,6 @@ using namespace nerfreg;
 
 namespace {
 
-Eigen::Matrix3Xd ToEigen(const torch::Tensor& xyz) {
-  const auto c = xyz.to(torch::kFloat64).contiguous();
-  Eigen::Matrix3Xd m(3, c.size(0));
-  std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
-  return m;
-}
-
 // Before / after: source in orange, target in blue, from three fixed viewpoints, beside `out`.
 void WriteOverlays(const std::string& out, const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
                    const Sim3d& target_from_source) {
@@ -171,8 +164,8 @@ int RunRegRegister(int argc, char** argv) {
     c.confidence = r.confidence;
     c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds}, {"weights", weights},
                {"source_points", r.source_points}, {"target_points", r.target_points}};
-    c.src = ToEigen(gs.MaskedXyz());
-    c.tgt = ToEigen(gt.MaskedXyz());
+    c.src = PointsToEigen(gs.MaskedXyz());
+    c.tgt = PointsToEigen(gt.MaskedXyz());
     candidates.push_back(c);
     if (method == "auto") {
       if (refine == "field") {
@@ -200,8 +193,8 @@ int RunRegRegister(int argc, char** argv) {
   if (run_classical) {
     const BlockPoints ps = ExtractOccupiedPoints(source, min_density, seed), pt = ExtractOccupiedPoints(target, min_density, seed);
     Candidate c;
-    c.src = ToEigen(ps.xyz);
-    c.tgt = ToEigen(pt.xyz);
+    c.src = PointsToEigen(ps.xyz);
+    c.tgt = PointsToEigen(pt.xyz);
     if (c.src.cols() < 100 || c.tgt.cols() < 100) {
       LOG_WARN("{}: too few occupied points (source {}, target {}); registration is unreliable", out, c.src.cols(), c.tgt.cols());
     }
@@ -325,7 +318,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
         GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
         if (rf == "field") {
           Json field;
-          r.target_from_source = RefineOnFields(*src_block, *tgt_block, ToEigen(src.MaskedXyz()), ToEigen(tgt.MaskedXyz()),
+          r.target_from_source = RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
                                                 r.target_from_source, FieldAlignmentOptions{}, src.CellSize(), &field);
           r.seconds += field["seconds"].get<double>();
           r.method += "+field";
@@ -483,7 +476,7 @@ int RunRegRegisterMany(int argc, char** argv) {
   std::vector<NerfBlock> blocks;  // kept for --refine field only
   for (const auto& p : paths) {
     NerfBlock b = LoadNerfBlock(p);
-    clouds.push_back(ToEigen(ExtractOccupiedPoints(b, min_density, seed).xyz));
+    clouds.push_back(PointsToEigen(ExtractOccupiedPoints(b, min_density, seed).xyz));
     if (clouds.back().cols() < 100) LOG_WARN("{}: only {} occupied points", p, clouds.back().cols());
     if (refine == "field") blocks.push_back(std::move(b));
   }

@@ -1,7 +1,6 @@
 #include "nerfreg/reg/dreg_model.h"
 
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 
 #include "nerfreg/geometry/alignment.h"
@@ -286,15 +285,6 @@ void DregSolveOptions::Check() const {
   if (ransac_iterations < 1) ThrowInputError("--ransac-iterations", "", ">= 1");
 }
 
-namespace {
-Eigen::Matrix3Xd ToMatrix3X(const torch::Tensor& xyz) {
-  const torch::Tensor c = xyz.to(torch::kDouble).cpu().contiguous();
-  Eigen::Matrix3Xd m(3, c.size(0));
-  if (c.size(0) > 0) std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
-  return m;
-}
-}  // namespace
-
 DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, const DregSolveOptions& options) {
   options.Check();
   DregRegistration r;
@@ -326,7 +316,7 @@ DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, 
     ro.seed = options.seed;
     const torch::Tensor c = conf.contiguous();
     const Eigen::VectorXd w = Eigen::Map<const Eigen::VectorXd>(c.data_ptr<double>(), c.size(0));
-    const RobustAlignmentResult robust = EstimateSim3dRansac(ToMatrix3X(x_src), ToMatrix3X(x_tgt), w, ro);
+    const RobustAlignmentResult robust = EstimateSim3dRansac(PointsToEigen(x_src), PointsToEigen(x_tgt), w, ro);
     // Without a consistent hypothesis the network's own pose (and its validity) stands.
     if (robust.valid) {
       const Eigen::Matrix3d R = robust.tgt_from_src.rotation.toRotationMatrix();

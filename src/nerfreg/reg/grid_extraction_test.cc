@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
-#include <cstring>
 
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/nerf/trainer.h"
@@ -118,9 +117,7 @@ TEST(GridExtraction, FieldAlignmentRecoversAKnownMoveOfATrainedBlock) {
     return src.density(torch::matmul(x, rt) + t);
   };
   tgt.box = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-4), Eigen::Vector3d::Constant(4));
-  Eigen::Matrix3Xd ps(3, g.MaskedXyz().size(0));
-  const torch::Tensor xyz = g.MaskedXyz().to(torch::kDouble).contiguous();
-  std::memcpy(ps.data(), xyz.data_ptr<double>(), sizeof(double) * xyz.numel());
+  const Eigen::Matrix3Xd ps = PointsToEigen(g.MaskedXyz());
   Eigen::Matrix3Xd pt(3, ps.cols());
   for (Eigen::Index i = 0; i < ps.cols(); ++i) pt.col(i) = moved_from_block * Eigen::Vector3d(ps.col(i));
   const Eigen::Quaterniond off(Eigen::AngleAxisd(3.0 * M_PI / 180, Eigen::Vector3d(1, 1, 1).normalized()));

@@ -1,5 +1,7 @@
 #include "nerfreg/reg/reg_grid.h"
 
+#include <cstring>
+
 #include <Eigen/Geometry>
 
 #include "nerfreg/util/error.h"
@@ -8,6 +10,14 @@
 #include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
+
+Eigen::Matrix3Xd PointsToEigen(const torch::Tensor& xyz) {
+  TORCH_CHECK(xyz.dim() == 2 && xyz.size(1) == 3, "PointsToEigen: points must be [N, 3]");
+  const torch::Tensor c = xyz.to(torch::kFloat64).cpu().contiguous();
+  Eigen::Matrix3Xd m(3, c.size(0));
+  if (c.size(0) > 0) std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
+  return m;
+}
 namespace {
 
 constexpr const char* kFormatTag = "nerfreg-reg-grid";

@@ -45,6 +45,10 @@ struct RegGrid {
   void Check() const;
 };
 
+// [N, 3] points (any float dtype) as a [3, N] Eigen matrix (the classical and geometric code's
+// layout), e.g. PointsToEigen(grid.MaskedXyz()).
+Eigen::Matrix3Xd PointsToEigen(const torch::Tensor& xyz);
+
 // Grids are torch archives with a format tag and version; written atomically. Load throws
 // InputError naming the file when it is missing, truncated, not a grid, or of another version.
 void SaveRegGrid(const RegGrid& grid, const std::string& path);

@@ -1,7 +1,6 @@
 #include "nerfreg/reg/register_grids.h"
 
 #include <algorithm>
-#include <cstring>
 
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/util/error.h"
@@ -16,24 +15,13 @@ void GridRegistrationOptions::Check() const {
   if (dreg_solver != "ransac" && dreg_solver != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes");
 }
 
-namespace {
-
-Eigen::Matrix3Xd ToEigen(const torch::Tensor& xyz) {
-  const auto c = xyz.to(torch::kFloat64).contiguous();
-  Eigen::Matrix3Xd m(3, c.size(0));
-  if (c.size(0) > 0) std::memcpy(m.data(), c.data_ptr<double>(), sizeof(double) * 3 * c.size(0));
-  return m;
-}
-
-}  // namespace
-
 GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
                                      DregNet* net) {
   o.Check();
   Timer timer;
   GridRegistrationResult r;
   r.method = o.Name();
-  const Eigen::Matrix3Xd src = ToEigen(source.MaskedXyz()), tgt = ToEigen(target.MaskedXyz());
+  const Eigen::Matrix3Xd src = PointsToEigen(source.MaskedXyz()), tgt = PointsToEigen(target.MaskedXyz());
   r.source_points = static_cast<int>(src.cols());
   r.target_points = static_cast<int>(tgt.cols());
   if (src.cols() < 8 || tgt.cols() < 8) {
