@@ -123,6 +123,40 @@ TEST(CheckpointCorruption, AChangedByteInsideThePickleFailsItsCrc) {
   EXPECT_NE(e.find("data.pkl fails its CRC-32"), std::string::npos) << e;
 }
 
+// Found by fuzz/torch_archive_fuzz.cc: LibTorch 1.13's reader leaks its zip state when it throws
+// while opening an archive, as it does when the version record is missing. A changed byte in that
+// entry's central-directory name did it (CRCs cover data, not names). The layout is now checked
+// before LibTorch opens the file: names must match their local headers, share one top folder and
+// include the version record.
+TEST(CheckpointCorruption, AChangedEntryNameIsRefusedBeforeLibTorchOpensTheFile) {
+  ScopedTempDir dir;
+  FieldOptions fo;
+  fo.encoding.levels = 2;
+  fo.encoding.log2_table_size = 6;
+  fo.hidden_dim = 16;
+  OccupancyGridOptions go;
+  go.resolution = 8;
+  NerfBlock block = NerfBlock::Create(fo, go, MarchOptions{}, 1);
+  const std::string good = dir.File("good.ckpt");
+  SaveNerfBlock(block, good);
+  const std::string bytes = ReadFileToString(good);
+  // The central directory comes after every local header: the last "/version" is its name there.
+  const size_t name = bytes.rfind("/version");
+  ASSERT_NE(name, std::string::npos);
+  std::string renamed = bytes, moved = bytes;
+  renamed[name + 7] = 'm';  // ".../versiom": not the local header's name, and no version record
+  moved[name - 1] = static_cast<char>(moved[name - 1] ^ 0x40);  // the folder's last byte
+  EXPECT_NE(ZipArchiveProblem(renamed).find("another name in its local header"), std::string::npos)
+      << ZipArchiveProblem(renamed);
+  EXPECT_NE(ZipArchiveProblem(moved).find("outside the archive's folder"), std::string::npos) << ZipArchiveProblem(moved);
+  for (const std::string* b : {&renamed, &moved}) {
+    const std::string path = dir.File(b == &renamed ? "renamed.ckpt" : "moved.ckpt");
+    WriteFileAtomic(path, *b);
+    const std::string e = InputErrorOf([&] { LoadNerfBlock(path); });
+    EXPECT_EQ(e.rfind(path + ": expected a nerfreg NeRF checkpoint (unreadable or truncated: zip entry", 0), 0u) << e;
+  }
+}
+
 // Found by fuzz/torch_archive_fuzz.cc: a checkpoint whose meta has no "cameras" read a missing key
 // of a const JSON object (undefined behaviour; an assertion in the fuzz build). Now an InputError.
 TEST(CheckpointCorruption, MetaWithoutCamerasIsAnInputErrorNamingTheField) {

@@ -44,10 +44,15 @@ inline std::uint32_t Crc32(const char* data, size_t n) {
 }
 
 // What is wrong with the zip container of a torch archive, or "" when every stored entry is where
-// the central directory says and matches its CRC-32. LibTorch's reader skips the CRC check, so a
-// flipped length inside the pickle reached its unpickler, which reserved 4 GB for it (found by
-// fuzz/torch_archive_fuzz.cc); checking the CRCs first refuses every corrupted byte. Zip64 and
-// compressed entries (torch writes neither for our files) are left to LibTorch.
+// the central directory says, under the same name, and matches its CRC-32, and the archive has the
+// layout LibTorch's reader expects (every entry in one top folder, a "<folder>/version" record).
+// Found by fuzz/torch_archive_fuzz.cc:
+//  - LibTorch's reader skips the CRC check, so a flipped length inside the pickle reached its
+//    unpickler, which reserved 4 GB for it; checking the CRCs first refuses every corrupted byte;
+//  - its reader leaks its zip state when it throws while opening the archive (LibTorch 1.13), as
+//    it does when the version record is missing (a changed byte in that entry's central-directory
+//    name); so the layout is checked here, before LibTorch opens the file.
+// Zip64 and compressed entries (torch writes neither for our files) are left to LibTorch.
 inline std::string ZipArchiveProblem(const std::string& b) {
   auto u16 = [&](size_t o) { return std::uint32_t(std::uint8_t(b[o])) | std::uint32_t(std::uint8_t(b[o + 1])) << 8; };
   auto u32 = [&](size_t o) { return u16(o) | u16(o + 2) << 16; };
@@ -64,22 +69,36 @@ inline std::string ZipArchiveProblem(const std::string& b) {
   const std::uint32_t entries = u16(eocd + 10), cd_size = u32(eocd + 12), cd_offset = u32(eocd + 16);
   if (entries == 0xFFFF || cd_offset == 0xFFFFFFFFu) return "";  // zip64
   if (std::uint64_t(cd_offset) + cd_size > eocd) return "zip central directory out of range";
+  if (entries == 0) return "an empty zip archive";
   size_t p = cd_offset;
+  std::string folder;  // the first entry's top folder, with its slash
+  bool has_version = false;
   for (std::uint32_t e = 0; e < entries; ++e) {
     if (p + 46 > eocd || u32(p) != 0x02014b50u) return "zip central directory entry " + std::to_string(e) + " unreadable";
     const std::uint32_t method = u16(p + 10), crc = u32(p + 16), size = u32(p + 20), local = u32(p + 42);
     const size_t next = p + 46 + u16(p + 28) + u16(p + 30) + u16(p + 32);
     const std::string name = b.substr(p + 46, std::min<size_t>(u16(p + 28), eocd - p - 46));
+    if (e == 0) {
+      const size_t slash = name.find('/');
+      if (slash == std::string::npos) return "zip entry " + name + " is not in a folder";
+      folder = name.substr(0, slash + 1);
+    }
+    if (name.compare(0, folder.size(), folder) != 0) return "zip entry " + name + " is outside the archive's folder " + folder;
+    has_version = has_version || name == folder + "version";
     if (size == 0xFFFFFFFFu || local == 0xFFFFFFFFu || method != 0) {
       p = next;
       continue;
     }
     if (std::uint64_t(local) + 30 > b.size() || u32(local) != 0x04034b50u) return "zip entry " + name + " has no local header";
+    if (std::uint64_t(local) + 30 + u16(local + 26) > b.size() || b.compare(local + 30, u16(local + 26), name) != 0) {
+      return "zip entry " + name + " has another name in its local header";
+    }
     const std::uint64_t data = std::uint64_t(local) + 30 + u16(local + 26) + u16(local + 28);
     if (data + size > b.size()) return "zip entry " + name + " runs past the end";
     if (Crc32(b.data() + data, size) != crc) return "zip entry " + name + " fails its CRC-32";
     p = next;
   }
+  if (!has_version) return "no " + folder + "version record";
   return "";
 }
 
