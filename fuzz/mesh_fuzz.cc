@@ -5,9 +5,16 @@
 // fewer than 3 vertices or with indices out of range, which Open3D's ear clipping reads out of
 // bounds with (OFF, PLY).
 //
-// OBJ: Open3D 0.16 reads it through Assimp and then takes every face as a triangle: a face Assimp
-// reads as a line or a point ("f 1/1/3/1 4/4/1" found here, also "l" and "p" statements) was read
-// out of bounds inside ReadTriangleMeshUsingASSIMP (SEGV); LoadMesh now checks OBJ faces first.
+// PLY: the check must read the file exactly as rply does (render/ply_check.h). A line-based check
+// missed a face list declared on its element's line and a NUL ending a face count (rply splits
+// words on NULs and reads its header word by word): Open3D then triangulated an empty face (SEGV).
+//
+// OBJ: Open3D 0.16 reads it through Assimp 5.2.5 and then takes every face as a triangle: a face
+// Assimp reads as a line or a point ("f 1/1/3/1 4/4/1" found here, also "l" and "p" statements) was
+// read out of bounds inside ReadTriangleMeshUsingASSIMP (SEGV). Assimp's face parser also reads past
+// its line buffer after an unsupported token ("v/vt/vn" before any "vt" once a "vn" came; found
+// here, heap-dependent: it crashed only after other inputs had run). LoadMesh checks OBJ faces as
+// Assimp splits and steps over them (render/mesh.cc CheckObj).
 // Not fuzzed: glTF and GLB (Assimp's glTF importer, buffers and accessors); they are only as safe
 // as Open3D + Assimp are, and meshes from untrusted sources should be converted to PLY or OFF.
 #include <string>

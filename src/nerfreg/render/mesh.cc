@@ -5,12 +5,14 @@
 #include <open3d/utility/Logging.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
+#include "nerfreg/render/ply_check.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 
@@ -64,178 +66,110 @@ void CheckOff(const std::string& path, std::int64_t size, std::istream* in) {
   }
 }
 
-// Size in bytes of a PLY scalar type (rply's names), 0 when unknown.
-int PlyTypeSize(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
-}
-
-// One PLY value of type `t` as a double; false at the end of the file or on a malformed value.
-bool ReadPlyValue(std::istream* in, const std::string& format, const std::string& t, double* v) {
-  if (format == "ascii") {
-    std::string word;
-    if (!(*in >> word)) return false;
-    char* end = nullptr;
-    *v = std::strtod(word.c_str(), &end);
-    return end == word.c_str() + word.size();
-  }
-  unsigned char b[8];
-  const int n = PlyTypeSize(t);
-  if (!in->read(reinterpret_cast<char*>(b), n)) return false;
-  if (format == "binary_big_endian") std::reverse(b, b + n);  // to the host's little-endian order
-  auto as = [&](auto x) {
-    std::memcpy(&x, b, sizeof(x));
-    return static_cast<double>(x);
-  };
-  if (t == "char" || t == "int8") *v = as(std::int8_t());
-  else if (t == "uchar" || t == "uint8") *v = as(std::uint8_t());
-  else if (t == "short" || t == "int16") *v = as(std::int16_t());
-  else if (t == "ushort" || t == "uint16") *v = as(std::uint16_t());
-  else if (t == "int" || t == "int32") *v = as(std::int32_t());
-  else if (t == "uint" || t == "uint32") *v = as(std::uint32_t());
-  else if (t == "float" || t == "float32") *v = as(float());
-  else *v = as(double());
-  return true;
-}
-
-// Open3D's PLY reader sizes its arrays from the element counts, and hands every face to its ear
-// clipping unchecked: a face of fewer than 3 vertices or an index beyond the vertex count reads
-// out of bounds (crashes found by fuzz/mesh_fuzz.cc). The header is parsed and the body walked
-// here as rply reads them, and the faces Open3D would read ("face" / "vertex_indices", else
-// "vertex_index") are checked. Headers this parser does not understand are refused; bodies that
-// end early pass (rply fails on them before the incomplete face reaches the ear clipping).
-void CheckPly(const std::string& path, std::int64_t size, std::istream* in) {
-  struct Property {
-    std::string name, type, count_type;  // count_type: empty for a scalar
-  };
-  struct Element {
-    std::string name;
-    std::int64_t count = 0;
-    std::vector<Property> properties;
-  };
-  auto refuse = [&](const std::string& field, const std::string& expected) { ThrowInputError(path, field, expected); };
-  std::string line, format;
-  if (!std::getline(*in, line) || line.rfind("ply", 0) != 0) return;  // Open3D refuses it itself
-  std::vector<Element> elements;
-  bool end_header = false;
-  while (std::getline(*in, line)) {
-    std::istringstream ls(line);
-    std::string word;
-    if (!(ls >> word) || word == "comment" || word == "obj_info") continue;
-    if (word == "end_header") {
-      // Where the body starts must be unambiguous: rply and we would disagree on "end_header\t...".
-      if (line != "end_header") refuse("end_header", "\"end_header\" alone on its line");
-      end_header = true;
-      break;
-    }
-    if (word == "format") {
-      ls >> format;
-      if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian") {
-        refuse("format", "ascii, binary_little_endian or binary_big_endian");
-      }
-    } else if (word == "element") {
-      Element e;
-      if (!(ls >> e.name >> e.count)) refuse("element", "\"element NAME COUNT\" in the PLY header");
-      if (e.count < 0 || e.count > size) {
-        refuse("element " + e.name, "a count the file's " + std::to_string(size) + " bytes can hold (got " +
-                                        std::to_string(e.count) + ")");
-      }
-      elements.push_back(e);
-    } else if (word == "property") {
-      Property p;
-      std::string type;
-      if (elements.empty() || !(ls >> type)) refuse("property", "\"property TYPE NAME\" after an element");
-      if (type == "list") ls >> p.count_type >> p.type;
-      else p.type = type;
-      if (!(ls >> p.name) || PlyTypeSize(p.type) == 0 || (type == "list" && PlyTypeSize(p.count_type) == 0)) {
-        refuse("property", "\"property TYPE NAME\" or \"property list TYPE TYPE NAME\" with PLY types");
-      }
-      elements.back().properties.push_back(p);
-    } else {
-      refuse("header", "format, element, property, comment or end_header lines (got \"" + word + "\")");
-    }
-  }
-  if (!end_header || format.empty()) return;  // Open3D refuses it itself
-  std::int64_t num_vertices = 0;
-  for (const Element& e : elements)
-    if (e.name == "vertex") num_vertices = e.count;
-  for (const Element& e : elements) {
-    // The face list Open3D reads: vertex_indices, or vertex_index when there is none.
-    int face_list = -1;
-    for (size_t k = 0; e.name == "face" && k < e.properties.size(); ++k)
-      if (e.properties[k].name == "vertex_indices") face_list = static_cast<int>(k);
-    for (size_t k = 0; e.name == "face" && face_list < 0 && k < e.properties.size(); ++k)
-      if (e.properties[k].name == "vertex_index") face_list = static_cast<int>(k);
-    for (std::int64_t i = 0; i < e.count; ++i) {
-      for (size_t k = 0; k < e.properties.size(); ++k) {
-        const Property& p = e.properties[k];
-        const std::string face = "face " + std::to_string(i);
-        double count = 1, v;
-        if (!p.count_type.empty() && !ReadPlyValue(in, format, p.count_type, &count)) return;
-        if (static_cast<int>(k) == face_list && (p.count_type.empty() || !(count >= 3))) {
-          refuse(face, "a polygon of at least 3 vertices");
-        }
-        if (!(count >= 0 && count <= static_cast<double>(size))) return;  // rply fails on it itself
-        for (std::int64_t j = 0; j < static_cast<std::int64_t>(count); ++j) {
-          if (!ReadPlyValue(in, format, p.type, &v)) return;
-          if (static_cast<int>(k) == face_list && !(v >= 0 && v < num_vertices)) {
-            refuse(face, "vertex indices below the vertex count " + std::to_string(num_vertices));
-          }
-        }
-      }
-    }
-  }
-}
-
-// OBJ through Open3D + Assimp: Open3D takes every face Assimp returns as a triangle, and Assimp
-// returns a face of fewer than 3 corners as a line or point, which Open3D then reads out of bounds
-// (found by fuzz/mesh_fuzz.cc: "f 1/1/3/1 4/4/1"). So every face must have >= 3 corners, each
-// "v", "v/vt", "v//vn" or "v/vt/vn" with non-zero indices within the file's counts (negative ones
-// count back from the last), and line / point statements ("l", "p"), which are not surfaces, are
-// refused.
+// OBJ through Open3D + Assimp 5.2.5. Open3D takes every face Assimp returns as a triangle, so a
+// face Assimp reads as fewer than 3 corners (a line or point) is read out of bounds (SEGV; found
+// by fuzz/mesh_fuzz.cc: "f 1/1/3/1 4/4/1"). Assimp's face parser runs past the end of its line
+// buffer after an unsupported token: a 4th index in a corner, or "v/vt/vn" before any "vt" line
+// once a "vn" came (it then takes vt's slot for vn, and vn's for a 4th; a fuzzer find that crashed
+// only after other inputs had filled that buffer). And a vertex index out of range makes Assimp
+// throw after allocating its mesh, which it leaks (LeakSanitizer). So the file is read as Assimp
+// reads it, and faces are checked against the vertices Assimp keeps:
+//   - lines end at \n, \r, \f or NUL (Assimp's IsLineEnd); '\\' at a line's end (a continuation,
+//     which Assimp joins up to the next \n whatever ended the line) is refused;
+//   - a line's first byte picks its kind: "v " / "v\t" is a vertex, kept by Assimp when it has 3,
+//     4 or 6 numbers (counted here only when every word is a number starting with a digit or a
+//     sign, so never more than Assimp keeps; w = 0 in 4 is refused: Assimp throws on it), "vt" a
+//     texture coordinate, "vn" a normal, 'f' a face (its corners follow the first word: "f1/1 2 3"
+//     has two), 'l' / 'p' lines and points, refused as not surfaces;
+//   - a corner is "v", "v/vt", "v//vn" or "v/vt/vn", each index written as Assimp's atoi steps
+//     over it (-?[1-9][0-9]*: no '+', no leading zero) and within the count: all of the file's for
+//     a positive index, those so far for a negative one (Assimp resolves it where it stands);
+//   - no texture index before the first "vt" line; at least 3 corners.
 void CheckObj(const std::string& path, std::istream* in) {
-  // Assimp dispatches on a line's first character ("f1/1 2 3" is a face, its corners those after
-  // the first word), so this does too; it counts vertices only on "v", "vt" and "vn" words, so an
-  // index is never accepted here that Assimp could read past.
   std::vector<std::string> lines;
-  std::int64_t counts[3] = {0, 0, 0};  // v, vt, vn
-  for (std::string line; std::getline(*in, line);) {
-    const size_t a = line.find_first_not_of(" \t\r\v\f");
-    if (a == std::string::npos) continue;
-    line = line.substr(a);
-    std::istringstream ls(line);
-    std::string word;
-    ls >> word;
-    if (word == "v") ++counts[0];
-    else if (word == "vt") ++counts[1];
-    else if (word == "vn") ++counts[2];
-    if (line[0] == 'f' || line[0] == 'l' || line[0] == 'p') lines.push_back(line);
+  {
+    std::string line;
+    for (int c; (c = in->get()) != std::char_traits<char>::eof();) {
+      if (c != '\n' && c != '\r' && c != '\f' && c != '\0') {
+        line.push_back(static_cast<char>(c));
+        continue;
+      }
+      if (!line.empty() && line.back() == '\\') {
+        ThrowInputError(path, "line " + std::to_string(lines.size() + 1),
+                        "no line continuation ('\\' at the end of a line)");
+      }
+      lines.push_back(line);
+      line.clear();
+    }
+    lines.push_back(line);
   }
-  const auto parse_index = [](const std::string& text, std::int64_t count, bool optional, bool* ok) {
-    if (text.empty()) {
-      *ok = optional;
-      return;
+  // Assimp skips a UTF-8 byte-order mark before the first line.
+  if (lines[0].compare(0, 3, "\xEF\xBB\xBF") == 0) lines[0].erase(0, 3);
+
+  enum Kind { kOther, kVertex, kTexCoord, kNormal, kFace, kNotSurface };
+  const auto kind_of = [&](size_t i) {
+    const std::string& line = lines[i];
+    if (line.empty()) return kOther;
+    if (line[0] == 'f') return kFace;
+    if (line[0] == 'l' || line[0] == 'p') return kNotSurface;
+    if (line.size() < 2 || line[0] != 'v') return kOther;
+    if (line[1] == 't') return kTexCoord;
+    if (line[1] == 'n') return kNormal;
+    if (line[1] != ' ' && line[1] != '\t') return kOther;
+    std::istringstream ls(line.substr(2));
+    std::vector<double> values;
+    for (std::string word; ls >> word;) {
+      char* end = nullptr;
+      const double v = std::strtod(word.c_str(), &end);
+      if (!(std::isdigit(static_cast<unsigned char>(word[0])) || word[0] == '-' || word[0] == '+') ||
+          end != word.c_str() + word.size()) {
+        return kOther;
+      }
+      values.push_back(v);
     }
-    size_t used = 0;
-    long long v = 0;
-    try {
-      v = std::stoll(text, &used);
-    } catch (const std::exception&) {
-      *ok = false;
-      return;
+    if (values.size() == 4 && values[3] == 0) {
+      ThrowInputError(path, "line " + std::to_string(i + 1), "a homogeneous vertex with w != 0");
     }
-    *ok = used == text.size() && v != 0 && v <= count && -v <= count;
+    return values.size() == 3 || values.size() == 4 || values.size() == 6 ? kVertex : kOther;
   };
-  for (const std::string& line : lines) {
+  std::vector<Kind> kinds(lines.size());
+  std::int64_t total[3] = {0, 0, 0};  // vertices, texture coordinates, normals
+  for (size_t i = 0; i < lines.size(); ++i) {
+    kinds[i] = kind_of(i);
+    if (kinds[i] == kVertex) ++total[0];
+    if (kinds[i] == kTexCoord) ++total[1];
+    if (kinds[i] == kNormal) ++total[2];
+  }
+  // A canonical non-zero index: positive ones within the file's count, negative ones within the
+  // count so far.
+  const auto index_ok = [](const std::string& text, std::int64_t total, std::int64_t so_far) {
+    const size_t digits = text[0] == '-' ? 1 : 0;
+    if (text.size() <= digits || text.size() > digits + 12 || text[digits] == '0' ||
+        text.find_first_not_of("0123456789", digits) != std::string::npos) {
+      return false;
+    }
+    const long long v = std::stoll(text);
+    return v <= total && -v <= so_far;
+  };
+  std::int64_t so_far[3] = {0, 0, 0};
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::string& line = lines[i];
+    if (kinds[i] == kVertex) ++so_far[0];
+    if (kinds[i] == kTexCoord) ++so_far[1];
+    if (kinds[i] == kNormal) ++so_far[2];
     const std::string field = "\"" + line.substr(0, 40) + "\"";
-    if (line[0] != 'f') ThrowInputError(path, field, "faces (\"f\"); line and point statements are not surfaces");
-    // Corners follow the first word, whatever it is ("f1/1 2 3" has two).
-    std::istringstream ls(line);
+    if (kinds[i] == kNotSurface) {
+      ThrowInputError(path, field, "faces (\"f\"); line and point statements are not surfaces");
+    }
+    if (kinds[i] != kFace) continue;
+    // Corners follow the first word, whatever it is; only digits, '-', '/', spaces and tabs.
+    const size_t first_end = line.find_first_of(" \t");
+    const std::string corners_text = first_end == std::string::npos ? "" : line.substr(first_end);
+    if (corners_text.find_first_not_of("0123456789-/ \t") != std::string::npos) {
+      ThrowInputError(path, field, "face corners of digits, '-' and '/' separated by spaces");
+    }
+    std::istringstream ls(corners_text);
     std::string corner;
-    ls >> corner;
     int corners = 0;
     while (ls >> corner) {
       std::vector<std::string> parts;
@@ -243,10 +177,18 @@ void CheckObj(const std::string& path, std::istream* in) {
       for (size_t slash; (slash = corner.find('/', start)) != std::string::npos; start = slash + 1)
         parts.push_back(corner.substr(start, slash - start));
       parts.push_back(corner.substr(start));
-      bool ok = parts.size() <= 3;
-      for (size_t k = 0; ok && k < parts.size(); ++k) parse_index(parts[k], counts[k], k > 0, &ok);
-      if (!ok) ThrowInputError(path, field, "face corners v, v/vt, v//vn or v/vt/vn with indices within the file's " +
-                                                std::to_string(counts[0]) + " vertices");
+      bool ok = parts.size() <= 3 && !parts[0].empty();
+      for (size_t k = 0; ok && k < parts.size(); ++k) {
+        ok = parts[k].empty() ? k > 0 : index_ok(parts[k], total[k], so_far[k]);
+      }
+      if (!ok) {
+        ThrowInputError(path, field, "face corners v, v/vt, v//vn or v/vt/vn with indices within the file's " +
+                                         std::to_string(total[0]) + " vertices (" + std::to_string(so_far[0]) +
+                                         " so far for a negative index)");
+      }
+      if (parts.size() >= 2 && !parts[1].empty() && so_far[1] == 0) {
+        ThrowInputError(path, field, "texture coordinate indices after the first \"vt\" line");
+      }
       ++corners;
     }
     if (corners < 3) ThrowInputError(path, field, "a face of at least 3 corners");
@@ -283,7 +225,7 @@ void CheckBeforeOpen3d(const std::string& path, const std::string& ext) {
   } else if (ext == ".off") {
     CheckOff(path, size, &in);
   } else if (ext == ".ply") {
-    CheckPly(path, size, &in);
+    CheckPlyForOpen3d(path);
   } else if (ext == ".obj") {
     CheckObj(path, &in);
   }

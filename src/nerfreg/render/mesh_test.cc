@@ -115,6 +115,26 @@ TEST(Mesh, ObjFacesOfFewerThanThreeCornersLinesOrBadIndicesAreInputErrors) {
   EXPECT_NE(error_of("g.obj", "f 1 2 x\n"), "");
   EXPECT_NE(error_of("h.obj", "f1/1 -2/1/1 -1/1/1\nf 1 2 3\n"), "");  // Assimp reads "f1/1 ..." as a face
   EXPECT_NE(error_of("i.obj", "f 1 2 3 # a comment Assimp reads as corners\n"), "");
+  // Assimp 5.2.5 reads past its line buffer on these (fuzzer find, heap-dependent SEGV in Open3D):
+  // "v/vt/vn" before any "vt" line once a "vn" came, and a 4th index.
+  WriteFileAtomic(dir.File("j.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nf -3/1/1 -2/1/1 -1/1/1\nvt 0 0\n");
+  EXPECT_NE(InputErrorOf([&] { LoadMesh(dir.File("j.obj")); }).find("after the first \"vt\" line"), std::string::npos);
+  // Lines end at \r, \f and NUL for Assimp too: "f 1 2\r3" is a face of two corners.
+  EXPECT_NE(error_of("k.obj", "f 1 2\r3 4\n").find("at least 3 corners"), std::string::npos);
+  EXPECT_NE(error_of("l.obj", std::string("f 1 2\0 3\n", 10)).find("at least 3 corners"), std::string::npos);
+  // Indices Assimp's atoi would step over differently ("01" is read as 1, then 1 again).
+  EXPECT_NE(error_of("m.obj", "f 1 2 03\n"), "");
+  EXPECT_NE(error_of("n.obj", "f 1 2 +3\n"), "");
+  // Vertices Assimp does not keep (2 numbers, ".5" is no number to it) do not count; relative
+  // indices count back from where they stand (Assimp threw on these and leaked its mesh).
+  EXPECT_NE(error_of("p.obj", "v 0 1\nv .5 1 2\nf 1 2 5\n").find("4 vertices"), std::string::npos);
+  WriteFileAtomic(dir.File("r.obj"), "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
+  EXPECT_NE(InputErrorOf([&] { LoadMesh(dir.File("r.obj")); }).find("2 so far"), std::string::npos);
+  EXPECT_NE(error_of("s.obj", "v 1 2 3 0\nf 1 2 3\n").find("w != 0"), std::string::npos);
+  EXPECT_NE(error_of("t.obj", "# a comment \\\nf 1 2 3\n").find("line continuation"), std::string::npos);
+  // A byte-order mark does not hide a face from the check.
+  WriteFileAtomic(dir.File("o.obj"), "\xEF\xBB\xBF" "f 1 2\n" + vertices);
+  EXPECT_NE(InputErrorOf([&] { LoadMesh(dir.File("o.obj")); }).find("at least 3 corners"), std::string::npos);
   // Valid corner forms and negative (relative) indices load.
   EXPECT_EQ(error_of("ok.obj", "f 1/1 2/1 3/1\nf 1//1 3//1 4//1\nf -4/1/1 -3/1/1 -2/1/1\n"), "");
   EXPECT_EQ(LoadMesh(dir.File("ok.obj")).triangles.size(), 3u);
@@ -148,9 +168,6 @@ TEST(Mesh, PlyFacesWithFewerThanThreeVerticesOrIndicesOutOfRangeAreInputErrors) 
   // The fuzzer's next input: a tab after end_header moved where rply starts the body.
   WriteFileAtomic(path, header.substr(0, header.size() - 1) + "\t" + vertices + face(3, {0, 1, 2}));
   EXPECT_NE(InputErrorOf([&] { LoadMesh(path); }).find(path + ": end_header:"), std::string::npos);
-  // A header line rply would read differently from us is refused, not guessed at.
-  WriteFileAtomic(path, "ply\nformat ascii 1.0\nelement vertex\n3\nend_header\n");
-  EXPECT_NE(InputErrorOf([&] { LoadMesh(path); }).find(path + ": element:"), std::string::npos);
 }
 
 }  // namespace
