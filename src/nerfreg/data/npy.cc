@@ -116,6 +116,9 @@ NpyArray ParseNpy(const std::string& bytes, const std::string& src) {
                                       std::to_string(bytes.size() - data_start) + " data bytes (truncated?)");
   }
   array.data.resize(static_cast<size_t>(n));
+  // An empty array has no data; its other dimensions may be huge (only their product is bounded),
+  // so no strides are formed from them (the fuzzer's (0, 44, 444, ...) overflowed them).
+  if (n == 0) return array;
   const unsigned char* p = u + data_start;
   if (!fortran || array.shape.size() < 2) {
     for (std::int64_t k = 0; k < n; ++k) array.data[k] = Element(p + k * size, kind, size, big_endian);

@@ -47,6 +47,15 @@ TEST(Npy, ReadsCOrderFloat64) {
                                    Raw<double>({1, 2, 3, 4, 5, 6})), "a.npy");
   EXPECT_EQ(a.shape, (std::vector<std::int64_t>{2, 3}));
   EXPECT_EQ(a.data, (std::vector<double>{1, 2, 3, 4, 5, 6}));
+  // An empty Fortran array whose other dimensions multiply past 2^63 reads as empty. The fuzzer's
+  // file: npy_fuzz (UBSan) flagged the strides formed from them; it replays it from
+  // fuzz/corpus/npy/empty_fortran_huge_strides.
+  const std::string found("\x93NUMPY\x02.t\x00\x00\x00{'descr': '>f4',\x1d'fortran_order': True, 'shape': (0, 44, "
+                          "444,434, 44,444, 444,434, 44,4,44,4,43)44\xed }\x00\x00\xfe\xff\xff\xa9\x00\x00\x00      "
+                          "\x00\x00\x00\x00\x00\x00\x00", 135);
+  const auto e = ParseNpy(found, "e.npy");
+  EXPECT_TRUE(e.data.empty());
+  EXPECT_EQ(e.shape.size(), 13u);
 }
 
 TEST(Npy, ReadsFortranOrderAsRowMajor) {
