@@ -8,6 +8,7 @@
 #include <open3d/utility/Logging.h>
 #include <open3d/utility/Random.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "nerfreg/util/timer.h"
@@ -19,19 +20,29 @@ namespace reg = open3d::pipelines::registration;
 void ClassicalRegistrationOptions::Check() const {
   if ((method != "ransac" && method != "fgr") || !(voxel_size > 0) || !(normal_radius > 0) || !(feature_radius > 0) ||
       max_correspondence_distance < 0 || ransac_iterations < 1 || !(ransac_confidence > 0 && ransac_confidence <= 1) ||
-      icp_distance < 0) {
+      icp_distance < 0 || max_points < 0) {
     throw std::invalid_argument("ClassicalRegistrationOptions: out of range (method ransac or fgr)");
   }
 }
 
 namespace {
 
-std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pts, const ClassicalRegistrationOptions& o) {
+open3d::geometry::PointCloud ToCloud(const Eigen::Matrix3Xd& pts) {
   open3d::geometry::PointCloud cloud;
   for (Eigen::Index i = 0; i < pts.cols(); ++i) cloud.points_.push_back(pts.col(i));
-  auto down = cloud.VoxelDownSample(o.voxel_size);
-  down->EstimateNormals(open3d::geometry::KDTreeSearchParamHybrid(o.normal_radius, 30));
+  return cloud;
+}
+
+// Downsampled at `voxel`, normals within normal_radius scaled as the voxel is.
+std::shared_ptr<open3d::geometry::PointCloud> Prepare(const open3d::geometry::PointCloud& cloud,
+                                                      const ClassicalRegistrationOptions& o, double voxel) {
+  auto down = cloud.VoxelDownSample(voxel);
+  down->EstimateNormals(open3d::geometry::KDTreeSearchParamHybrid(o.normal_radius * voxel / o.voxel_size, 30));
   return down;
+}
+
+std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pts, const ClassicalRegistrationOptions& o) {
+  return Prepare(ToCloud(pts), o, o.voxel_size);
 }
 
 ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t source_points, size_t target_points,
@@ -59,12 +70,22 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
   open3d::utility::random::Seed(static_cast<int>(o.seed));
   Timer timer;
-  const auto src = Prepare(source, o), tgt = Prepare(target, o);
-  const auto f_src = reg::ComputeFPFHFeature(*src, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius, 100));
-  const auto f_tgt = reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius, 100));
+  const open3d::geometry::PointCloud src_full = ToCloud(source), tgt_full = ToCloud(target);
+  // The same voxel for both clouds (their features must be comparable), coarsened until both fit
+  // max_points.
+  double voxel = o.voxel_size;
+  auto too_many = [&](double v) {
+    return o.max_points > 0 && std::max(src_full.VoxelDownSample(v)->points_.size(), tgt_full.VoxelDownSample(v)->points_.size()) >
+                                   static_cast<size_t>(o.max_points);
+  };
+  while (too_many(voxel)) voxel *= 1.25;
+  const double k = voxel / o.voxel_size;
+  const auto src = Prepare(src_full, o, voxel), tgt = Prepare(tgt_full, o, voxel);
+  const auto f_src = reg::ComputeFPFHFeature(*src, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
+  const auto f_tgt = reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
   reg::RegistrationResult r;
   if (o.method == "ransac") {
-    const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance : 1.5 * o.voxel_size;
+    const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance * k : 1.5 * voxel;
     reg::CorrespondenceCheckerBasedOnEdgeLength edge(0.9);
     reg::CorrespondenceCheckerBasedOnDistance distance(dist);
     r = reg::RegistrationRANSACBasedOnFeatureMatching(*src, *tgt, *f_src, *f_tgt, true, dist,
@@ -77,10 +98,14 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
   }
   if (o.icp) {
     const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
-    r = reg::RegistrationICP(*src, *tgt, d, r.transformation_, reg::TransformationEstimationPointToPlane(),
+    const auto src_icp = voxel == o.voxel_size ? src : Prepare(src_full, o, o.voxel_size);
+    const auto tgt_icp = voxel == o.voxel_size ? tgt : Prepare(tgt_full, o, o.voxel_size);
+    r = reg::RegistrationICP(*src_icp, *tgt_icp, d, r.transformation_, reg::TransformationEstimationPointToPlane(),
                              reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
   }
-  return ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
+  ClassicalRegistrationResult out = ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
+  out.feature_voxel = voxel;
+  return out;
 }
 
 ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,

@@ -19,6 +19,10 @@ struct ClassicalRegistrationOptions {
   double ransac_confidence = 0.999;
   bool icp = true;                 // point-to-plane ICP refinement
   double icp_distance = 0.0;       // 0: 2 x voxel
+  // FPFH + RANSAC / FGR cost grows with the points: when a downsampled cloud has more than this,
+  // the features and the global search use a coarser voxel (x1.25 steps; the radii and the
+  // RANSAC distance scale with it) and ICP still runs at voxel_size. 0: no cap.
+  int max_points = 0;
   unsigned seed = 0;
   void Check() const;              // throws std::invalid_argument
 };
@@ -28,7 +32,8 @@ struct ClassicalRegistrationResult {
   double fitness = 0;       // fraction of source points with a target point within the inlier distance
   double inlier_rmse = 0;
   double seconds = 0;
-  int source_points = 0, target_points = 0;  // after downsampling
+  int source_points = 0, target_points = 0;  // after downsampling (for the features)
+  double feature_voxel = 0;  // the voxel the features were computed at (voxel_size unless capped)
 };
 
 // source, target: [3, N] points (block frames). Throws std::invalid_argument on empty clouds.

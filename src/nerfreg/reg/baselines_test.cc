@@ -45,6 +45,28 @@ TEST(ClassicalRegistration, RansacAndIcpRecoverAKnownTransform) {
   EXPECT_THROW(RegisterPointClouds(Eigen::Matrix3Xd(3, 1), tgt, o), std::invalid_argument);
 }
 
+TEST(ClassicalRegistration, APointCapCoarsensTheFeaturesAndIcpKeepsTheAccuracy) {
+  const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())), Eigen::Vector3d(0.1, -0.2, 0.15));
+  Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);
+  for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
+  ClassicalRegistrationOptions o;
+  o.voxel_size = 0.04;
+  o.feature_radius = 0.2;
+  const auto full = RegisterPointClouds(src, tgt, o);
+  o.max_points = full.source_points / 2;
+  const auto capped = RegisterPointClouds(src, tgt, o);
+  EXPECT_DOUBLE_EQ(full.feature_voxel, 0.04);
+  EXPECT_GT(capped.feature_voxel, 0.04);
+  EXPECT_LE(capped.source_points, o.max_points);
+  EXPECT_LE(capped.target_points, o.max_points);
+  // ICP still runs at voxel_size: the coarse features lose no accuracy.
+  EXPECT_LT(RotationErrorDeg(capped.target_from_source.rotation, gt.rotation), 1.0);
+  EXPECT_LT((capped.target_from_source.translation - gt.translation).norm(), 0.02);
+  o.max_points = -1;
+  EXPECT_THROW(RegisterPointClouds(src, tgt, o), std::invalid_argument);
+}
+
 TEST(ClassicalRegistration, IcpRefinesANearbyEstimate) {
   const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
   const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized())), Eigen::Vector3d(0.2, 0, -0.1));
