@@ -283,10 +283,13 @@ void DregSolveOptions::Check() const {
   if (solver != "procrustes" && solver != "ransac") ThrowInputError("--dreg-solver", "", "procrustes or ransac");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
   if (ransac_iterations < 1) ThrowInputError("--ransac-iterations", "", ">= 1");
+  if (passes < 1 || passes > 10) ThrowInputError("--dreg-passes", "", "1 to 10");
 }
 
-DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, const DregSolveOptions& options) {
-  options.Check();
+namespace {
+
+// One network pass: the pose of the last layer's correspondences.
+DregRegistration RegisterOnce(DregNet& net, const RegGrid& src, const RegGrid& tgt, const DregSolveOptions& options) {
   DregRegistration r;
   if (src.mask.sum().item<int64_t>() < 3 || tgt.mask.sum().item<int64_t>() < 3) return r;
   // Eval mode for the duration of the call, restored even if the forward pass throws.
@@ -339,6 +342,25 @@ DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, 
     r.confidence = a.confidence;
     r.inlier_fraction = a.inlier_fraction;
     r.mean_confidence = a.mean_confidence;
+  }
+  return r;
+}
+
+}  // namespace
+
+DregRegistration Register(DregNet& net, const RegGrid& src, const RegGrid& tgt, const DregSolveOptions& options) {
+  options.Check();
+  DregRegistration r = RegisterOnce(net, src, tgt, options);
+  const int passes = net->options().estimate_scale ? 1 : options.passes;
+  for (int pass = 1; pass < passes && r.valid; ++pass) {
+    // The source seen from the target frame as estimated so far: the network now corrects a
+    // small residual pose (target_from_moved), and target_from_source = that * the estimate.
+    const Eigen::Matrix4d& T = r.target_from_source;
+    const RegGrid moved = TransformRegGrid(src, T.topLeftCorner<3, 3>(), T.topRightCorner<3, 1>());
+    DregRegistration next = RegisterOnce(net, moved, tgt, options);
+    if (!next.valid) break;
+    next.target_from_source = next.target_from_source * T;
+    r = next;
   }
   return r;
 }

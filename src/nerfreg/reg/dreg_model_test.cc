@@ -11,6 +11,7 @@
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/test_grids.h"
 #include "nerfreg/reg/weighted_procrustes.h"
+#include "nerfreg/util/error.h"
 #include "nerfreg/util/test_util.h"
 
 namespace nerfreg {
@@ -310,6 +311,31 @@ DregSolveOptions Robust(double radius) {
 // 75 degrees and translated; 100 AdamW steps must bring the rotation error from the untrained
 // network's (> 30 deg) to < 10 deg. Measured: 50 -> ~3.5 deg (it is ~1 deg by step 40), 12 s of
 // CPU time on 2 cores.
+TEST_F(DregModelTest, ExtraPassesComposeTheCorrectionOnTheMovedSource) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.0, 1.0, 1.0).normalized()).toRotationMatrix();
+  const RegGrid src = MakeShapeGrid(32, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1);
+  const RegGrid tgt = MakeShapeGrid(32, r, Eigen::Vector3d(0.1, 0.0, -0.1), 2);
+  DregNet net(TinyOptions());
+  DregSolveOptions one, two;
+  two.passes = 2;
+  const DregRegistration first = Register(net, src, tgt, one);
+  ASSERT_TRUE(first.valid);
+  // The second pass registers the source as the first pass placed it, and its correction is
+  // applied after the first pose (target_from_source = target_from_moved * moved_from_source).
+  const Eigen::Matrix4d& t1 = first.target_from_source;
+  const RegGrid moved = TransformRegGrid(src, t1.topLeftCorner<3, 3>(), t1.topRightCorner<3, 1>());
+  const DregRegistration correction = Register(net, moved, tgt, one);
+  const DregRegistration both = Register(net, src, tgt, two);
+  ASSERT_TRUE(both.valid);
+  EXPECT_LT((both.target_from_source - correction.target_from_source * t1).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT((both.target_from_source - t1).cwiseAbs().maxCoeff(), 1e-4);  // the second pass did move it
+  EXPECT_DOUBLE_EQ(both.confidence, correction.confidence);
+  two.passes = 0;
+  EXPECT_THROW(Register(net, src, tgt, two), InputError);
+  two.passes = 11;
+  EXPECT_THROW(Register(net, src, tgt, two), InputError);
+}
+
 TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   const Eigen::Matrix3d r =
       Eigen::AngleAxisd(75.0 * kPi / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();

@@ -12,7 +12,11 @@ void GridRegistrationOptions::Check() const {
   if (method != "dreg" && method != "ransac" && method != "fgr") ThrowInputError("--method", "", "dreg, ransac or fgr");
   if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
-  if (dreg_solver != "ransac" && dreg_solver != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes");
+  DregSolveOptions solve;
+  solve.solver = dreg_solver;
+  solve.passes = dreg_passes;
+  solve.inlier_radius = inlier_radius;
+  solve.Check();
 }
 
 GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
@@ -42,6 +46,7 @@ GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& targe
     if (!net) throw std::logic_error("RegisterGrids: method dreg needs the network");
     DregSolveOptions solve;
     solve.solver = o.dreg_solver;
+    solve.passes = o.dreg_passes;
     solve.inlier_radius = o.inlier_radius;
     solve.seed = o.seed;
     const DregRegistration d = Register(*net, source, target, solve);

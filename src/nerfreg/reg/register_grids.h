@@ -20,11 +20,13 @@ struct GridRegistrationOptions {
                                 // at least 1.1 x the grids' cell is used
   double inlier_radius = 0.1;   // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)
   std::string dreg_solver = "procrustes";  // dreg: "procrustes" (the paper's) or "ransac" (DregSolveOptions)
+  int dreg_passes = 1;                     // dreg: network passes (DregSolveOptions::passes)
   unsigned seed = 0;
   void Check() const;           // throws InputError naming the option
   // "dreg", "dreg+icp", "ransac+icp", ...; dreg's RANSAC solve is "dreg/ransac".
   std::string Name() const {
-    return method + (method == "dreg" && dreg_solver == "ransac" ? "/ransac" : "") + (icp ? "+icp" : "");
+    return method + (method == "dreg" && dreg_solver == "ransac" ? "/ransac" : "") +
+           (method == "dreg" && dreg_passes > 1 ? "/" + std::to_string(dreg_passes) + "passes" : "") + (icp ? "+icp" : "");
   }
 };
 
