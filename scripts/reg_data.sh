@@ -5,8 +5,8 @@
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
-#   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs AND
-#          pairs of real trained NeRF blocks (2-block split; 4-block split for low overlap).
+#   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
+#          4-block splits) AND pairs of real trained NeRF blocks (2-block split; 4-block split).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/nerfreg}
@@ -28,6 +28,9 @@ common=(--grid-resolution "$RES" --quiet)
 # Held-out pairs, synthesised: 2 per object.
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 \
   --split val --out "$OUT/val_mesh" "${common[@]}"
+# Held-out pairs, synthesised, adjacent blocks of a 4-block split (lower overlap: 0.70-0.98).
+"$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 --blocks 4 \
+  --split val --out "$OUT/val_mesh4" "${common[@]}"
 # Held-out pairs of real NeRF blocks (the slow part: ~3 min a block on 2 cores).
 [ "${SKIP_NERF:-0}" = 1 ] && exit 0
 # Real block pairs of two training meshes: the tuning set of the field refinement
