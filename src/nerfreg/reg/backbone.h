@@ -13,7 +13,8 @@ namespace nerfreg {
 struct BackboneOptions {
   // Input channels of the grid (RGBA = 4).
   int64_t in_channels = 4;
-  // Stem output channels (conv k5 s2 -> BN -> ReLU, then maxpool s2).
+  // Stem output channels (conv k5 s2 -> norm -> ReLU, then maxpool s2). The norm layers
+  // normalise each grid by its own statistics (backbone.cc, Norm).
   int64_t stem_channels = 64;
   // Bottleneck width per stage (output = width * 4); paper 64, 128, 256, 512 (-> 256..2048).
   std::vector<int64_t> stage_widths = {64, 128, 256, 512};

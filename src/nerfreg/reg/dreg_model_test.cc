@@ -202,7 +202,7 @@ TEST_F(DregModelTest, SaveLoadGivesIdenticalOutputs) {
   DregNet net(TinyOptions());
   {
     torch::NoGradGuard no_grad;
-    net->forward(src, tgt);  // moves the BatchNorm running statistics off their initial values
+    net->forward(src, tgt);  // a forward pass in training mode before saving (no state may depend on it)
   }
   const std::string path = dir.File("dreg.pt");
   SaveDregWeights(net, TinyOptions(), path);
