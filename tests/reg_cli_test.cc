@@ -2,7 +2,10 @@
 // reg eval --pairs with every method; the bad-input cases of the registration network.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "cli_test_util.h"
 #include "nerfreg/geometry/rigid3.h"
@@ -34,9 +37,21 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   EXPECT_EQ(killed.exit_code, 137) << killed.output;
   DregModelOptions options;
   EXPECT_NO_THROW(LoadDregWeights(dir.File("w.pt"), &options));
-  for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
-    EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
-  }
+  // The kill may land mid-write and leave that write's temporary file (nothing can catch
+  // SIGKILL): the complete file is untouched, and the resumed run's first write removes it.
+  const auto temp_files = [&] {
+    std::vector<std::string> found;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
+      const std::string name = e.path().filename().string();
+      if (name.find(".tmp.") != std::string::npos) found.push_back(name);
+    }
+    return found;
+  };
+  // Stand in for a kill mid-write so that the clean-up below is always exercised: a temporary
+  // file of w.pt written by a process that has exited (a shell that printed its PID).
+  const std::string dead_pid = RunShell("sh -c 'echo $$'").output;
+  WriteFileAtomic(dir.File(".w.pt.tmp." + dead_pid.substr(0, dead_pid.find('\n')) + ".7"), "partial");
+  ASSERT_FALSE(temp_files().empty());
   // The log says how far it got; --resume continues from the last checkpoint to a near end.
   int last_step = 0;
   {
@@ -48,11 +63,31 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   const CommandResult resumed = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w.pt") +
                                            " --iters " + std::to_string(target) + " --val-every 0 --resume --quiet");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_TRUE(temp_files().empty()) << temp_files().front();
   const Json summary = ReadJsonFile(dir.File("w.pt.json"));
   EXPECT_EQ(summary["iterations"].get<int>(), target);
   // It did not start again from zero: no step 1 after the resume.
   const CommandResult steps = RunShell("grep -c '\"step\":1,' " + dir.File("w.pt.log.jsonl"));
   EXPECT_EQ(steps.output.substr(0, 1), "1") << steps.output;
+
+  // --init starts a new run (step 0, fresh optimizer) from those weights: with a vanishing
+  // learning rate the result is still them, where a fresh start (the same seed) is not.
+  const std::string short_run = "reg train " + dir.File("data/pairs.json") + " --iters 2 --lr 1e-12 --val-every 0 --quiet";
+  ASSERT_EQ(RunNerfreg(short_run + " --init " + dir.File("w.pt") + " --out " + dir.File("w_init.pt")).exit_code, 0);
+  ASSERT_EQ(RunNerfreg(short_run + " --out " + dir.File("w_fresh.pt")).exit_code, 0);
+  {
+    DregNet trained = LoadDregWeights(dir.File("w.pt"), nullptr);
+    DregNet init = LoadDregWeights(dir.File("w_init.pt"), nullptr);
+    DregNet fresh = LoadDregWeights(dir.File("w_fresh.pt"), nullptr);
+    double init_diff = 0, fresh_diff = 0;
+    const auto a = trained->parameters(), b = init->parameters(), c = fresh->parameters();
+    for (size_t i = 0; i < a.size(); ++i) {
+      init_diff = std::max(init_diff, (a[i] - b[i]).abs().max().item<double>());
+      fresh_diff = std::max(fresh_diff, (a[i] - c[i]).abs().max().item<double>());
+    }
+    EXPECT_LT(init_diff, 1e-6);
+    EXPECT_GT(fresh_diff, 1e-3);
+  }
 
   // Every method on the pairs, one table with a summary line per method.
   const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg,ransac " +
@@ -79,6 +114,12 @@ TEST(RegCli, BadWeightsAreClearErrors) {
                                            dir.File("none.pt"));
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("none.pt"), std::string::npos) << missing.output;
+  // Fine-tuning from a file that is not weights: the same clear error, and no output written.
+  const CommandResult init = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --iters 1 --init " + dir.File("bad.pt") +
+                                        " --out " + dir.File("w.pt"));
+  EXPECT_EQ(init.exit_code, 2) << init.output;
+  EXPECT_NE(init.output.find("bad.pt"), std::string::npos) << init.output;
+  EXPECT_FALSE(FileExists(dir.File("w.pt")));
 }
 
 

@@ -120,6 +120,11 @@ int RunRegTrain(int argc, char** argv) {
   app.add_option("--stop-after", o.stop_after, "Checkpoint and stop at this step (train in slices)");
   app.add_option("--nerf-fraction", o.nerf_fraction, "Chance per step of a real-NeRF pair (default 0: by count)");
   app.add_option("--seed", o.seed, "Random seed");
+  app.add_option("--init", o.init_weights, "Start from these weights with a fresh optimizer (fine-tuning; same --config)");
+  app.add_option("--move-deg", o.move_deg,
+                 "Augmentation: the largest rotation of the rigid move of one grid, deg (default 10 as the paper; "
+                 "up to 180: any relative rotation)");
+  app.add_option("--move-probability", o.move_probability, "Augmentation: chance of that move per step (default 0.5)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!resume) CheckCanWriteOutput(out, common.force);

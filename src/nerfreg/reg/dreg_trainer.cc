@@ -25,6 +25,7 @@ void DregTrainOptions::Check() const {
   if (jitter < 0 || move_probability < 0 || move_probability > 1 || move_deg < 0 || move_translation < 0) {
     ThrowInputError("reg train", "augmentation options", "non-negative sizes, a probability in [0, 1]");
   }
+  if (move_deg > 180) ThrowInputError("--move-deg", "", "an angle in [0, 180] degrees");
   if (val_every < 0 || checkpoint_every < 0 || max_val_pairs < 0 || nerf_fraction < 0 || nerf_fraction > 1) {
     ThrowInputError("reg train", "schedule options", "non-negative counts, --nerf-fraction in [0, 1]");
   }
@@ -34,7 +35,7 @@ Json DregTrainOptions::ToJson() const {
   return {{"config", config}, {"iterations", iterations}, {"lr", lr}, {"weight_decay", weight_decay},
           {"lr_step", lr_step}, {"lr_gamma", lr_gamma}, {"grad_clip", grad_clip}, {"jitter", jitter},
           {"move_probability", move_probability}, {"move_deg", move_deg}, {"move_translation", move_translation},
-          {"swap", swap}, {"nerf_fraction", nerf_fraction}, {"seed", seed}};
+          {"swap", swap}, {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights}};
 }
 
 namespace {
@@ -108,6 +109,16 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   DregModelOptions model_options = options.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu();
   torch::manual_seed(options.seed);
   DregNet net(model_options);
+  if (!options.init_weights.empty()) {
+    // The run keeps the init file's options (its point budget and scale solve too), also when
+    // resumed: the weights it writes must say what they are.
+    DregModelOptions stored;
+    DregNet init = LoadDregWeights(options.init_weights, &stored);
+    CheckDregOptionsMatch(stored, model_options, options.init_weights);
+    model_options = stored;
+    net = init;  // replaced by the state's weights below when resuming
+    if (!resume) LOG_INFO("reg train: starting from the weights {}", options.init_weights);
+  }
   int step = 0;
   double seconds_before = 0;
   std::mt19937 rng(options.seed);

@@ -36,6 +36,10 @@ struct DregTrainOptions {
   int stop_after = 0;               // > 0: checkpoint and return at this step
   double inlier_radius = 0.1;       // Register's confidence radius, scene units
   unsigned seed = 0;
+  // Non-empty: start from these weights (reg train's OUT or the shipped file; their config must be
+  // `config`) with a fresh optimizer and step 0: fine-tuning. The run keeps their options; with
+  // --resume the state's weights replace them.
+  std::string init_weights;
   DregLossOptions loss;
   void Check() const;  // throws InputError naming the option
   Json ToJson() const;
