@@ -5,8 +5,10 @@
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
+#   train2: 100 more procedural objects (2000..), synthesised pairs;
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
-#          4-block splits) AND pairs of real trained NeRF blocks (2-block split; 4-block split).
+#          4-block splits) AND pairs of real trained NeRF blocks (2-block split of the two meshes
+#          and of procedural 5000-5005; 4-block split of the spider).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/nerfreg}
@@ -25,6 +27,9 @@ common=(--grid-resolution "$RES" --quiet)
 # Training pairs: 4 per object (synthesised, different random frames).
 "$BIN" reg make-data --meshes "${TRAIN_MESHES[@]}" --procedural "$PROCEDURAL" --procedural-seed 1000 \
   --mesh-pairs 4 --split train --out "$OUT/train" "${common[@]}"
+# More training pairs: 100 further procedural objects (the third training stage of the shipped
+# weights, README).
+"$BIN" reg make-data --procedural 100 --procedural-seed 2000 --mesh-pairs 4 --split train --out "$OUT/train2" "${common[@]}"
 # Held-out pairs, synthesised: 2 per object.
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 \
   --split val --out "$OUT/val_mesh" "${common[@]}"
@@ -39,6 +44,9 @@ common=(--grid-resolution "$RES" --quiet)
   --out "$OUT/train_nerf" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
   --out "$OUT/val_nerf" "${common[@]}"
+# Real block pairs of 6 held-out procedural objects (the first 6 of the synthesised held-out set).
+"$BIN" reg make-data --procedural 6 --procedural-seed 5000 --mesh-pairs 0 --nerf-objects 6 --split val \
+  --out "$OUT/val_nerf_proc" "${common[@]}"
 # Low overlap: adjacent blocks of a 4-block split.
 "$BIN" reg make-data --meshes "$A/OBJ/spider.obj" --mesh-pairs 0 --nerf-objects 100 --blocks 4 --split val \
   --out "$OUT/val_nerf4" "${common[@]}"
