@@ -22,6 +22,11 @@ void AddGridOptions(CLI::App& app, GridExtractionOptions* g) {
   app.add_option("--variant", g->variant, "surface (density AND surface field) or df (density only)")
       ->check(CLI::IsMember({"surface", "df"}));
   app.add_option("--surface-cameras", g->surface.max_cameras, "Training cameras the surface field marches from (default 16)");
+  app.add_option("--surface-mode", g->surface.mode,
+                 "Surface field per ray: max_weight (the paper's max alpha*T), opacity (1 - T at the point) or window "
+                 "(the ray's weight within --surface-window of the point)")
+      ->check(CLI::IsMember({"max_weight", "opacity", "window"}));
+  app.add_option("--surface-window", g->surface.window, "Mode window: the stretch around the point, block units (default one cell)");
   app.add_option("--samples-per-voxel", g->samples_per_voxel, "Jittered density samples per voxel, the densest kept (default 8; the paper 1)");
 }
 

@@ -8,7 +8,10 @@ namespace nerfreg {
 
 void SurfaceFieldOptions::Check() const {
   if (max_cameras < 1 || step_size < 0 || stop_before < 0) throw std::invalid_argument("SurfaceFieldOptions: out of range");
-  if (mode != "max_weight" && mode != "opacity") throw std::invalid_argument("SurfaceFieldOptions: mode must be max_weight or opacity");
+  if (mode != "max_weight" && mode != "opacity" && mode != "window") {
+    throw std::invalid_argument("SurfaceFieldOptions: mode must be max_weight, opacity or window");
+  }
+  if (mode == "window" && !(window > 0)) throw std::invalid_argument("SurfaceFieldOptions: mode window needs window > 0");
 }
 
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) {
@@ -29,6 +32,7 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
   const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
   const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
+  const bool window_mode = options.mode == "window";
   const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32);
   const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32);
   const auto& occupied = block.grid->occupied();  // [G, G, G] bool
@@ -59,9 +63,12 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
     for (std::int64_t s = 0; s < idx.numel(); s += 4096) {
       const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096), t0 = t_enter.slice(0, s, s + 4096);
       const std::int64_t m = d_s.size(0);
-      const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>()) / step)));
+      const double reach = window_mode ? 0.5 * options.window : 0.0;
+      const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>() + reach) / step)));
       const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [m, K]
-      const auto valid = ts <= (d_s - options.stop_before).unsqueeze(1);                            // [m, K]
+      // Window mode marches on to half a window past X; the others stop at X.
+      const auto d_end = window_mode ? d_s + 0.5 * options.window : d_s - options.stop_before;     // [m]
+      const auto valid = ts <= d_end.unsqueeze(1);                                                // [m, K]
       const auto pos = o + dir_s.unsqueeze(1) * ts.unsqueeze(2);                                    // [m, K, 3]
       // Density only where the sample is valid and its occupancy cell is occupied.
       const auto cell = ((pos - aabb_min) / (aabb_max - aabb_min) * g).floor().to(torch::kInt64);  // [m, K, 3]
@@ -74,7 +81,13 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
       sigma = sigma.view({m, max_steps});
       const auto alpha = 1 - torch::exp(-sigma * step);
       const auto trans = torch::cat({torch::ones({m, 1}), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
-      const auto s_ray = options.mode == "opacity" ? (alpha * trans).sum(1) : (alpha * trans).amax(1);
+      const auto weight = alpha * trans * valid;  // [m, K]
+      torch::Tensor s_ray;
+      if (window_mode) {
+        s_ray = (weight * (ts >= (d_s - 0.5 * options.window).unsqueeze(1))).sum(1);
+      } else {
+        s_ray = options.mode == "opacity" ? weight.sum(1) : weight.amax(1);
+      }
       const auto sel = idx.slice(0, s, s + 4096);
       best.index_put_({sel}, torch::maximum(best.index_select(0, sel), s_ray));
     }

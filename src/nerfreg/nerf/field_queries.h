@@ -4,7 +4,9 @@
 //  - the surface field S(X) (spec dreg-nerf.md 3): from each training camera that sees X, march
 //    the ray towards X (stopping at it) and take max_i alpha_i T_i; OR over the cameras (a max).
 //    S is the probability that a camera ray hits a surface at X: ~1 on surfaces seen by the
-//    cameras, ~0 in empty space and behind surfaces;
+//    cameras, ~0 in empty space and behind surfaces. Two other per-ray measures
+//    (SurfaceFieldOptions::mode): the opacity up to X, and the weight within a window around X
+//    (what grid extraction uses: it does not shrink with the march step on blurry fields);
 //  - the block's occupied points: one jittered point per occupied cell with density, view-averaged
 //    colour and alpha (the voxel grid DReg-NeRF feeds its network).
 #include <torch/torch.h>
@@ -26,7 +28,13 @@ struct SurfaceFieldOptions {
   // up to X, 1 - T(X) = sum_i alpha_i T_i. On a sharp surface both are ~1; on the blurrier blocks
   // a CPU trains in minutes a surface spreads its weight over several samples, so the maximum
   // weight stays below the 0.5 threshold while the accumulated opacity still reaches it.
+  // "window": the ray's weight within half a `window` of X, T(X - w/2) - T(X + w/2): the chance
+  // that the ray ends within that stretch. Unlike max_weight it does not shrink with the march
+  // step (a blurry surface spread over several samples still sums to ~1 within a cell), and
+  // unlike opacity it is ~0 inside a solid (the ray has ended before it gets there): the visible
+  // surface, as a block's cameras saw it.
   std::string mode = "max_weight";
+  double window = 0.0;  // mode "window": the stretch's length, scene units (> 0; grid extraction: 0 = a cell)
   void Check() const;
 };
 

@@ -72,6 +72,32 @@ TEST(NerfTrainer, TrainingRaisesHeldOutPsnr) {
   // samples): assert the separation between surface and empty space.
   EXPECT_GT(s_surface.mean().item<float>(), 0.25f);
   EXPECT_LT(s_empty.max().item<float>(), 0.05f);
+
+  // Mode window: the ray's weight within a stretch around the point. From the one camera whose
+  // rays found the surface, it is high where they end and ~0 a little behind it (the ray has ended;
+  // opacity, 1 - T, stays ~1 there), and it does not shrink with the march step as max_weight does.
+  SurfaceFieldOptions one = so;
+  one.max_cameras = 1;  // the first training camera: `cam`
+  SurfaceFieldOptions window = one;
+  window.mode = "window";
+  window.window = 0.2;
+  SurfaceFieldOptions opacity = one;
+  opacity.mode = "opacity";
+  const auto behind = surface + dirs.index_select(0, hit) * 0.3;
+  const float w_surface = SurfaceField(block, surface, window).mean().item<float>();
+  EXPECT_GT(w_surface, 0.5f);
+  EXPECT_GT(w_surface, SurfaceField(block, surface, one).mean().item<float>() + 0.1f);
+  EXPECT_LT(SurfaceField(block, behind, window).mean().item<float>(), 0.1f);
+  EXPECT_GT(SurfaceField(block, behind, opacity).mean().item<float>(), 0.9f);
+  EXPECT_LT(SurfaceField(block, empty, window).max().item<float>(), 0.05f);
+  SurfaceFieldOptions fine = window;
+  fine.step_size = 0.25 * block.march.step_size;
+  SurfaceFieldOptions fine_max = one;
+  fine_max.step_size = fine.step_size;
+  EXPECT_NEAR(SurfaceField(block, surface, fine).mean().item<float>(), w_surface, 0.05f);
+  EXPECT_LT(SurfaceField(block, surface, fine_max).mean().item<float>(), SurfaceField(block, surface, one).mean().item<float>());
+  window.window = 0;
+  EXPECT_THROW(window.Check(), std::invalid_argument);
 }
 
 TEST(NerfTrainer, CheckpointRoundTripAndExactResume) {

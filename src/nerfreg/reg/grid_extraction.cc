@@ -11,10 +11,16 @@ void GridExtractionOptions::Check() const {
   if (samples_per_voxel < 1 || samples_per_voxel > 64) ThrowInputError("--samples-per-voxel", "", "1..64");
   if (variant != "surface" && variant != "df") ThrowInputError("--variant", "", "surface or df");
   try {
-    surface.Check();
+    ResolvedSurface().Check();
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("surface field options: ") + e.what());
   }
+}
+
+SurfaceFieldOptions GridExtractionOptions::ResolvedSurface() const {
+  SurfaceFieldOptions s = surface;
+  if (s.mode == "window" && !(s.window > 0) && resolution > 0) s.window = side / resolution;
+  return s;
 }
 
 RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
@@ -68,7 +74,7 @@ RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
     if (block.cameras.IndicesOfSplit("train").empty()) {
       ThrowInputError("block", "cameras", "training cameras in the checkpoint (the surface field marches from them)");
     }
-    surface.index_copy_(0, dense_idx, SurfaceField(block, dense_pts, options.surface));
+    surface.index_copy_(0, dense_idx, SurfaceField(block, dense_pts, options.ResolvedSurface()));
   }
   g.surface = surface.reshape({d, d, d});
   g.mask = options.variant == "df" ? dense.reshape({d, d, d}) : (dense & (surface >= options.surface_threshold)).reshape({d, d, d});

@@ -42,7 +42,8 @@ NerfBlock TrainSmallBlock(const ScopedTempDir& dir, TriangleMesh* mesh_out) {
 }
 
 // Grid options for that block: D = 32; the block is blurry (its surfaces spread their weight over
-// several samples: max alpha T averages ~0.3 on dense voxels), so the mask threshold is lowered.
+// several samples: max alpha T averaged ~0.3 on dense voxels), so the mask threshold is lowered
+// (chosen for the max_weight surface field; the default window field keeps more of the surface).
 GridExtractionOptions SmallBlockGridOptions() {
   GridExtractionOptions go;
   go.resolution = 32;

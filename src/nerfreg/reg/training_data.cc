@@ -78,7 +78,8 @@ Json MakeDataOptions::ToJson() const {
   return {{"meshes", meshes}, {"procedural", procedural}, {"procedural_seed", procedural_seed}, {"mesh_pairs", mesh_pairs},
           {"nerf_objects", nerf_objects}, {"blocks", blocks}, {"split", split}, {"image_size", image_size},
           {"nerf", nerf.ToJson()}, {"grid_resolution", grid.resolution}, {"grid_side", grid.side},
-          {"variant", grid.variant}, {"min_density", grid.min_density}, {"seed", seed}};
+          {"variant", grid.variant}, {"min_density", grid.min_density}, {"surface_mode", grid.surface.mode},
+          {"surface_window", grid.ResolvedSurface().window}, {"seed", seed}};
 }
 
 namespace {
