@@ -59,6 +59,17 @@ void AddMaxPointsOption(CLI::App& app, int* max_points) {
       ->check(CLI::NonNegativeNumber);
 }
 
+// ICP on the grids: its points and the half-turn check (GridRegistrationOptions).
+void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips) {
+  app.add_option("--icp-points", *icp_points,
+                 "Grids: the points ICP aligns, occupied (every voxel over the density threshold; default) or mask "
+                 "(the surface mask the network sees)")
+      ->check(CLI::IsMember({"occupied", "mask"}));
+  app.add_flag("--no-flips", *no_flips,
+               "Grids: ICP from the pose alone, not also from its 9 half-turns (by default the one whose voxels agree "
+               "best in place and colour is kept)");
+}
+
 }  // namespace
 
 // The shipped weights: NERFREG_WEIGHTS overrides; else models/dreg_cpu.pt of the source tree.
@@ -128,6 +139,9 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
   AddMaxPointsOption(app, &max_points);
+  std::string icp_points = GridRegistrationOptions{}.icp_points;
+  bool no_flips = false;
+  AddIcpOptions(app, &icp_points, &no_flips);
   app.add_option("--seed", seed, "Random seed");
   std::string dreg_solver = "procrustes";
   app.add_option("--dreg-solver", dreg_solver,
@@ -177,6 +191,8 @@ int RunRegRegister(int argc, char** argv) {
     ro.dreg_solver = dreg_solver;
     ro.dreg_passes = dreg_passes;
     ro.icp = refine != "none";
+    ro.icp_points = icp_points;
+    ro.flips = !no_flips;
     ro.voxel = voxel;
     ro.seed = seed;
     const GridRegistrationResult r = RegisterGrids(gs, gt, ro, &net);
@@ -188,7 +204,7 @@ int RunRegRegister(int argc, char** argv) {
     c.target_from_source = r.target_from_source;
     c.scale = r.scale;
     c.confidence = r.confidence;
-    c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds}, {"weights", weights},
+    c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds}, {"weights", weights}, {"half_turn", r.flip},
                {"source_points", r.source_points}, {"target_points", r.target_points}};
     c.src = PointsToEigen(gs.MaskedXyz());
     c.tgt = PointsToEigen(gt.MaskedXyz());
@@ -315,7 +331,8 @@ double Median(std::vector<double> v) {
 // `reg eval --pairs`: every method on every pair's grids, one table.
 int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
               const std::vector<std::string>& dreg_solvers, const std::vector<int>& dreg_passes, const std::string& split,
-              const std::string& weights, double voxel, int max_pairs, const std::string& out) {
+              const std::string& weights, double voxel, const std::string& icp_points, bool flips, int max_pairs,
+              const std::string& out) {
   std::vector<PairRecord> pairs;
   for (const auto& p : ReadPairs(pairs_path))
     if (split == "all" || p.split == split) pairs.push_back(p);
@@ -357,6 +374,8 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
         o.dreg_solver = solver;
         o.dreg_passes = passes;
         o.icp = rf != "none";
+        o.icp_points = icp_points;
+        o.flips = flips;
         o.voxel = voxel;
         GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
         if (rf == "field") {
@@ -455,6 +474,9 @@ int RunRegEval(int argc, char** argv) {
   app.add_option("--max-pairs", max_pairs, "With --pairs: at most this many pairs");
   app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
   app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
+  std::string icp_points = GridRegistrationOptions{}.icp_points;
+  bool no_flips = false;
+  AddIcpOptions(app, &icp_points, &no_flips);
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!out.empty()) CheckCanWriteOutput(out, common.force);
@@ -465,7 +487,8 @@ int RunRegEval(int argc, char** argv) {
       if (r != "none" && r != "icp" && r != "field") ThrowInputError("--refine", "", "none, icp or field, got " + r);
     for (const auto& s : dreg_solvers)
       if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
-    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, voxel, max_pairs, out);
+    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, voxel, icp_points, !no_flips, max_pairs,
+                     out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);

@@ -121,4 +121,23 @@ ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const 
   return ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
 }
 
+std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                                       const std::vector<Rigid3d>& starts,
+                                                       const ClassicalRegistrationOptions& o) {
+  o.Check();
+  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  Timer timer;
+  const auto src = Prepare(source, o), tgt = Prepare(target, o);  // once for every start
+  const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
+  std::vector<ClassicalRegistrationResult> out;
+  for (const Rigid3d& start : starts) {
+    Timer one;
+    const auto r = reg::RegistrationICP(*src, *tgt, d, start.ToMatrix(), reg::TransformationEstimationPointToPlane(),
+                                        reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
+    out.push_back(ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds()));
+  }
+  return out;
+}
+
 }  // namespace nerfreg

@@ -4,6 +4,7 @@
 // optional point-to-plane ICP. Open3D stays behind this header: clouds are Eigen matrices.
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "nerfreg/geometry/rigid3.h"
 
@@ -46,5 +47,9 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
 ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                           const Rigid3d& initial_target_from_source,
                                           const ClassicalRegistrationOptions& options);
+// The same from several starts, the clouds and normals prepared once: one result per start.
+std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                                       const std::vector<Rigid3d>& starts,
+                                                       const ClassicalRegistrationOptions& options);
 
 }  // namespace nerfreg

@@ -1,6 +1,9 @@
 #include "nerfreg/reg/register_grids.h"
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <vector>
 
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/util/error.h"
@@ -12,11 +15,121 @@ void GridRegistrationOptions::Check() const {
   if (method != "dreg" && method != "ransac" && method != "fgr") ThrowInputError("--method", "", "dreg, ransac or fgr");
   if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
+  if (icp_points != "occupied" && icp_points != "mask") ThrowInputError("--icp-points", "", "occupied or mask");
   DregSolveOptions solve;
   solve.solver = dreg_solver;
   solve.passes = dreg_passes;
   solve.inlier_radius = inlier_radius;
   solve.Check();
+}
+
+double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
+  torch::NoGradGuard no_grad;
+  const torch::Tensor occupied = (source.rgba[3] > 0) | source.mask;           // [D, D, D]
+  const torch::Tensor xyz = source.xyz.index({occupied}).to(torch::kDouble);   // [K, 3]
+  const torch::Tensor rgb = source.rgba.slice(0, 0, 3).permute({1, 2, 3, 0}).index({occupied});  // [K, 3]
+  if (xyz.size(0) == 0) return 0;
+  const Eigen::Matrix4d& m = target_from_source;
+  const torch::Tensor r = torch::tensor({m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)},
+                                        torch::kDouble).view({3, 3});
+  const torch::Tensor t = torch::tensor({m(0, 3), m(1, 3), m(2, 3)}, torch::kDouble);
+  const torch::Tensor lo = torch::tensor({target.aabb_min.x(), target.aabb_min.y(), target.aabb_min.z()}, torch::kDouble);
+  const torch::Tensor cell = (xyz.matmul(r.t()) + t - lo) / target.CellSize();  // [K, 3] in target cells
+  const torch::Tensor base = cell.floor().to(torch::kLong);
+  const int64_t d = target.Resolution();
+  const torch::Tensor tgt_rgba = target.rgba.reshape({4, -1});                  // [4, D^3]
+  const torch::Tensor tgt_occupied = ((target.rgba[3] > 0) | target.mask).reshape({-1});
+  torch::Tensor best = torch::zeros({xyz.size(0)});
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz) {
+        const torch::Tensor ijk = base + torch::tensor({dx, dy, dz}, torch::kLong);
+        const torch::Tensor inside = ((ijk >= 0) & (ijk < d)).all(1);
+        const torch::Tensor flat = (ijk.clamp(0, d - 1) * torch::tensor({d * d, d, int64_t{1}}, torch::kLong)).sum(1);
+        const torch::Tensor there = tgt_rgba.slice(0, 0, 3).index_select(1, flat).t();  // [K, 3]
+        const torch::Tensor agree = (1 - (there - rgb).norm(2, 1) / 0.3).clamp_min(0) *
+                                    (inside & tgt_occupied.index_select(0, flat)).to(torch::kFloat);
+        best = torch::maximum(best, agree);
+      }
+  return best.mean().item<double>();
+}
+
+namespace {
+
+ClassicalRegistrationOptions ClassicalOptionsFor(const RegGrid& source, const RegGrid& target,
+                                                 const GridRegistrationOptions& o) {
+  // The classical pipeline's voxel is at least the grid's cell: finer, the normals (2 voxels) and
+  // FPFH (5 voxels) find no neighbours among one point per cell (on the spider's real blocks at
+  // D = 32: RANSAC + ICP 171 deg off at 0.05, 1.9 deg at 0.12).
+  const double voxel = std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize()));
+  ClassicalRegistrationOptions c;
+  c.voxel_size = voxel;
+  c.normal_radius = 2 * voxel;
+  c.feature_radius = 5 * voxel;
+  c.seed = o.seed;
+  return c;
+}
+
+Eigen::Matrix3Xd IcpPoints(const RegGrid& grid, const GridRegistrationOptions& o) {
+  return PointsToEigen(o.icp_points == "occupied" ? grid.OccupiedXyz() : grid.MaskedXyz());
+}
+
+}  // namespace
+
+Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& start,
+                               const GridRegistrationOptions& o, int* flip) {
+  o.Check();
+  if (flip) *flip = -1;
+  const ClassicalRegistrationOptions c = ClassicalOptionsFor(source, target, o);
+  const Eigen::Matrix3Xd tgt_icp = IcpPoints(target, o);
+  const double scale = start.topLeftCorner<3, 3>().determinant() > 0 ? std::cbrt(start.topLeftCorner<3, 3>().determinant()) : 1.0;
+  // ICP refines a rigid pose: with a scale, refine in the scaled source frame.
+  const Eigen::Matrix3Xd scaled = IcpPoints(source, o) * scale;
+  if (scaled.cols() < 3 || tgt_icp.cols() < 3) return start;
+  const Rigid3d estimate(start.topLeftCorner<3, 3>() / scale, start.topRightCorner<3, 1>());
+  std::vector<Rigid3d> starts = {estimate};
+  if (o.flips) {
+    // Half-turns through the (scaled) source's centroid about its principal axes and the
+    // diagonals between each two of them (start = estimate * half-turn): an object's symmetry need
+    // not follow one principal axis where two spreads are alike (the milk truck's height and
+    // width: its front-to-back turn was found about a diagonal).
+    const Eigen::Vector3d centroid = scaled.rowwise().mean();
+    const Eigen::Matrix3Xd centred = scaled.colwise() - centroid;
+    const Eigen::Matrix3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+    std::vector<Eigen::Vector3d> axes = {e.col(0), e.col(1), e.col(2)};
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) {
+        axes.push_back((e.col(i) + e.col(j)).normalized());
+        axes.push_back((e.col(i) - e.col(j)).normalized());
+      }
+    for (const Eigen::Vector3d& axis : axes) {
+      const Eigen::Matrix3d half = Eigen::AngleAxisd(M_PI, axis).toRotationMatrix();
+      starts.push_back(estimate * Rigid3d(half, centroid - half * centroid));
+    }
+  }
+  const std::vector<ClassicalRegistrationResult> refined = RefineWithIcp(scaled, tgt_icp, starts, c);
+  auto pose = [&](size_t k) {
+    Eigen::Matrix4d m = refined[k].target_from_source.ToMatrix();
+    m.topLeftCorner<3, 3>() *= scale;
+    return m;
+  };
+  Eigen::Matrix4d best_pose = pose(0);
+  if (refined.size() > 1) {
+    // The first pose is kept unless a half-turn agrees clearly better (a margin against noise
+    // where an object is truly symmetric).
+    const double kMargin = 0.03;
+    double best = GridAgreement(source, target, best_pose) + kMargin;
+    for (size_t k = 1; k < refined.size(); ++k) {
+      const Eigen::Matrix4d m = pose(k);
+      const double agreement = GridAgreement(source, target, m);
+      if (agreement > best) {
+        best = agreement;
+        best_pose = m;
+        if (flip) *flip = static_cast<int>(k) - 1;
+      }
+    }
+  }
+  return best_pose;
 }
 
 GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
@@ -32,16 +145,7 @@ GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& targe
     r.seconds = timer.Seconds();
     return r;  // nothing to register: identity, confidence 0
   }
-  // The classical pipeline's voxel is at least the grid's cell: finer, the normals (2 voxels) and
-  // FPFH (5 voxels) find no neighbours among one point per cell (on the spider's real blocks at
-  // D = 32: RANSAC + ICP 171 deg off at 0.05, 1.9 deg at 0.12).
-  const double voxel = std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize()));
-  ClassicalRegistrationOptions c;
-  c.voxel_size = voxel;
-  c.normal_radius = 2 * voxel;
-  c.feature_radius = 5 * voxel;
-  c.seed = o.seed;
-  Rigid3d estimate;
+  ClassicalRegistrationOptions c = ClassicalOptionsFor(source, target, o);
   if (o.method == "dreg") {
     if (!net) throw std::logic_error("RegisterGrids: method dreg needs the network");
     DregSolveOptions solve;
@@ -52,23 +156,19 @@ GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& targe
     const DregRegistration d = Register(*net, source, target, solve);
     r.scale = d.scale;
     r.confidence = d.confidence;
-    const Eigen::Matrix3d sr = d.target_from_source.topLeftCorner<3, 3>() / d.scale;
-    estimate = Rigid3d(sr, d.target_from_source.topRightCorner<3, 1>());
     if (o.icp) {
-      // ICP refines a rigid pose: with a scale estimate, refine in the scaled source frame.
-      Eigen::Matrix3Xd scaled = src * d.scale;
-      estimate = RefineWithIcp(scaled, tgt, estimate, c).target_from_source;
-      r.target_from_source = estimate.ToMatrix();
-      r.target_from_source.topLeftCorner<3, 3>() *= d.scale;
+      r.target_from_source = RefineGridPose(source, target, d.target_from_source, o, &r.flip);
     } else {
       r.target_from_source = d.target_from_source;
     }
   } else {
+    // The global search on the mask; the refinement as dreg's (the same points and half-turns).
     c.method = o.method;
-    c.icp = o.icp;
+    c.icp = false;
     const ClassicalRegistrationResult cr = RegisterPointClouds(src, tgt, c);
     r.target_from_source = cr.target_from_source.ToMatrix();
     r.confidence = cr.fitness;
+    if (o.icp) r.target_from_source = RefineGridPose(source, target, r.target_from_source, o, &r.flip);
   }
   r.seconds = timer.Seconds();
   return r;
