@@ -5,6 +5,7 @@
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
+#   train_nerf_proc: real block pairs of 12 training procedural objects;
 #   train2: 100 more procedural objects (2000..), synthesised pairs;
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
 #          4-block splits) AND pairs of real trained NeRF blocks (2-block split of the two meshes
@@ -42,6 +43,10 @@ common=(--grid-resolution "$RES" --quiet)
 # (reg/field_alignment.h; README, "Fine registration on the fields").
 "$BIN" reg make-data --meshes "$A/OBJ/WusonOBJ.obj" "$A/OBJ/regr01.obj" --mesh-pairs 0 --nerf-objects 2 --split train \
   --out "$OUT/train_nerf" "${common[@]}"
+# Real block pairs of 12 training procedural objects (1000-1011, the first of train): training pairs
+# from real fields (the fifth stage of the shipped weights tried them, README; 35 min).
+"$BIN" reg make-data --procedural 12 --procedural-seed 1000 --mesh-pairs 0 --nerf-objects 12 --split train \
+  --out "$OUT/train_nerf_proc" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
   --out "$OUT/val_nerf" "${common[@]}"
 # Real block pairs of 6 held-out procedural objects (the first 6 of the synthesised held-out set).

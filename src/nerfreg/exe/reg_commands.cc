@@ -124,8 +124,8 @@ int RunRegRegister(int argc, char** argv) {
   app.add_option("--min-confidence", min_confidence,
                  "auto without --refine field: dreg answers below this confidence fall back to ransac (0.3)");
   app.add_option("--refine", refine,
-                 "none, icp (point-to-plane ICP on the surface points) or field (ICP, then the two density fields "
-                 "aligned: finer than the grid)")
+                 "none, icp (point-to-plane ICP; on the grids see --icp-points, --no-flips) or field (ICP, then the "
+                 "two density fields aligned: finer than the grid)")
       ->check(CLI::IsMember({"none", "icp", "field"}));
   FieldAlignmentOptions field_options;
   app.add_option("--field-iterations", field_options.iterations, "field: Levenberg-Marquardt iterations at most (default 30)");
