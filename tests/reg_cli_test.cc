@@ -100,6 +100,16 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   // FPFH + RANSAC + ICP agrees with these synthesised pairs' ground truth (a wrong or inverted one
   // is tens of degrees off; one point per 0.11-unit cell limits ICP to a few degrees: 3.1 measured).
   EXPECT_LT(table["summary"]["ransac+icp"]["median_rotation_deg"].get<double>(), 10.0);
+  // ICP on the mask without the half-turn check (the earlier refinement) is its own row name.
+  const CommandResult mask = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
+                                        "--refine icp --icp-points mask --no-flips --out " + dir.File("eval_mask.json"));
+  ASSERT_EQ(mask.exit_code, 0) << mask.output;
+  const Json mask_table = ReadJsonFile(dir.File("eval_mask.json"));
+  EXPECT_TRUE(mask_table["summary"].contains("ransac+icp[mask][noflips]")) << mask_table["summary"].dump();
+  EXPECT_LT(mask_table["summary"]["ransac+icp[mask][noflips]"]["median_rotation_deg"].get<double>(), 10.0);
+  const CommandResult bad = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods ransac --icp-points all");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("--icp-points"), std::string::npos) << bad.output;
 }
 
 TEST(RegCli, BadWeightsAreClearErrors) {
