@@ -28,7 +28,8 @@ Json VectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.
 }  // namespace
 
 torch::Tensor RegGrid::MaskedXyz() const { return xyz.index({mask}); }
-torch::Tensor RegGrid::OccupiedXyz() const { return xyz.index({(rgba[3] > 0) | mask}); }
+torch::Tensor RegGrid::Occupied() const { return (rgba[3] > 0) | mask; }
+torch::Tensor RegGrid::OccupiedXyz() const { return xyz.index({Occupied()}); }
 torch::Tensor RegGrid::MaskedSurface() const { return surface.index({mask}); }
 
 void RegGrid::Check() const {

@@ -40,8 +40,9 @@ struct RegGrid {
   double CellSize() const { return (aabb_max.x() - aabb_min.x()) / Resolution(); }
   // [M, 3] keypoints, [M] surface labels, [M, 4] rgba at the mask, in mask.nonzero() order.
   torch::Tensor MaskedXyz() const;
-  // [K, 3] the sample points of every occupied voxel (alpha > 0: density over the extraction's
-  // threshold), a superset of the mask.
+  // [D, D, D] bool: the occupied voxels (alpha > 0: density over the extraction's threshold), a
+  // superset of the mask; [K, 3] their sample points.
+  torch::Tensor Occupied() const;
   torch::Tensor OccupiedXyz() const;
   torch::Tensor MaskedSurface() const;
   // Throws std::invalid_argument when shapes, dtypes or the box are inconsistent.

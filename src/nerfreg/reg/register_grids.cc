@@ -25,7 +25,7 @@ void GridRegistrationOptions::Check() const {
 
 double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
   torch::NoGradGuard no_grad;
-  const torch::Tensor occupied = (source.rgba[3] > 0) | source.mask;           // [D, D, D]
+  const torch::Tensor occupied = source.Occupied();                            // [D, D, D]
   const torch::Tensor xyz = source.xyz.index({occupied}).to(torch::kDouble);   // [K, 3]
   const torch::Tensor rgb = source.rgba.slice(0, 0, 3).permute({1, 2, 3, 0}).index({occupied});  // [K, 3]
   if (xyz.size(0) == 0) return 0;
@@ -38,7 +38,7 @@ double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::
   const torch::Tensor base = cell.floor().to(torch::kLong);
   const int64_t d = target.Resolution();
   const torch::Tensor tgt_rgba = target.rgba.reshape({4, -1});                  // [4, D^3]
-  const torch::Tensor tgt_occupied = ((target.rgba[3] > 0) | target.mask).reshape({-1});
+  const torch::Tensor tgt_occupied = target.Occupied().reshape({-1});
   torch::Tensor best = torch::zeros({xyz.size(0)});
   for (int dx = -1; dx <= 1; ++dx)
     for (int dy = -1; dy <= 1; ++dy)
