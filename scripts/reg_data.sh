@@ -9,7 +9,7 @@
 #   train2: 100 more procedural objects (2000..), synthesised pairs;
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
 #          4-block splits) AND pairs of real trained NeRF blocks (2-block split of the two meshes
-#          and of procedural 5000-5005; 4-block split of the spider).
+#          and of procedural 5000-5005; 4-block splits of the spider and of procedural 5000-5002).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/nerfreg}
@@ -52,6 +52,8 @@ common=(--grid-resolution "$RES" --quiet)
 # Real block pairs of 6 held-out procedural objects (the first 6 of the synthesised held-out set).
 "$BIN" reg make-data --procedural 6 --procedural-seed 5000 --mesh-pairs 0 --nerf-objects 6 --split val \
   --out "$OUT/val_nerf_proc" "${common[@]}"
-# Low overlap: adjacent blocks of a 4-block split.
+# Lower overlap: pairs of a 4-block split.
 "$BIN" reg make-data --meshes "$A/OBJ/spider.obj" --mesh-pairs 0 --nerf-objects 100 --blocks 4 --split val \
   --out "$OUT/val_nerf4" "${common[@]}"
+"$BIN" reg make-data --procedural 3 --procedural-seed 5000 --mesh-pairs 0 --nerf-objects 3 --blocks 4 --split val \
+  --out "$OUT/val_nerf_proc4" "${common[@]}"
