@@ -110,15 +110,7 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
 
 ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                           const Rigid3d& initial, const ClassicalRegistrationOptions& o) {
-  o.Check();
-  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
-  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
-  Timer timer;
-  const auto src = Prepare(source, o), tgt = Prepare(target, o);
-  const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
-  const auto r = reg::RegistrationICP(*src, *tgt, d, initial.ToMatrix(), reg::TransformationEstimationPointToPlane(),
-                                      reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
-  return ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
+  return RefineWithIcp(source, target, std::vector<Rigid3d>{initial}, o).front();
 }
 
 std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
@@ -127,15 +119,16 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
   o.Check();
   if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
-  Timer timer;
+  Timer prepare;
   const auto src = Prepare(source, o), tgt = Prepare(target, o);  // once for every start
+  const double prepare_seconds = prepare.Seconds();
   const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
   std::vector<ClassicalRegistrationResult> out;
   for (const Rigid3d& start : starts) {
     Timer one;
     const auto r = reg::RegistrationICP(*src, *tgt, d, start.ToMatrix(), reg::TransformationEstimationPointToPlane(),
                                         reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
-    out.push_back(ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds()));
+    out.push_back(ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (out.empty() ? prepare_seconds : 0)));
   }
   return out;
 }

@@ -47,7 +47,8 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
 ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                           const Rigid3d& initial_target_from_source,
                                           const ClassicalRegistrationOptions& options);
-// The same from several starts, the clouds and normals prepared once: one result per start.
+// The same from several starts, the clouds and normals prepared once: one result per start (its
+// seconds: that start's ICP, the first's with the preparation).
 std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                                        const std::vector<Rigid3d>& starts,
                                                        const ClassicalRegistrationOptions& options);
