@@ -100,6 +100,20 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   // FPFH + RANSAC + ICP agrees with these synthesised pairs' ground truth (a wrong or inverted one
   // is tens of degrees off; one point per 0.11-unit cell limits ICP to a few degrees: 3.1 measured).
   EXPECT_LT(table["summary"]["ransac+icp"]["median_rotation_deg"].get<double>(), 10.0);
+  // Successes are also counted apart by overlap: the pairs below the threshold are those pairs.json
+  // says are, and the two bins hold every pair.
+  const Json pairs_json = ReadJsonFile(dir.File("data/pairs.json"));
+  const double threshold = 0.95;
+  int below = 0;
+  for (const auto& p : pairs_json["pairs"]) below += p["overlap"].get<double>() < threshold;
+  const CommandResult binned = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
+                                          "--overlap-threshold 0.95 --out " + dir.File("eval_binned.json"));
+  ASSERT_EQ(binned.exit_code, 0) << binned.output;
+  const Json by_overlap = ReadJsonFile(dir.File("eval_binned.json"))["summary"]["ransac+icp"]["by_overlap"];
+  EXPECT_EQ(by_overlap["below"]["pairs"].get<int>(), below) << by_overlap.dump();
+  EXPECT_EQ(by_overlap["below"]["pairs"].get<int>() + by_overlap["at_or_above"]["pairs"].get<int>(), 2) << by_overlap.dump();
+  EXPECT_LE(by_overlap["below"]["successes_5deg_0.05"].get<int>(), below);
+  EXPECT_NE(RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --overlap-threshold 1.5").exit_code, 0);
   // ICP on the mask without the half-turn check (the earlier refinement) is its own row name.
   const CommandResult mask = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
                                         "--refine icp --icp-points mask --no-flips --out " + dir.File("eval_mask.json"));
