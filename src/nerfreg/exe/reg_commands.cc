@@ -1,4 +1,6 @@
 // Commands of the registration layer: reg register | reg eval.
+#include <fmt/format.h>
+
 #include <cmath>
 
 #include "nerfreg/exe/command.h"
@@ -60,7 +62,7 @@ void AddMaxPointsOption(CLI::App& app, int* max_points) {
 }
 
 // ICP on the grids: its points and the half-turn check (GridRegistrationOptions).
-void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips) {
+void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, double* icp_distance) {
   app.add_option("--icp-points", *icp_points,
                  "Grids: the points ICP aligns, occupied (every voxel over the density threshold; default) or mask "
                  "(the surface mask the network sees)")
@@ -68,6 +70,10 @@ void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips) {
   app.add_flag("--no-flips", *no_flips,
                "Grids: ICP from the pose alone, not also from its 9 half-turns (by default the one whose voxels agree "
                "best in place and colour is kept)");
+  app.add_option("--icp-distance", *icp_distance,
+                 "Grids: ICP's correspondence distance in ICP voxels (max(--voxel, 1.1 grid cells); default " +
+                     fmt::format("{:g}", GridRegistrationOptions::kDefaultIcpDistance) + ")")
+      ->check(CLI::PositiveNumber);
 }
 
 }  // namespace
@@ -141,7 +147,8 @@ int RunRegRegister(int argc, char** argv) {
   AddMaxPointsOption(app, &max_points);
   std::string icp_points = GridRegistrationOptions{}.icp_points;
   bool no_flips = false;
-  AddIcpOptions(app, &icp_points, &no_flips);
+  double icp_distance = GridRegistrationOptions::kDefaultIcpDistance;
+  AddIcpOptions(app, &icp_points, &no_flips, &icp_distance);
   app.add_option("--seed", seed, "Random seed");
   std::string dreg_solver = "procrustes";
   app.add_option("--dreg-solver", dreg_solver,
@@ -193,6 +200,7 @@ int RunRegRegister(int argc, char** argv) {
     ro.icp = refine != "none";
     ro.icp_points = icp_points;
     ro.flips = !no_flips;
+    ro.icp_distance = icp_distance;
     ro.voxel = voxel;
     ro.seed = seed;
     const GridRegistrationResult r = RegisterGrids(gs, gt, ro, &net);
@@ -331,8 +339,8 @@ double Median(std::vector<double> v) {
 // `reg eval --pairs`: every method on every pair's grids, one table.
 int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
               const std::vector<std::string>& dreg_solvers, const std::vector<int>& dreg_passes, const std::string& split,
-              const std::string& weights, double voxel, const std::string& icp_points, bool flips, int max_pairs,
-              double overlap_threshold, const std::string& out) {
+              const std::string& weights, const GridRegistrationOptions& base, int max_pairs, double overlap_threshold,
+              const std::string& out) {
   std::vector<PairRecord> pairs;
   for (const auto& p : ReadPairs(pairs_path))
     if (split == "all" || p.split == split) pairs.push_back(p);
@@ -369,14 +377,11 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
       for (const int passes : m == "dreg" ? dreg_passes : std::vector<int>{1})
       for (const auto& rf : refines) {
         if (rf == "field" && !src_block) continue;
-        GridRegistrationOptions o;
+        GridRegistrationOptions o = base;  // the ICP's points, distance, half-turns and the voxel
         o.method = m;
         o.dreg_solver = solver;
         o.dreg_passes = passes;
         o.icp = rf != "none";
-        o.icp_points = icp_points;
-        o.flips = flips;
-        o.voxel = voxel;
         GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
         if (rf == "field") {
           Json field;
@@ -503,9 +508,9 @@ int RunRegEval(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
   app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
-  std::string icp_points = GridRegistrationOptions{}.icp_points;
+  GridRegistrationOptions base;
   bool no_flips = false;
-  AddIcpOptions(app, &icp_points, &no_flips);
+  AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!out.empty()) CheckCanWriteOutput(out, common.force);
@@ -516,8 +521,10 @@ int RunRegEval(int argc, char** argv) {
       if (r != "none" && r != "icp" && r != "field") ThrowInputError("--refine", "", "none, icp or field, got " + r);
     for (const auto& s : dreg_solvers)
       if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
-    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, voxel, icp_points, !no_flips, max_pairs,
-                     overlap_threshold, out);
+    base.voxel = voxel;
+    base.flips = !no_flips;
+    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, base, max_pairs, overlap_threshold,
+                     out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);

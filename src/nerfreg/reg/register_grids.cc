@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdio>
 #include <vector>
 
 #include "nerfreg/reg/baselines.h"
@@ -16,11 +17,25 @@ void GridRegistrationOptions::Check() const {
   if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
   if (icp_points != "occupied" && icp_points != "mask") ThrowInputError("--icp-points", "", "occupied or mask");
+  if (!(icp_distance > 0)) ThrowInputError("--icp-distance", "", "> 0 (ICP voxels)");
   DregSolveOptions solve;
   solve.solver = dreg_solver;
   solve.passes = dreg_passes;
   solve.inlier_radius = inlier_radius;
   solve.Check();
+}
+
+std::string GridRegistrationOptions::Name() const {
+  std::string name = method + (method == "dreg" && dreg_solver == "ransac" ? "/ransac" : "") +
+                     (method == "dreg" && dreg_passes > 1 ? "/" + std::to_string(dreg_passes) + "passes" : "");
+  if (!icp) return name;
+  name += std::string("+icp") + (icp_points == "mask" ? "[mask]" : "") + (flips ? "" : "[noflips]");
+  if (icp_distance != kDefaultIcpDistance) {
+    char d[32];
+    std::snprintf(d, sizeof d, "[d%g]", icp_distance);
+    name += d;
+  }
+  return name;
 }
 
 double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
@@ -66,6 +81,7 @@ ClassicalRegistrationOptions ClassicalOptionsFor(const RegGrid& source, const Re
   c.voxel_size = voxel;
   c.normal_radius = 2 * voxel;
   c.feature_radius = 5 * voxel;
+  c.icp_distance = o.icp_distance * voxel;
   c.seed = o.seed;
   return c;
 }

@@ -78,6 +78,29 @@ TEST(RegisterGrids, IcpOnTheOccupiedVoxelsOrOnTheMask) {
   EXPECT_THROW(RegisterGrids(k.source, k.target, o, nullptr), InputError);
 }
 
+// ICP's correspondence distance (in ICP voxels) is the one asked for: from a pose 6 deg off, the
+// default (2 voxels) closes the gap; a distance far under one cell finds no pairs within it, so
+// the pose does not move. The row is named apart, and a distance <= 0 is a named error.
+TEST(RegisterGrids, IcpDistanceIsTheOneAskedFor) {
+  torch::set_num_threads(2);
+  const KnownPair k = SameGridMoved();
+  Eigen::Matrix4d start = k.target_from_source;
+  start.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(6 * M_PI / 180, Eigen::Vector3d(0.3, 1, -0.2).normalized()).toRotationMatrix() * start.topLeftCorner<3, 3>();
+  const Sim3d truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
+  auto error_deg = [&](const Eigen::Matrix4d& m) { return RotationErrorDeg(Sim3d::FromMatrix(m, 1e-3).rotation, truth.rotation); };
+  ASSERT_NEAR(error_deg(start), 6.0, 0.01);
+  GridRegistrationOptions o;
+  o.flips = false;
+  EXPECT_LT(error_deg(RefineGridPose(k.source, k.target, start, o)), 2.0);
+  o.icp_distance = 0.01;
+  EXPECT_NEAR(error_deg(RefineGridPose(k.source, k.target, start, o)), 6.0, 0.05);
+  o.method = "ransac";
+  EXPECT_EQ(o.Name(), "ransac+icp[noflips][d0.01]");
+  o.icp_distance = 0;
+  EXPECT_THROW(o.Check(), InputError);
+}
+
 // The shipped weights (models/dreg_cpu.pt) on held-out pairs (procedural objects of the
 // validation range 5000.., never trained on): with ICP they register most of them (97 % of 36
 // such pairs in the README's table); alone they are coarse (median 8.9 deg there), but within
