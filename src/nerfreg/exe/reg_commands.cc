@@ -411,6 +411,9 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   std::vector<std::string> names;
   for (const auto& r : rows)
     if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
+  auto success = [](const EvalRow& r, double deg, double fraction) {
+    return r.rotation_deg <= deg && r.translation / 2.5 <= fraction;
+  };
   for (const auto& name : names) {
     std::vector<double> rot, trans, secs;
     int s5 = 0, s10 = 0;
@@ -419,8 +422,8 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
       rot.push_back(r.rotation_deg);
       trans.push_back(r.translation / 2.5);
       secs.push_back(r.seconds);
-      s5 += r.rotation_deg <= 5 && r.translation / 2.5 <= 0.05;
-      s10 += r.rotation_deg <= 10 && r.translation / 2.5 <= 0.1;
+      s5 += success(r, 5, 0.05);
+      s10 += success(r, 10, 0.1);
     }
     double mean = 0;
     for (double x : rot) mean += x / rot.size();
@@ -445,7 +448,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
     int n_low = 0, ok_low = 0, n_high = 0, ok_high = 0;
     for (const auto& r : rows) {
       if (r.method != name) continue;
-      const bool ok = r.rotation_deg <= 5 && r.translation / 2.5 <= 0.05;
+      const bool ok = success(r, 5, 0.05);
       (r.overlap < overlap_threshold ? n_low : n_high) += 1;
       (r.overlap < overlap_threshold ? ok_low : ok_high) += ok;
     }

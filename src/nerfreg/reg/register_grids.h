@@ -26,9 +26,9 @@ struct GridRegistrationOptions {
   double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x); at least 1.1 x
                                 // the grids' cell is used
   // ICP's correspondence distance, in those voxels. Shorter fixes a converged pose more tightly
-  // (ICP started at the truth of the real 4-block pairs: median 4.4 deg at 2, 2.1 at 1) but narrows
-  // the basin the network's pose must land in: dreg + ICP on the real held-out sets fell from 100 %
-  // (2-block) and 50 % (4-block) at 2 to 67 % and 39 % at 1 (README).
+  // (ICP started at the truth of 18 real 4-block pairs: median 4.4 deg at 2, 2.1 at 1) but narrows
+  // the basin the network's pose must land in: dreg + ICP on the held-out real procedural pairs fell
+  // from 100 % (2-block) and 50 % (4-block) at 2 to 67 % and 39 % at 1 (README).
   static constexpr double kDefaultIcpDistance = 2.0;
   double icp_distance = kDefaultIcpDistance;
   double inlier_radius = 0.1;   // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)
