@@ -181,6 +181,18 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   }
   for (const auto& e : m["edges"]) EXPECT_TRUE(e["field"].is_object()) << e.dump();
 
+  // dreg + ICP: on the grids, then on the blocks' occupied points (recorded, with the pose it
+  // started from). The network's answer here is whatever it is; the ICPs must end at the identity.
+  const CommandResult d = RunNerfreg("reg register " + block + " " + block + " --method dreg --refine icp --quiet --out " +
+                                     dir.File("d.json"));
+  ASSERT_EQ(d.exit_code, 0) << d.output;
+  const Json dj = ReadJsonFile(dir.File("d.json"));
+  EXPECT_EQ(dj["method"].get<std::string>(), "dreg+icp+block") << dj.dump();
+  ASSERT_TRUE(dj.contains("block_icp") && dj["block_icp"].contains("before")) << dj.dump();
+  EXPECT_GT(dj["block_icp"]["fitness"].get<double>(), 0.9) << dj.dump();
+  const Sim3d de = Sim3d::FromMatrix(JsonField(dj, "d.json")["target_from_source"].Matrix(4, 4));
+  EXPECT_LT(RotationErrorDeg(de.rotation, Eigen::Quaterniond::Identity()), 0.5);
+
   // reg eval --refine field on a real pair (block_K.ckpt beside block_K.grid): the block against
   // itself, identity.
   ASSERT_EQ(RunNerfreg("reg extract " + block + " --quiet --out " + dir.File("b.grid")).exit_code, 0);
@@ -188,12 +200,14 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
                                               {"target", "b.grid"},
                                               {"target_from_source", MatrixToJson(Eigen::Matrix4d::Identity())}}})}};
   WriteJsonFile(dir.File("pairs.json"), pairs);
-  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") + " --methods ransac --refine icp,field --out " +
+  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") + " --methods ransac --refine block-icp,field --out " +
                                         dir.File("eval.json"));
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   const Json table = ReadJsonFile(dir.File("eval.json"));
-  ASSERT_TRUE(table["summary"].contains("ransac+icp+field")) << table.dump();
-  EXPECT_LT(table["summary"]["ransac+icp+field"]["median_rotation_deg"].get<double>(), 0.2);
+  for (const char* name : {"ransac+icp+block", "ransac+icp+block+field"}) {
+    ASSERT_TRUE(table["summary"].contains(name)) << name << " " << table.dump();
+    EXPECT_LT(table["summary"][name]["median_rotation_deg"].get<double>(), 0.2) << name;
+  }
 
   // Bad refinement options are one-line errors before any work.
   const CommandResult bad = RunNerfreg("reg register " + block + " " + block + " --field-iterations -1 --out " + dir.File("x.json"));
