@@ -6,7 +6,7 @@
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
 #   train_nerf_proc: real block pairs of 12 training procedural objects;
-#   train_nerf_proc4: real block pairs of 4-block splits of 20 more training procedural objects;
+#   train_nerf_proc4: real block pairs of 4-block splits of 40 more training procedural objects;
 #   train2: 100 more procedural objects (2000..), synthesised pairs;
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
 #          4-block splits) AND pairs of real trained NeRF blocks (2-block split of the two meshes
@@ -48,10 +48,10 @@ common=(--grid-resolution "$RES" --quiet)
 # from real fields (the fifth stage of the shipped weights tried them, README; 35 min).
 "$BIN" reg make-data --procedural 12 --procedural-seed 1000 --mesh-pairs 0 --nerf-objects 12 --split train \
   --out "$OUT/train_nerf_proc" "${common[@]}"
-# Real block pairs of 4-block splits of 20 more training procedural objects (1012-1031; all 6 pairs
-# of the 4 blocks, overlap 0.45-0.99): the low-overlap real training pairs of the sixth
-# stage (README; ~4 min an object).
-"$BIN" reg make-data --procedural 20 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 20 --blocks 4 --split train \
+# Real block pairs of 4-block splits of 40 more training procedural objects (1012-1051; all 6 pairs
+# of the 4 blocks, overlap 0.41-0.99): the low-overlap real training pairs of the sixth stage (the
+# first 20) and the seventh (all 40) (README; ~3.3-4 min an object).
+"$BIN" reg make-data --procedural 40 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 40 --blocks 4 --split train \
   --out "$OUT/train_nerf_proc4" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
   --out "$OUT/val_nerf" "${common[@]}"

@@ -268,7 +268,9 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
           << "\n";
       log.flush();
     } else if (block.step % 50 == 0) {
+      // Flushed: with --quiet (reg make-data) the log is the only sign of a block's progress.
       log << Json{{"step", block.step}, {"loss", loss_value}}.dump() << "\n";
+      log.flush();
     }
     if ((options.checkpoint_every > 0 && block.step % options.checkpoint_every == 0) || last || block.step == end_step) save();
   }
