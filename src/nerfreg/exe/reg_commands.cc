@@ -121,7 +121,8 @@ Eigen::Matrix4d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Ma
   o.voxel_size = voxel;
   o.normal_radius = 2 * voxel;
   const Sim3d start = Sim3d::FromMatrix(target_from_source, 1e-3);
-  const ClassicalRegistrationResult r = RefineWithIcp(src, tgt, start.ToRigid(), o);
+  // A Sim(3) start (the paper config's scale solve): the rigid ICP aligns the scaled source.
+  const ClassicalRegistrationResult r = RefineWithIcp(start.scale * src, tgt, start.ToRigid(), o);
   *json = {{"fitness", r.fitness}, {"inlier_rmse", r.inlier_rmse}, {"seconds", r.seconds},
            {"before", MatrixToJson(target_from_source)}};
   return Sim3d(start.scale, r.target_from_source.rotation, r.target_from_source.translation).ToMatrix();
