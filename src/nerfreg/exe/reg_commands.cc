@@ -132,7 +132,7 @@ Eigen::Matrix4d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Ma
 constexpr double kOccupiedMinDensity = 5.0;
 
 // A pair of blocks' occupied points, extracted on first use (block ICP and the classical
-// methods share them: ~0.3-1 s a block).
+// methods share them: 0.2-0.5 s for the two blocks of a held-out pair).
 class OccupiedPoints {
  public:
   OccupiedPoints(NerfBlock& source, NerfBlock& target, double min_density, unsigned seed)
