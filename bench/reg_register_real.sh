@@ -36,7 +36,8 @@ EOF
     for cfg in "${cfgs[@]}"; do
       label=${cfg%%:*}
       args=${cfg#*:}
-      out="$WORK/$(echo "$name" | tr '/' '_')_${label}.json"
+      # The set's folder in the name: val_nerf and val_nerf4 both have a spider/nerf_0_1.
+      out="$WORK/$(basename "$(dirname "$pairs")")_$(echo "$name" | tr '/' '_')_${label}.json"
       t0=$(date +%s.%N)
       # shellcheck disable=SC2086
       "$NERFREG" reg register "$src" "$tgt" $args --out "$out" --force --quiet > /dev/null

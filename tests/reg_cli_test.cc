@@ -192,6 +192,15 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   EXPECT_GT(dj["block_icp"]["fitness"].get<double>(), 0.9) << dj.dump();
   const Sim3d de = Sim3d::FromMatrix(JsonField(dj, "d.json")["target_from_source"].Matrix(4, 4));
   EXPECT_LT(RotationErrorDeg(de.rotation, Eigen::Quaterniond::Identity()), 0.5);
+  EXPECT_TRUE(dj["agreeing_candidates"].is_null()) << "one candidate, nothing to agree with";
+
+  // The default, auto + field: three candidates, all at the identity here, so the kept one has
+  // two others agreeing and no warning about it.
+  const CommandResult a = RunNerfreg("reg register " + block + " " + block + " --out " + dir.File("a.json"));
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const Json aj = ReadJsonFile(dir.File("a.json"));
+  EXPECT_EQ(aj["agreeing_candidates"].get<int>(), 2) << aj.dump();
+  EXPECT_EQ(a.output.find("no other candidate"), std::string::npos) << a.output;
 
   // reg eval --refine field on a real pair (block_K.ckpt beside block_K.grid): the block against
   // itself, identity.
