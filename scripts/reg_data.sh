@@ -50,7 +50,7 @@ common=(--grid-resolution "$RES" --quiet)
   --out "$OUT/train_nerf_proc" "${common[@]}"
 # Real block pairs of 4-block splits of 40 more training procedural objects (1012-1051; all 6 pairs
 # of the 4 blocks, overlap 0.41-0.99): the low-overlap real training pairs of the sixth stage (the
-# first 20) and the seventh (all 40) (README; ~3.3-4 min an object).
+# first 20) and the seventh (all 40) (README; ~3.4-4 min an object).
 "$BIN" reg make-data --procedural 40 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 40 --blocks 4 --split train \
   --out "$OUT/train_nerf_proc4" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
