@@ -32,7 +32,7 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
 
   // Killed without warning mid-run: the weights and the training state still load.
   const std::string train = "reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w.pt") +
-                            " --iters 100000 --checkpoint-every 2 --val-every 0 --quiet";
+                            " --iters 100000 --checkpoint-every 2 --val-every 0 --mirror 0.5 --recolour 0.5 --quiet";
   const CommandResult killed = RunShell("timeout -s KILL 15 " + std::string(NERFREG_BINARY) + " " + train);
   EXPECT_EQ(killed.exit_code, 137) << killed.output;
   DregModelOptions options;
@@ -61,11 +61,18 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   ASSERT_GT(last_step, 0);
   const int target = last_step + 3;
   const CommandResult resumed = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w.pt") +
-                                           " --iters " + std::to_string(target) + " --val-every 0 --resume --quiet");
+                                           " --iters " + std::to_string(target) +
+                                           " --val-every 0 --mirror 0.5 --recolour 0.5 --resume --quiet");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_TRUE(temp_files().empty()) << temp_files().front();
   const Json summary = ReadJsonFile(dir.File("w.pt.json"));
   EXPECT_EQ(summary["iterations"].get<int>(), target);
+  EXPECT_EQ(summary["options"]["mirror_probability"].get<double>(), 0.5);
+  EXPECT_EQ(summary["options"]["colour_probability"].get<double>(), 0.5);
+  const CommandResult bad_mirror = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w_bad.pt") +
+                                              " --iters 2 --mirror 1.5 --quiet");
+  EXPECT_NE(bad_mirror.exit_code, 0);
+  EXPECT_NE(bad_mirror.output.find("--mirror"), std::string::npos) << bad_mirror.output;
   // It did not start again from zero: no step 1 after the resume.
   const CommandResult steps = RunShell("grep -c '\"step\":1,' " + dir.File("w.pt.log.jsonl"));
   EXPECT_EQ(steps.output.substr(0, 1), "1") << steps.output;

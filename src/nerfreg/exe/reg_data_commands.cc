@@ -130,6 +130,10 @@ int RunRegTrain(int argc, char** argv) {
                  "Augmentation: the largest rotation of the rigid move of one grid, deg (default 10 as the paper; "
                  "up to 180: any relative rotation)");
   app.add_option("--move-probability", o.move_probability, "Augmentation: chance of that move per step (default 0.5)");
+  app.add_option("--mirror", o.mirror_probability,
+                 "Augmentation: chance per step of mirroring both grids (another object; default 0)");
+  app.add_option("--recolour", o.colour_probability,
+                 "Augmentation: chance per step of permuting and scaling both grids' RGB alike (default 0)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!resume) CheckCanWriteOutput(out, common.force);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -26,6 +27,8 @@ void DregTrainOptions::Check() const {
     ThrowInputError("reg train", "augmentation options", "non-negative sizes, a probability in [0, 1]");
   }
   if (move_deg > 180) ThrowInputError("--move-deg", "", "an angle in [0, 180] degrees");
+  if (!(mirror_probability >= 0 && mirror_probability <= 1)) ThrowInputError("--mirror", "", "a probability in [0, 1]");
+  if (!(colour_probability >= 0 && colour_probability <= 1)) ThrowInputError("--recolour", "", "a probability in [0, 1]");
   if (val_every < 0 || checkpoint_every < 0 || max_val_pairs < 0 || nerf_fraction < 0 || nerf_fraction > 1) {
     ThrowInputError("reg train", "schedule options", "non-negative counts, --nerf-fraction in [0, 1]");
   }
@@ -35,7 +38,8 @@ Json DregTrainOptions::ToJson() const {
   return {{"config", config}, {"iterations", iterations}, {"lr", lr}, {"weight_decay", weight_decay},
           {"lr_step", lr_step}, {"lr_gamma", lr_gamma}, {"grad_clip", grad_clip}, {"jitter", jitter},
           {"move_probability", move_probability}, {"move_deg", move_deg}, {"move_translation", move_translation},
-          {"swap", swap}, {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights}};
+          {"swap", swap}, {"mirror_probability", mirror_probability}, {"colour_probability", colour_probability},
+          {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights}};
 }
 
 namespace {
@@ -202,6 +206,14 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
       moved_from_source.topLeftCorner<3, 3>() = R;
       moved_from_source.topRightCorner<3, 1>() = tt;
       p.target_from_source = p.target_from_source * moved_from_source.inverse();
+    }
+    if (uni(rng) < options.mirror_probability) MirrorRegGridPair(&p.source, &p.target, &p.target_from_source);
+    if (uni(rng) < options.colour_probability) {
+      std::array<std::int64_t, 3> perm = {0, 1, 2};
+      std::shuffle(perm.begin(), perm.end(), rng);
+      const std::array<double, 3> gain = {0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng)};
+      p.source = RecolourRegGrid(p.source, perm, gain);
+      p.target = RecolourRegGrid(p.target, perm, gain);
     }
     if (options.jitter > 0) {
       p.source.xyz = p.source.xyz + options.jitter * torch::randn(p.source.xyz.sizes());

@@ -1,6 +1,7 @@
 #include "nerfreg/reg/reg_grid.h"
 
 #include <cstring>
+#include <stdexcept>
 
 #include <Eigen/Geometry>
 
@@ -127,6 +128,50 @@ RegGrid TransformRegGrid(const RegGrid& grid, const Eigen::Matrix3d& rotation, c
   out.surface.view({-1}).index_copy_(0, keep, grid.surface.reshape(-1).index_select(0, flat_src));
   out.mask.view({-1}).index_copy_(0, keep, grid.mask.reshape(-1).index_select(0, flat_src));
   out.rgba.view({4, -1}).index_copy_(1, keep, grid.rgba.reshape({4, -1}).index_select(1, flat_src));
+  return out;
+}
+
+RegGrid MirrorRegGrid(const RegGrid& grid, Eigen::Matrix4d* mirrored_from_grid) {
+  grid.Check();
+  torch::NoGradGuard no_grad;
+  const double cx = 0.5 * (grid.aabb_min.x() + grid.aabb_max.x());
+  RegGrid out = grid;
+  // Voxel i along x holds [min + i cell, min + (i + 1) cell); mirrored about the centre it lands
+  // on voxel D - 1 - i, so a flip of the x axis (dim 1 of rgba, dim 0 of the others) is exact.
+  out.rgba = grid.rgba.flip({1}).contiguous();
+  out.surface = grid.surface.flip({0}).contiguous();
+  out.mask = grid.mask.flip({0}).contiguous();
+  out.xyz = grid.xyz.flip({0}).clone();
+  out.xyz.select(3, 0).mul_(-1).add_(2 * cx);
+  if (mirrored_from_grid) {
+    mirrored_from_grid->setIdentity();
+    (*mirrored_from_grid)(0, 0) = -1;
+    (*mirrored_from_grid)(0, 3) = 2 * cx;
+  }
+  return out;
+}
+
+void MirrorRegGridPair(RegGrid* source, RegGrid* target, Eigen::Matrix4d* target_from_source) {
+  Eigen::Matrix4d ms, mt;
+  *source = MirrorRegGrid(*source, &ms);
+  *target = MirrorRegGrid(*target, &mt);
+  *target_from_source = mt * *target_from_source * ms;  // ms is its own inverse
+}
+
+RegGrid RecolourRegGrid(const RegGrid& grid, const std::array<std::int64_t, 3>& permutation,
+                        const std::array<double, 3>& gain) {
+  grid.Check();
+  torch::NoGradGuard no_grad;
+  std::array<bool, 3> seen = {false, false, false};
+  for (const auto c : permutation) {
+    if (c < 0 || c > 2 || seen[c]) throw std::invalid_argument("RecolourRegGrid: permutation is not one of 0, 1, 2");
+    seen[c] = true;
+  }
+  RegGrid out = grid;
+  out.rgba = grid.rgba.clone();
+  for (int c = 0; c < 3; ++c) {
+    out.rgba.select(0, c).copy_((grid.rgba.select(0, permutation[c]) * gain[c]).clamp(0, 1));
+  }
   return out;
 }
 

@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <string>
 
 namespace nerfreg {
@@ -64,5 +65,19 @@ RegGrid LoadRegGrid(const std::string& path);
 // the same surface in the new frame. Used to augment training pairs (the CNN sees a rotated grid)
 // and to test that registration recovers a known transform of the same grid.
 RegGrid TransformRegGrid(const RegGrid& grid, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
+
+// The grid mirrored x -> 2 c_x - x about its box's centre c: voxels flipped along x exactly (no
+// resampling), sample points mirrored. *mirrored_from_grid (optional) receives that reflection as a
+// 4x4 matrix (its own inverse). Mirroring both grids of a pair gives the pair of the mirrored
+// object, related by mirrored_target_from_target * target_from_source * mirrored_source_from_source,
+// a proper rotation again: a training augmentation (reg train --mirror).
+RegGrid MirrorRegGrid(const RegGrid& grid, Eigen::Matrix4d* mirrored_from_grid = nullptr);
+// Both grids of a pair mirrored in place, target_from_source updated to relate the mirrored pair.
+void MirrorRegGridPair(RegGrid* source, RegGrid* target, Eigen::Matrix4d* target_from_source);
+
+// The grid recoloured: new RGB channel c = clamp(gain[c] * old channel permutation[c], 0, 1) where
+// the grid has colour; alpha, geometry and masks kept. A training augmentation (reg train --recolour).
+RegGrid RecolourRegGrid(const RegGrid& grid, const std::array<std::int64_t, 3>& permutation,
+                        const std::array<double, 3>& gain);
 
 }  // namespace nerfreg

@@ -72,5 +72,73 @@ TEST(RegGrid, TransformResamplesTheSameSurfaceInTheNewFrame) {
   EXPECT_NEAR((h.aabb_max - h.aabb_min).x(), 2.0, 1e-9);
 }
 
+Eigen::Vector3d MaskedCentroid(const RegGrid& g) {
+  const auto c = g.MaskedXyz().to(torch::kFloat64).mean(0);
+  return {c[0].item<double>(), c[1].item<double>(), c[2].item<double>()};
+}
+
+TEST(RegGrid, MirrorFlipsAboutTheBoxCentreExactly) {
+  RegGrid g = BallGrid();
+  // A box off the origin, so the mirror plane (x = 0.5) is not the origin's.
+  g.aabb_min.x() += 0.5;
+  g.aabb_max.x() += 0.5;
+  g.xyz.select(3, 0).add_(0.5);
+  g.rgba.select(0, 1).copy_(g.xyz.select(3, 0) * g.mask);  // green varies along x: the colour must move too
+  Eigen::Matrix4d m;
+  const RegGrid h = MirrorRegGrid(g, &m);
+  EXPECT_NO_THROW(h.Check());
+  EXPECT_DOUBLE_EQ(m(0, 0), -1);
+  EXPECT_DOUBLE_EQ(m(0, 3), 1.0);  // x -> 1 - x
+  EXPECT_TRUE((m * m).isIdentity(1e-12));
+  EXPECT_EQ(h.mask.sum().item<std::int64_t>(), g.mask.sum().item<std::int64_t>());
+  const Eigen::Vector3d c = MaskedCentroid(g), ch = MaskedCentroid(h);
+  EXPECT_NEAR(ch.x(), 1.0 - c.x(), 1e-5);
+  EXPECT_NEAR(ch.y(), c.y(), 1e-5);
+  EXPECT_NEAR(ch.z(), c.z(), 1e-5);
+  // Each voxel's colour travels with its sample point: green was x before, so it is 1 - x now.
+  const auto hx = h.xyz.select(3, 0).masked_select(h.mask);
+  const auto hg = h.rgba.select(0, 1).masked_select(h.mask);
+  EXPECT_LT((hg - (1 - hx)).abs().max().item<float>(), 1e-5);
+  // Twice is the identity.
+  const RegGrid back = MirrorRegGrid(h);
+  EXPECT_TRUE(back.mask.equal(g.mask));
+  EXPECT_TRUE(back.rgba.equal(g.rgba));
+  EXPECT_LT((back.xyz - g.xyz).abs().max().item<float>(), 1e-6);
+}
+
+TEST(RegGrid, MirroredPairIsRelatedByTheConjugatedRotation) {
+  const RegGrid g = BallGrid();
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t(0.1, -0.05, 0.2);
+  const RegGrid h = TransformRegGrid(g, R, t);
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
+  target_from_source.topLeftCorner<3, 3>() = R;
+  target_from_source.topRightCorner<3, 1>() = t;
+  RegGrid gm = g, hm = h;
+  Eigen::Matrix4d mirrored = target_from_source;
+  MirrorRegGridPair(&gm, &hm, &mirrored);
+  const Eigen::Matrix3d Rm = mirrored.topLeftCorner<3, 3>();
+  EXPECT_NEAR(Rm.determinant(), 1.0, 1e-9);  // a rotation, not a reflection
+  EXPECT_TRUE((Rm.transpose() * Rm).isIdentity(1e-9));
+  // It carries the mirrored ball onto the mirrored moved ball (within the resampling's cell).
+  const Eigen::Vector3d moved = (mirrored * MaskedCentroid(gm).homogeneous()).head<3>();
+  EXPECT_LT((moved - MaskedCentroid(hm)).norm(), 2.0 / 16);
+}
+
+TEST(RegGrid, RecolourPermutesAndScalesColourOnly) {
+  RegGrid g = BallGrid();  // red 0.7, green 0, blue 0 where masked
+  g.rgba.select(0, 2).masked_fill_(g.mask, 0.2);
+  const RegGrid h = RecolourRegGrid(g, {2, 0, 1}, {1.0, 2.0, 0.5});
+  // new R = old B, new G = 2 old R (clamped to 1), new B = 0.5 old G
+  EXPECT_TRUE(h.rgba.select(0, 0).equal(g.rgba.select(0, 2)));
+  EXPECT_TRUE(h.rgba.select(0, 1).equal((g.rgba.select(0, 0) * 2).clamp(0, 1)));
+  EXPECT_FLOAT_EQ(h.rgba.select(0, 1).max().item<float>(), 1.0f);
+  EXPECT_FLOAT_EQ(h.rgba.select(0, 2).abs().max().item<float>(), 0.0f);
+  EXPECT_TRUE(h.rgba.select(0, 3).equal(g.rgba.select(0, 3)));
+  EXPECT_TRUE(h.mask.equal(g.mask));
+  EXPECT_TRUE(h.xyz.equal(g.xyz));
+  EXPECT_THROW(RecolourRegGrid(g, {0, 0, 1}, {1, 1, 1}), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace nerfreg
