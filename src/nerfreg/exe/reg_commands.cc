@@ -89,16 +89,25 @@ std::string DefaultDregWeights() {
 std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "auto" : "ransac"; }
 
 // --refine field: the pose (after ICP) refined on the blocks' density fields; `json` records it.
+// `src_grid`, `tgt_grid` (optional): the blocks' registration grids, which tell where each block's
+// cameras saw a surface (FieldAlignmentOptions::overlap_only).
 Eigen::Matrix4d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
                                const Eigen::Matrix3Xd& tgt_points, const Eigen::Matrix4d& target_from_source,
-                               FieldAlignmentOptions options, double spread, Json* json) {
+                               FieldAlignmentOptions options, double spread, Json* json, const RegGrid* src_grid = nullptr,
+                               const RegGrid* tgt_grid = nullptr) {
   const Sim3d start = Sim3d::FromMatrix(target_from_source, 1e-3);
   options.sample_spread = spread;
-  const FieldAlignmentResult f = AlignFields(BlockDensityField(source), BlockDensityField(target), src_points, tgt_points,
-                                             start.ToRigid(), options, start.scale);
+  DensityField src_field = BlockDensityField(source), tgt_field = BlockDensityField(target);
+  if (src_grid && tgt_grid) {
+    src_field.seen = SeenFromGrid(*src_grid);
+    tgt_field.seen = SeenFromGrid(*tgt_grid);
+  }
+  const FieldAlignmentResult f =
+      AlignFields(src_field, tgt_field, src_points, tgt_points, start.ToRigid(), options, start.scale);
   if (f.iterations == 0) LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
   *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
            {"samples", f.samples}, {"seconds", f.seconds}, {"before", MatrixToJson(target_from_source)}};
+  if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
   return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation).ToMatrix();
 }
 
@@ -433,7 +442,7 @@ double Median(std::vector<double> v) {
 int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
               const std::vector<std::string>& dreg_solvers, const std::vector<int>& dreg_passes, const std::string& split,
               const std::string& weights, const GridRegistrationOptions& base, int max_pairs, double overlap_threshold,
-              const std::string& out) {
+              const FieldAlignmentOptions& eval_field_options, const std::string& out) {
   std::vector<PairRecord> pairs;
   for (const auto& p : ReadPairs(pairs_path))
     if (split == "all" || p.split == split) pairs.push_back(p);
@@ -488,7 +497,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
         if (rf == "field") {
           Json field;
           r.target_from_source = RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
-                                                r.target_from_source, FieldAlignmentOptions{}, src.CellSize(), &field);
+                                                r.target_from_source, eval_field_options, src.CellSize(), &field, &src, &tgt);
           r.seconds += field["seconds"].get<double>();
           r.method += "+field";
         }
@@ -614,6 +623,10 @@ int RunRegEval(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
   app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
+  FieldAlignmentOptions eval_field_options;
+  app.add_flag("--field-overlap-only", eval_field_options.overlap_only,
+               "With --refine field: count only samples where the other block's cameras saw the surface (its grid's "
+               "mask; an experiment: no gain on the held-out real pairs, README)");
   GridRegistrationOptions base;
   bool no_flips = false;
   AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);
@@ -630,7 +643,7 @@ int RunRegEval(int argc, char** argv) {
     base.voxel = voxel;
     base.flips = !no_flips;
     return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, base, max_pairs, overlap_threshold,
-                     out);
+                     eval_field_options, out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
@@ -19,6 +20,7 @@ void FieldAlignmentOptions::Check() const {
   if (!(gradient_step > 0)) ThrowInputError("field alignment", "gradient_step", "> 0");
   if (iterations < 0) ThrowInputError("--field-iterations", "", ">= 0");
   if (!(tolerance_deg >= 0)) ThrowInputError("field alignment", "tolerance_deg", ">= 0");
+  if (min_overlap_samples < 10) ThrowInputError("field alignment", "min_overlap_samples", ">= 10");
 }
 
 DensityField BlockDensityField(NerfBlock& block) {
@@ -28,6 +30,26 @@ DensityField BlockDensityField(NerfBlock& block) {
   f.box = Eigen::AlignedBox3d(Eigen::Vector3d(o.aabb_min[0], o.aabb_min[1], o.aabb_min[2]),
                               Eigen::Vector3d(o.aabb_max[0], o.aabb_max[1], o.aabb_max[2]));
   return f;
+}
+
+std::function<torch::Tensor(const torch::Tensor&)> SeenFromGrid(const RegGrid& grid, int dilation) {
+  grid.Check();
+  if (dilation < 0) throw std::invalid_argument("SeenFromGrid: dilation must be >= 0");
+  torch::NoGradGuard no_grad;
+  const std::int64_t d = grid.Resolution();
+  torch::Tensor seen = grid.mask.to(torch::kFloat32).view({1, 1, d, d, d});
+  if (dilation > 0) seen = torch::max_pool3d(seen, 2 * dilation + 1, 1, dilation);
+  seen = seen.view({-1}).gt(0.5).contiguous();
+  const auto mn = torch::tensor({float(grid.aabb_min.x()), float(grid.aabb_min.y()), float(grid.aabb_min.z())});
+  const float cell = static_cast<float>(grid.CellSize());
+  return [seen, mn, cell, d](const torch::Tensor& x) {
+    torch::NoGradGuard guard;
+    const auto ijk = ((x.to(torch::kFloat32) - mn) / cell).floor().to(torch::kInt64);  // [N, 3]
+    const auto inside = ((ijk >= 0) & (ijk < d)).all(1);
+    const auto c = ijk.clamp(0, d - 1);
+    const auto flat = (c.select(1, 0) * d + c.select(1, 1)) * d + c.select(1, 2);
+    return seen.index_select(0, flat) & inside;
+  };
 }
 
 namespace {
@@ -85,6 +107,29 @@ void OccupancyAndGradient(const DensityField& f, const Eigen::Matrix3Xd& p, doub
   }
 }
 
+// The columns of p whose `keep` entry is true.
+Eigen::Matrix3Xd Columns(const Eigen::Matrix3Xd& p, const std::vector<bool>& keep) {
+  Eigen::Matrix3Xd out(3, std::count(keep.begin(), keep.end(), true));
+  Eigen::Index k = 0;
+  for (Eigen::Index i = 0; i < p.cols(); ++i) {
+    if (keep[i]) out.col(k++) = p.col(i);
+  }
+  return out;
+}
+
+// seen(p) as flags (p in that field's frame).
+std::vector<bool> Seen(const DensityField& f, const Eigen::Matrix3Xd& p) {
+  std::vector<bool> out(p.cols(), false);
+  if (p.cols() == 0) return out;
+  const torch::Tensor x =
+      torch::from_blob(const_cast<double*>(p.data()), {p.cols(), 3}, torch::kDouble).to(torch::kFloat).contiguous();
+  const torch::Tensor s = f.seen(x).to(torch::kBool).contiguous().view({-1});
+  TORCH_CHECK(s.size(0) == p.cols(), "AlignFields: seen returned ", s.size(0), " values for ", p.cols(), " points");
+  const bool* d = s.data_ptr<bool>();
+  for (Eigen::Index i = 0; i < p.cols(); ++i) out[i] = d[i];
+  return out;
+}
+
 struct Linearisation {
   double cost = 0;  // mean squared residual over weighted samples
   int samples = 0;
@@ -103,8 +148,20 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
   FieldAlignmentResult result;
   result.target_from_source = initial;
   std::mt19937 rng(o.seed);
-  const Eigen::Matrix3Xd ys = BandSamples(source_points, o, rng);  // source frame
-  const Eigen::Matrix3Xd xt = BandSamples(target_points, o, rng);  // target frame
+  Eigen::Matrix3Xd ys = BandSamples(source_points, o, rng);  // source frame
+  Eigen::Matrix3Xd xt = BandSamples(target_points, o, rng);  // target frame
+  if (o.overlap_only && source.seen && target.seen) {
+    const Eigen::Matrix3d r0 = initial.RotationMatrix();
+    const Eigen::Vector3d t0 = initial.translation;
+    const std::vector<bool> keep_s = Seen(target, ((scale * r0) * ys).colwise() + t0);
+    const std::vector<bool> keep_t = Seen(source, (r0.transpose() * (xt.colwise() - t0)) / scale);
+    const auto kept = std::count(keep_s.begin(), keep_s.end(), true) + std::count(keep_t.begin(), keep_t.end(), true);
+    if (kept >= o.min_overlap_samples) {
+      result.overlap_fraction = double(kept) / double(ys.cols() + xt.cols());
+      ys = Columns(ys, keep_s);
+      xt = Columns(xt, keep_t);
+    }
+  }
   const Eigen::VectorXd os = Occupancy(source, ys, o.occupancy_scale);
   const Eigen::VectorXd ot = Occupancy(target, xt, o.occupancy_scale);
   const double h = o.gradient_step * o.sample_spread;

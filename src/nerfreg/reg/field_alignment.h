@@ -17,6 +17,12 @@
 // Symmetric, so neither block's floaters or unseen regions dominate.
 //
 // The basin is a few degrees (measured from 1.5 and 3 deg starts); it refines, it does not search.
+//
+// Overlap only (FieldAlignmentOptions::overlap_only): a block knows nothing of what its cameras
+// did not see, though its box holds it (a NeRF leaves unseen surfaces empty or fills them with
+// floaters). With `seen` set on both fields, a sample counts only where the other block saw the
+// surface too, judged once at the start pose: between adjacent blocks of a 4-block split half the
+// samples can fall where the other block never looked.
 #include <torch/torch.h>
 
 #include <Eigen/Core>
@@ -24,6 +30,7 @@
 #include <functional>
 
 #include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/reg/reg_grid.h"
 
 namespace nerfreg {
 
@@ -33,10 +40,18 @@ struct NerfBlock;
 struct DensityField {
   std::function<torch::Tensor(const torch::Tensor&)> density;
   Eigen::AlignedBox3d box;
+  // Optional: positions [N, 3] float32 -> [N] bool, where the block's cameras saw a surface
+  // (within a cell; e.g. SeenFromGrid). Empty: unknown.
+  std::function<torch::Tensor(const torch::Tensor&)> seen;
 };
 
 // The block's field and its AABB.
 DensityField BlockDensityField(NerfBlock& block);
+
+// DensityField::seen from a block's registration grid: true within `dilation` cells of a masked
+// voxel (the mask is the surface the block's cameras saw: density and S >= 0.5). One cell of
+// dilation covers the band the samples are drawn in.
+std::function<torch::Tensor(const torch::Tensor&)> SeenFromGrid(const RegGrid& grid, int dilation = 1);
 
 struct FieldAlignmentOptions {
   // o = 1 - exp(-occupancy_scale * sigma). Larger: a sharper surface (more precise, smaller basin).
@@ -50,6 +65,10 @@ struct FieldAlignmentOptions {
   double gradient_step = 0.25;  // finite-difference step, x sample_spread
   int iterations = 30;          // LM iterations at most (18-33 were used on the tuning pairs)
   double tolerance_deg = 1e-3;  // stop when an accepted step turns less than this (and moves < 1e-5)
+  // Keep only samples the other block saw (at the start pose), when both fields have `seen` and
+  // at least min_overlap_samples remain (else every sample, as without it).
+  bool overlap_only = false;
+  int min_overlap_samples = 200;
   unsigned seed = 0;
   void Check() const;           // throws InputError naming the option
 };
@@ -59,6 +78,8 @@ struct FieldAlignmentResult {
   double initial_cost = 0, final_cost = 0;  // mean squared occupancy difference over the samples inside the other box
   int iterations = 0;
   int samples = 0;                          // with weight at the final pose
+  // With overlap_only: the share of samples the other block saw (kept), or -1 when not applied.
+  double overlap_fraction = -1;
   double seconds = 0;
 };
 

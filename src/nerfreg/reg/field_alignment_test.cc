@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -121,6 +122,90 @@ TEST(FieldAlignment, OnlySamplesInsideTheOtherBoxCount) {
 
   o.occupancy_scale = 0;
   EXPECT_THROW(AlignFields(src, tgt, ps, ps, start, o), InputError);
+}
+
+// A target block that saw only the object's x < 0 half and holds a wrong surface (the object
+// shifted by 0.15 in y, as floaters would) where it did not look. Every sample counts by default,
+// so the wrong half pulls the pose; with overlap_only the samples the target did not see are left
+// out and the pose is the truth's.
+TEST(FieldAlignment, OverlapOnlyLeavesOutWhatTheOtherBlockDidNotSee) {
+  const Rigid3d id;
+  const double cell = 0.08;
+  const DensityField src = ShapeField(id, kBigBox);
+  const DensityField good = ShapeField(id, kBigBox);
+  const DensityField wrong = ShapeField(Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0.15, 0)), kBigBox);
+  DensityField tgt;
+  tgt.box = kBigBox;
+  tgt.density = [good, wrong](const torch::Tensor& x) {
+    return torch::where(x.select(1, 0) < 0, good.density(x), wrong.density(x));
+  };
+  // Seen: near the surface, on the x < 0 half only; the source saw all of it.
+  auto near_surface = [](const torch::Tensor& x) {
+    const torch::Tensor c = x.to(torch::kDouble).contiguous();
+    torch::Tensor out = torch::empty({c.size(0)}, torch::kBool);
+    const double* p = c.data_ptr<double>();
+    for (int64_t i = 0; i < c.size(0); ++i) {
+      out[i] = std::abs(ShapeDistance(Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]))) < 0.1;
+    }
+    return out;
+  };
+  DensityField src_seen = src;
+  src_seen.seen = near_surface;
+  tgt.seen = [near_surface](const torch::Tensor& x) { return near_surface(x) & (x.select(1, 0) < 0); };
+  const Eigen::Matrix3Xd ps = SurfacePoints(id, cell);
+  Eigen::Matrix3Xd pt_all = SurfacePoints(id, cell);  // the target's mask: its seen half
+  std::vector<bool> half(pt_all.cols());
+  for (Eigen::Index i = 0; i < pt_all.cols(); ++i) half[i] = pt_all(0, i) < 0;
+  Eigen::Matrix3Xd pt(3, std::count(half.begin(), half.end(), true));
+  for (Eigen::Index i = 0, k = 0; i < pt_all.cols(); ++i) {
+    if (half[i]) pt.col(k++) = pt_all.col(i);
+  }
+  FieldAlignmentOptions o;
+  o.sample_spread = cell;
+  o.max_samples = 3000;
+  const Rigid3d start = Perturb(id, 2.0, Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(0.02, 0, 0));
+  const FieldAlignmentResult all = AlignFields(src_seen, tgt, ps, pt, start, o);
+  o.overlap_only = true;
+  const FieldAlignmentResult seen = AlignFields(src_seen, tgt, ps, pt, start, o);
+  const double err_all = RotationErrorDeg(all.target_from_source.rotation, id.rotation);
+  const double err_seen = RotationErrorDeg(seen.target_from_source.rotation, id.rotation);
+  const double shift_all = all.target_from_source.translation.norm(), shift_seen = seen.target_from_source.translation.norm();
+  std::printf("[field overlap] all samples: %.3f deg, %.4f; overlap only (%.2f kept): %.3f deg, %.4f\n", err_all, shift_all,
+              seen.overlap_fraction, err_seen, shift_seen);
+  EXPECT_EQ(all.overlap_fraction, -1);
+  EXPECT_GT(seen.overlap_fraction, 0.3);
+  EXPECT_LT(seen.overlap_fraction, 0.9);
+  // Started 2 deg off: the default is pulled further away (4.7 deg when written), overlap_only
+  // lands within 0.2 deg (the finite differences still reach across x = 0 near the cut).
+  EXPECT_GT(err_all, 2.0);
+  EXPECT_LT(err_seen, 0.25);
+  EXPECT_LT(shift_seen, 0.005);
+  EXPECT_GT(shift_all, 2 * shift_seen + 0.005);
+  // Without `seen` on one field overlap_only changes nothing.
+  const FieldAlignmentResult unknown = AlignFields(src, tgt, ps, pt, start, o);
+  EXPECT_EQ(unknown.overlap_fraction, -1);
+  EXPECT_TRUE(unknown.target_from_source.ToMatrix().isApprox(all.target_from_source.ToMatrix(), 1e-12));
+}
+
+TEST(FieldAlignment, SeenFromGridIsTheDilatedMask) {
+  RegGrid g;
+  const int d = 8;
+  g.aabb_min = Eigen::Vector3d::Constant(0);
+  g.aabb_max = Eigen::Vector3d::Constant(8);  // cells of 1
+  g.xyz = torch::zeros({d, d, d, 3});
+  g.rgba = torch::zeros({4, d, d, d});
+  g.surface = torch::zeros({d, d, d});
+  g.mask = torch::zeros({d, d, d}, torch::kBool);
+  g.mask.index_put_({4, 4, 4}, true);
+  const auto at = [](double x, double y, double z) { return torch::tensor({{float(x), float(y), float(z)}}); };
+  const auto seen0 = SeenFromGrid(g, 0), seen1 = SeenFromGrid(g, 1);
+  EXPECT_TRUE(seen0(at(4.5, 4.5, 4.5)).item<bool>());
+  EXPECT_FALSE(seen0(at(3.5, 4.5, 4.5)).item<bool>());
+  EXPECT_TRUE(seen1(at(3.5, 4.5, 4.5)).item<bool>());
+  EXPECT_TRUE(seen1(at(5.9, 3.1, 5.5)).item<bool>());
+  EXPECT_FALSE(seen1(at(6.1, 4.5, 4.5)).item<bool>());
+  EXPECT_FALSE(seen1(at(-0.5, 4.5, 4.5)).item<bool>());  // outside the box
+  EXPECT_EQ(seen1(torch::rand({10, 3}) * 8).size(0), 10);
 }
 
 }  // namespace
