@@ -6,7 +6,7 @@
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
 #   train_nerf_proc: real block pairs of 12 training procedural objects;
-#   train_nerf_proc4: real block pairs of 4-block splits of 40 more training procedural objects;
+#   train_nerf_proc4, train_nerf_proc4b: real block pairs of 4-block splits of 86 more training procedural objects;
 #   train2: 100 more procedural objects (2000..), synthesised pairs;
 #   val:   held-out objects (spider, the milk truck, procedural 5000..), synthesised pairs (2- and
 #          4-block splits) AND pairs of real trained NeRF blocks (2-block split of the two meshes
@@ -48,12 +48,15 @@ common=(--grid-resolution "$RES" --quiet)
 # from real fields (the fifth stage of the shipped weights tried them, README; 35 min).
 "$BIN" reg make-data --procedural 12 --procedural-seed 1000 --mesh-pairs 0 --nerf-objects 12 --split train \
   --out "$OUT/train_nerf_proc" "${common[@]}"
-# Real block pairs of 4-block splits of 51 more training procedural objects (1012-1062; all 6 pairs
-# of the 4 blocks, overlap 0.41-0.99): the low-overlap real training pairs of the sixth stage (the
-# first 20), the seventh and eighth (the first 40) and the ninth, shipped (all 51) (README; ~3.4-4
-# min an object).
-"$BIN" reg make-data --procedural 51 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 51 --blocks 4 --split train \
+# Real block pairs of 4-block splits of 86 more training procedural objects (1012-1090 and
+# 1200-1206; all 6 pairs of the 4 blocks, overlap 0.41-0.99): the low-overlap real training pairs of
+# the sixth stage (the first 20), the seventh and eighth (the first 40), the ninth (the first 51) and
+# stage 12c, shipped (all 86) (README; ~3.4-4 min an object; the two folders can be made side by side
+# with OMP_NUM_THREADS=1 each).
+"$BIN" reg make-data --procedural 79 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 79 --blocks 4 --split train \
   --out "$OUT/train_nerf_proc4" "${common[@]}"
+"$BIN" reg make-data --procedural 7 --procedural-seed 1200 --mesh-pairs 0 --nerf-objects 7 --blocks 4 --split train \
+  --out "$OUT/train_nerf_proc4b" "${common[@]}"
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --mesh-pairs 0 --nerf-objects 100 --split val \
   --out "$OUT/val_nerf" "${common[@]}"
 # Real block pairs of 6 held-out procedural objects (the first 6 of the synthesised held-out set).

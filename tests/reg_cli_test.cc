@@ -128,6 +128,16 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   const Json mask_table = ReadJsonFile(dir.File("eval_mask.json"));
   EXPECT_TRUE(mask_table["summary"].contains("ransac+icp[mask][noflips]")) << mask_table["summary"].dump();
   EXPECT_LT(mask_table["summary"]["ransac+icp[mask][noflips]"]["median_rotation_deg"].get<double>(), 10.0);
+  // --methods truth: the refinements started at the ground truth (their floor); unrefined it is
+  // the truth itself, and grid ICP from it moves a few degrees at most (one point per cell).
+  const CommandResult truth = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods truth " +
+                                         "--refine none,icp --out " + dir.File("eval_truth.json"));
+  ASSERT_EQ(truth.exit_code, 0) << truth.output;
+  const Json truth_table = ReadJsonFile(dir.File("eval_truth.json"));
+  ASSERT_TRUE(truth_table["summary"].contains("truth+icp")) << truth_table["summary"].dump();
+  EXPECT_LT(truth_table["summary"]["truth"]["mean_rotation_deg"].get<double>(), 1e-6);
+  EXPECT_LT(truth_table["summary"]["truth+icp"]["median_rotation_deg"].get<double>(), 5.0);
+  EXPECT_NE(RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods oracle").exit_code, 0);
   const CommandResult bad = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods ransac --icp-points all");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.output.find("--icp-points"), std::string::npos) << bad.output;

@@ -486,7 +486,25 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
         o.dreg_solver = solver;
         o.dreg_passes = passes;
         o.icp = rf != "none";
-        GridRegistrationResult r = RegisterGrids(src, tgt, o, net.get());
+        GridRegistrationResult r;
+        if (m == "truth") {
+          // The refinement floor: each refinement started at the ground truth; where it ends is
+          // what the two blocks' own disagreement costs, whatever found the coarse pose.
+          Timer timer;
+          r.method = "truth";
+          r.target_from_source = p.target_from_source;
+          r.confidence = 1;
+          if (o.icp) {
+            o.method = base.method;  // the coarse method's name is all RefineGridPose checks; none runs
+            const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
+            o.flips = false;                    // no half-turns of the truth
+            r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
+            r.method = "truth" + name.substr(name.find("+icp"));
+          }
+          r.seconds = timer.Seconds();
+        } else {
+          r = RegisterGrids(src, tgt, o, net.get());
+        }
         if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
           Json block_icp;
           r.target_from_source =
@@ -604,7 +622,10 @@ int RunRegEval(int argc, char** argv) {
   app.add_option("--source", source, "Source block index (default 0)");
   app.add_option("--target", target, "Target block index (default 1)");
   app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
-  app.add_option("--methods", methods, "With --pairs: dreg, ransac, fgr (comma separated)")->delimiter(',');
+  app.add_option("--methods", methods,
+                 "With --pairs: dreg, ransac, fgr (comma separated), or truth: each --refine started at the ground "
+                 "truth (where it ends is the floor the blocks' own disagreement sets)")
+      ->delimiter(',');
   app.add_option("--refine", refines,
                  "With --pairs: none, icp (on the grids), block-icp (ICP on the grids, then on the blocks' occupied "
                  "points, as reg register; real NeRF pairs only), field (block-icp, then the density fields aligned; "
@@ -635,7 +656,9 @@ int RunRegEval(int argc, char** argv) {
   if (!out.empty()) CheckCanWriteOutput(out, common.force);
   if (!pairs_path.empty()) {
     for (const auto& m : methods)
-      if (m != "dreg" && m != "ransac" && m != "fgr") ThrowInputError("--methods", "", "dreg, ransac or fgr, got " + m);
+      if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth") {
+        ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
+      }
     for (const auto& r : refines)
       if (r != "none" && r != "icp" && r != "block-icp" && r != "field") ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
     for (const auto& s : dreg_solvers)

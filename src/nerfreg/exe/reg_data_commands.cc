@@ -134,6 +134,9 @@ int RunRegTrain(int argc, char** argv) {
                  "Augmentation: chance per step of mirroring both grids (another object; default 0)");
   app.add_option("--recolour", o.colour_probability,
                  "Augmentation: chance per step of permuting and scaling both grids' RGB alike (default 0)");
+  app.add_flag("--overlap-labels", o.loss.overlap_labels,
+               "Confidence and correspondence labels S * O: the surface field times the other block's seen "
+               "surface at the true match (the overlap; ours), not S alone (the paper)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!resume) CheckCanWriteOutput(out, common.force);

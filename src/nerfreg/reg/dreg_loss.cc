@@ -63,10 +63,13 @@ torch::Tensor BarronLoss(const torch::Tensor& x, double alpha, double c) {
   return (b / alpha) * (torch::pow(z2 / b + 1.0, alpha / 2.0) - 1.0);
 }
 
-torch::Tensor SampleSurface(const RegGrid& grid, const torch::Tensor& points) {
+namespace {
+
+// Trilinear sample of volume [D, D, D] over grid's box at points [N, 3] -> [N].
+torch::Tensor SampleVolume(const RegGrid& grid, const torch::Tensor& surface, const torch::Tensor& points) {
   TORCH_CHECK(points.dim() == 2 && points.size(1) == 3, "SampleSurface: points must be [N, 3]");
-  const int64_t d = grid.surface.size(0);
-  TORCH_CHECK(grid.surface.sizes() == torch::IntArrayRef({d, d, d}), "SampleSurface: surface must be [D, D, D]");
+  const int64_t d = surface.size(0);
+  TORCH_CHECK(surface.sizes() == torch::IntArrayRef({d, d, d}), "SampleSurface: surface must be [D, D, D]");
   const auto f = torch::TensorOptions().dtype(points.dtype()).device(points.device());
   const torch::Tensor lo = torch::tensor({grid.aabb_min.x(), grid.aabb_min.y(), grid.aabb_min.z()}, f);
   const torch::Tensor hi = torch::tensor({grid.aabb_max.x(), grid.aabb_max.y(), grid.aabb_max.z()}, f);
@@ -74,7 +77,7 @@ torch::Tensor SampleSurface(const RegGrid& grid, const torch::Tensor& points) {
   // centre aabb_min + (i + 0.5) cell maps to its sample. grid_sample's last coordinate indexes the
   // input's last dim (k = z): pass (z, y, x).
   const torch::Tensor normalised = (2.0 * (points - lo) / (hi - lo) - 1.0).flip({1});
-  const torch::Tensor volume = grid.surface.to(points.device(), points.scalar_type()).view({1, 1, d, d, d});
+  const torch::Tensor volume = surface.to(points.device(), points.scalar_type()).view({1, 1, d, d, d});
   namespace F = torch::nn::functional;
   const torch::Tensor s = F::grid_sample(volume, normalised.view({1, -1, 1, 1, 3}),
                                          F::GridSampleFuncOptions()
@@ -82,6 +85,22 @@ torch::Tensor SampleSurface(const RegGrid& grid, const torch::Tensor& points) {
                                              .padding_mode(torch::kZeros)
                                              .align_corners(false));
   return s.view({-1});
+}
+
+}  // namespace
+
+torch::Tensor SampleSurface(const RegGrid& grid, const torch::Tensor& points) {
+  return SampleVolume(grid, grid.surface, points);
+}
+
+torch::Tensor SampleSeenSurface(const RegGrid& grid, const torch::Tensor& points) {
+  torch::NoGradGuard no_grad;
+  const int64_t d = grid.surface.size(0);
+  TORCH_CHECK(grid.surface.sizes() == torch::IntArrayRef({d, d, d}), "SampleSeenSurface: surface must be [D, D, D]");
+  const torch::Tensor dilated =
+      torch::max_pool3d(grid.surface.to(torch::kFloat).view({1, 1, d, d, d}), {3, 3, 3}, {1, 1, 1}, {1, 1, 1})
+          .view({d, d, d});
+  return SampleVolume(grid, dilated, points.detach()).clamp(0.0, 1.0);
 }
 
 DregLossTerms DregLoss(const DregOutput& out, const RegGrid& src, const RegGrid& tgt,
@@ -94,8 +113,15 @@ DregLossTerms DregLoss(const DregOutput& out, const RegGrid& src, const RegGrid&
   // Ground truth positions of each keypoint in the other frame: [Ks, 3], [Kt, 3].
   const torch::Tensor src_in_tgt = Apply(tgt_from_src, out.src_xyz);
   const torch::Tensor tgt_in_src = Apply(src_from_tgt, out.tgt_xyz);
-  const torch::Tensor labels = torch::cat({out.src_surface, out.tgt_surface});  // [Ks + Kt]
+  torch::Tensor labels = torch::cat({out.src_surface, out.tgt_surface});  // [Ks + Kt]
+  // O: the other block's seen surface at each keypoint's true position (overlap_labels); ones otherwise.
+  torch::Tensor overlap = torch::ones_like(labels);
+  if (options.overlap_labels) {
+    overlap = torch::cat({SampleSeenSurface(tgt, src_in_tgt), SampleSeenSurface(src, tgt_in_src)}).to(labels.dtype());
+    labels = labels * overlap;
+  }
   const torch::Tensor label_sum = labels.sum().clamp_min(1e-6);
+  const torch::Tensor overlap_sum = overlap.sum().clamp_min(1e-6);
   const torch::Tensor w = out.feature_w;
   const torch::Tensor w_sym = 0.5 * (w + w.t());
 
@@ -109,7 +135,8 @@ DregLossTerms DregLoss(const DregOutput& out, const RegGrid& src, const RegGrid&
 
     const torch::Tensor sampled =
         torch::cat({SampleSurface(tgt, out.src_corr[l]), SampleSurface(src, out.tgt_corr[l])});
-    terms.surface = terms.surface + (sampled - labels).square().mean();
+    const torch::Tensor own = torch::cat({out.src_surface, out.tgt_surface});
+    terms.surface = terms.surface + (overlap * (sampled - own).square()).sum() / overlap_sum;
 
     const torch::Tensor err = torch::cat({out.src_corr[l] - src_in_tgt, out.tgt_corr[l] - tgt_in_src});
     const torch::Tensor rho = BarronLoss(err, options.barron_alpha, options.barron_c).sum(1);  // [Ks + Kt]

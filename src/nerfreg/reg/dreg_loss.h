@@ -23,6 +23,17 @@
 //                  keypoint i is the target keypoint nearest to T x_i if closer than r_p (else i is
 //                  skipped); target keypoints within r_n of T x_i other than the positive are
 //                  left out of the denominator; the rest are negatives. Mean over anchors.
+//
+// overlap_labels (ours, off by default as in the paper): S alone says "a surface was seen here",
+// not "the other block saw it too". For blocks that overlap little (adjacent blocks of a 4-block
+// split overlap ~50-80 %), the paper's labels ask every surface keypoint for a match and a high
+// confidence, including the ones whose true match lies where the other block saw nothing; the
+// confidences then weight Procrustes towards points that cannot match. With overlap_labels each
+// label becomes S_i * O_i, O_i = the other block's surface field, dilated by one voxel (3^3 max)
+// and sampled at the keypoint's true position in its frame (SampleSeenSurface): the confidence
+// learns the overlap (as Predator's / REGTR's overlap scores), the correspondence loss is weighted
+// by it, and the surface term is an O-weighted mean (a point the other block did not see has no
+// surface to land on there).
 #pragma once
 
 #include <torch/torch.h>
@@ -46,6 +57,8 @@ struct DregLossOptions {
   double barron_c = 0.5;
   // Supervise every layer (summed) or only the last.
   bool all_layers = true;
+  // Labels S * O (see the top of this file); false: S (the paper).
+  bool overlap_labels = false;
 
   // Returns false (and logs why) when a field is out of range.
   bool Check() const;
@@ -72,5 +85,8 @@ torch::Tensor BarronLoss(const torch::Tensor& x, double alpha, double c);
 // Trilinear sample of grid.surface ([D, D, D]) at points [N, 3] in the grid's frame -> [N];
 // zero outside the box; differentiable in the points.
 torch::Tensor SampleSurface(const RegGrid& grid, const torch::Tensor& points);
+// The same on grid.surface dilated by one voxel (max over each voxel's 3^3 neighbourhood): how much
+// the block saw a surface at or next to each point, in [0, 1]; the overlap O above. No gradient.
+torch::Tensor SampleSeenSurface(const RegGrid& grid, const torch::Tensor& points);
 
 }  // namespace nerfreg

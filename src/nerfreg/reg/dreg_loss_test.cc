@@ -217,5 +217,55 @@ TEST_F(DregLossTest, InfoNceIgnoresNeighboursInsideTheNegativeRadius) {
   EXPECT_NEAR(negative, 0.5 * std::log(2.0), 0.02);
 }
 
+TEST_F(DregLossTest, SeenSurfaceIsTheSurfaceDilatedByOneVoxel) {
+  const torch::Tensor on = src_.xyz.index({src_.surface > 0.9});
+  ASSERT_GT(on.size(0), 10);
+  // At least the surface itself, and one voxel off a seen voxel still reads as seen.
+  EXPECT_TRUE((SampleSeenSurface(src_, on) >= SampleSurface(src_, on) - 1e-5).all().item<bool>());
+  const torch::Tensor off = on + torch::tensor({src_.CellSize(), 0.0, 0.0}).to(torch::kFloat);
+  EXPECT_GT(SampleSeenSurface(src_, off).mean().item<float>(), 0.9f);
+  EXPECT_EQ(SampleSeenSurface(src_, torch::tensor({{2.0f, 0.0f, 0.0f}})).item<float>(), 0.0f);
+  EXPECT_LT(SampleSeenSurface(src_, torch::tensor({{1.3f, 1.3f, 1.3f}})).item<float>(), 1e-6f);
+}
+
+// The target block saw only its x < 0 half: source keypoints whose true match lies in the other
+// half have no match. With overlap_labels their confidence label is 0 and their correspondence
+// error does not count; the paper's labels ask them for a confident match.
+TEST_F(DregLossTest, OverlapLabelsLeaveOutWhatTheOtherBlockDidNotSee) {
+  const torch::Tensor right = tgt_.xyz.select(3, 0) > 0.0;  // [D, D, D] in the target's frame
+  tgt_.surface = tgt_.surface.masked_fill(right, 0.0f);
+  tgt_.mask = tgt_.mask.logical_and(right.logical_not());
+  tgt_.rgba = tgt_.rgba.masked_fill(right.unsqueeze(0), 0.0f);
+  DregOutput perfect = Build(true, 1);  // confidence = S, every match at its true position
+  const torch::Tensor src_in_tgt = Apply(gt_, perfect.src_xyz);
+  const torch::Tensor unseen = src_in_tgt.select(1, 0) > 3 * tgt_.CellSize();  // well inside the cut half
+  const torch::Tensor seen = src_in_tgt.select(1, 0) < -2 * tgt_.CellSize();
+  ASSERT_GT(unseen.sum().item<int64_t>(), 5);
+  ASSERT_GT(seen.sum().item<int64_t>(), 5);
+  // Scatter the unseen points' matches: they cannot be matched anyway.
+  DregOutput scattered = Build(true, 1);
+  scattered.src_corr[0] = torch::where(unseen.unsqueeze(1), src_in_tgt + 1.0, src_in_tgt).requires_grad_(true);
+  // ... and give them confidence 0, as the overlap labels ask.
+  DregOutput overlap_aware = Build(true, 1);
+  overlap_aware.src_conf_logits[0] = overlap_aware.src_conf_logits[0].masked_fill(unseen, -9.0);
+
+  DregLossOptions paper, ours;
+  ours.overlap_labels = true;
+  // Correspondence: the scattered unseen matches cost the paper's loss and (nearly) not ours.
+  const double paper_cost = DregLoss(scattered, src_, tgt_, gt_, paper).correspondence.item<double>();
+  const double ours_cost = DregLoss(scattered, src_, tgt_, gt_, ours).correspondence.item<double>();
+  EXPECT_GT(paper_cost, 0.05);
+  EXPECT_LT(ours_cost, 0.1 * paper_cost);
+  // Confidence: S is the paper's optimum; zero on the unseen points scores better with ours.
+  EXPECT_LT(DregLoss(perfect, src_, tgt_, gt_, paper).confidence.item<double>(),
+            DregLoss(overlap_aware, src_, tgt_, gt_, paper).confidence.item<double>());
+  EXPECT_LT(DregLoss(overlap_aware, src_, tgt_, gt_, ours).confidence.item<double>(),
+            DregLoss(perfect, src_, tgt_, gt_, ours).confidence.item<double>());
+  // Where both blocks saw the surface, nothing changes: the labels agree on the seen points.
+  const torch::Tensor o = SampleSeenSurface(tgt_, src_in_tgt);
+  EXPECT_GT(o.masked_select(seen).mean().item<float>(), 0.9f);
+  EXPECT_LT(o.masked_select(unseen).max().item<float>(), 1e-6f);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -39,7 +39,8 @@ Json DregTrainOptions::ToJson() const {
           {"lr_step", lr_step}, {"lr_gamma", lr_gamma}, {"grad_clip", grad_clip}, {"jitter", jitter},
           {"move_probability", move_probability}, {"move_deg", move_deg}, {"move_translation", move_translation},
           {"swap", swap}, {"mirror_probability", mirror_probability}, {"colour_probability", colour_probability},
-          {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights}};
+          {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights},
+          {"overlap_labels", loss.overlap_labels}};
 }
 
 namespace {
