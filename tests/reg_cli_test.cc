@@ -95,6 +95,19 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
     EXPECT_LT(init_diff, 1e-6);
     EXPECT_GT(fresh_diff, 1e-3);
   }
+  // reg average: the element-wise mean of two runs; an existing output is kept without --force.
+  const std::string average = "reg average " + dir.File("w.pt") + " " + dir.File("w_fresh.pt") + " --out " + dir.File("w_mean.pt");
+  ASSERT_EQ(RunNerfreg(average).exit_code, 0);
+  EXPECT_NE(RunNerfreg(average).exit_code, 0);
+  {
+    DregNet trained = LoadDregWeights(dir.File("w.pt"), nullptr);
+    DregNet fresh = LoadDregWeights(dir.File("w_fresh.pt"), nullptr);
+    DregNet mean = LoadDregWeights(dir.File("w_mean.pt"), nullptr);
+    const auto a = trained->parameters(), c = fresh->parameters(), m = mean->parameters();
+    double worst = 0;
+    for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (m[i] - (a[i] + c[i]) / 2).abs().max().item<double>());
+    EXPECT_LT(worst, 1e-6);
+  }
 
   // Every method on the pairs, one table with a summary line per method.
   const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg,ransac " +
@@ -160,6 +173,11 @@ TEST(RegCli, BadWeightsAreClearErrors) {
                                         " --out " + dir.File("w.pt"));
   EXPECT_EQ(init.exit_code, 2) << init.output;
   EXPECT_NE(init.output.find("bad.pt"), std::string::npos) << init.output;
+  EXPECT_FALSE(FileExists(dir.File("w.pt")));
+  // Averaging a file that is not weights: the same, naming it.
+  const CommandResult average = RunNerfreg("reg average " + dir.File("bad.pt") + " --out " + dir.File("w.pt"));
+  EXPECT_EQ(average.exit_code, 2) << average.output;
+  EXPECT_NE(average.output.find("bad.pt"), std::string::npos) << average.output;
   EXPECT_FALSE(FileExists(dir.File("w.pt")));
 }
 

@@ -26,6 +26,7 @@ int RunRegRegisterMany(int argc, char** argv);
 int RunRegExtract(int argc, char** argv);
 int RunRegMakeData(int argc, char** argv);
 int RunRegTrain(int argc, char** argv);
+int RunRegAverage(int argc, char** argv);
 // The shipped DReg-NeRF weights (NERFREG_WEIGHTS overrides) and the default method (dreg when they exist).
 std::string DefaultDregWeights();
 std::string DefaultRegistrationMethod();
@@ -55,6 +56,7 @@ int RunReport(int argc, char** argv);
   {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \
   {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"}, \
   {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"}, \
+  {"reg average", RunRegAverage, "Average weights files of one architecture (a model soup)"}, \
   {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
   {"dbarf poses", RunDbarfPoses, "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}, \
   {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \

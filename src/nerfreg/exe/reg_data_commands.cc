@@ -1,4 +1,5 @@
-// Commands that make and use the registration network's data: reg extract | reg make-data | reg train.
+// Commands that make and use the registration network's data and weights: reg extract | reg make-data |
+// reg train | reg average.
 #include <thread>
 
 #include "nerfreg/exe/command.h"
@@ -146,5 +147,26 @@ int RunRegTrain(int argc, char** argv) {
                             {"val_pairs", r.val.pairs}})
                           .dump()
                           .c_str());
+  return 0;
+}
+
+int RunRegAverage(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Average several DReg-NeRF weights files of one architecture into one (a model soup: runs "
+                  "fine-tuned from the same weights, e.g. with different --seed). Parameters are averaged element-wise.",
+                  "nerfreg reg average runs/a/dreg_cpu.pt runs/b/dreg_cpu.pt --out runs/soup.pt");
+  std::vector<std::string> inputs;
+  std::string out;
+  app.add_option("weights", inputs, "Weights files (reg train), all of one architecture")->required()->expected(1, 1000);
+  app.add_option("--out", out, "Output weights file")->required();
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force);
+  DregModelOptions options;
+  DregNet net = AverageDregWeights(inputs, &options);
+  SaveDregWeights(net, options, out);
+  std::printf("%s\n", Json({{"weights", out}, {"averaged", inputs.size()}, {"config", options.name}}).dump().c_str());
   return 0;
 }

@@ -425,6 +425,31 @@ DregNet LoadDregWeights(const std::string& path, DregModelOptions* options) {
   return net;
 }
 
+DregNet AverageDregWeights(const std::vector<std::string>& paths, DregModelOptions* options) {
+  if (paths.empty()) throw InputError("reg average: expected at least one weights file");
+  DregModelOptions first;
+  DregNet mean = LoadDregWeights(paths[0], &first);
+  torch::NoGradGuard no_grad;
+  auto mean_params = mean->named_parameters();
+  auto mean_buffers = mean->named_buffers();
+  for (size_t i = 1; i < paths.size(); ++i) {
+    DregModelOptions stored;
+    DregNet net = LoadDregWeights(paths[i], &stored);
+    CheckDregOptionsMatch(stored, first, paths[i]);
+    for (const auto& p : net->named_parameters()) mean_params[p.key()].add_(p.value());
+    for (const auto& b : net->named_buffers()) {
+      if (b.value().is_floating_point()) mean_buffers[b.key()].add_(b.value());
+    }
+  }
+  const double n = static_cast<double>(paths.size());
+  for (auto& p : mean_params) p.value().div_(n);
+  for (auto& b : mean_buffers) {
+    if (b.value().is_floating_point()) b.value().div_(n);
+  }
+  if (options) *options = first;
+  return mean;
+}
+
 void CheckDregOptionsMatch(const DregModelOptions& stored, const DregModelOptions& wanted, const std::string& path) {
   // Only the fields that shape the tensors; the label, point budget and scale solve may differ.
   Json a = wanted.ToJson(), b = stored.ToJson();

@@ -194,6 +194,13 @@ void SaveDregWeights(DregNet& net, const DregModelOptions& options, const std::s
 // Throws InputError naming the file when it is missing, truncated, not DReg weights, of another
 // version, or holds tensors that do not fit its stored options. *options receives the stored ones.
 DregNet LoadDregWeights(const std::string& path, DregModelOptions* options);
+// The element-wise mean of several weights files of one architecture (a "model soup",
+// Wortsman et al. 2022): runs fine-tuned from the same start differ here about as much as
+// recipes do, and their mean is one network that needs no pick among them. Parameters and
+// floating buffers are averaged; integer buffers are the first file's. Throws InputError naming
+// the file (and the field) that cannot be read or whose architecture differs from the first's.
+// *options receives the first file's options.
+DregNet AverageDregWeights(const std::vector<std::string>& paths, DregModelOptions* options);
 // For --weights next to an explicit config: throws InputError("PATH: FIELD: expected ...")
 // naming the first architecture field (backbone, d_model, heads, layers, ffn) where the stored
 // options differ from `wanted`; the name label, the downsampling budget and estimate_scale may

@@ -259,6 +259,41 @@ TEST_F(DregModelTest, LoadRejectsBadFilesAndOtherConfigs) {
   EXPECT_EQ(InputErrorOf([&] { CheckDregOptionsMatch(TinyOptions(), renamed, good); }), "");
 }
 
+TEST_F(DregModelTest, AverageIsTheElementwiseMeanOfWeightsOfOneArchitecture) {
+  ScopedTempDir dir;
+  DregNet a(TinyOptions());
+  DregNet b(TinyOptions());  // another random start: most tensors differ from a's
+  SaveDregWeights(a, TinyOptions(), dir.File("a.pt"));
+  SaveDregWeights(b, TinyOptions(), dir.File("b.pt"));
+  DregModelOptions o;
+  DregNet mean = AverageDregWeights({dir.File("a.pt"), dir.File("b.pt")}, &o);
+  EXPECT_EQ(o.ToJson(), TinyOptions().ToJson());
+  auto pa = a->named_parameters();
+  auto pb = b->named_parameters();
+  int differing = 0;
+  for (const auto& p : mean->named_parameters()) {
+    const torch::Tensor expected = (pa[p.key()] + pb[p.key()]) / 2.0;
+    EXPECT_TRUE(torch::allclose(p.value(), expected, 1e-6, 1e-6)) << p.key();
+    if (!torch::equal(pa[p.key()], pb[p.key()])) ++differing;
+  }
+  EXPECT_GT(differing, 10);
+  EXPECT_TRUE(torch::allclose(mean->feature_w, (a->feature_w + b->feature_w) / 2.0, 1e-6, 1e-6));
+  // One file is itself.
+  DregNet one = AverageDregWeights({dir.File("a.pt")}, &o);
+  for (const auto& p : one->named_parameters()) EXPECT_TRUE(torch::equal(p.value(), pa[p.key()])) << p.key();
+  // Another architecture, a missing file, no file: errors naming what is wrong.
+  DregModelOptions wider = TinyOptions();
+  wider.d_model = 48;
+  DregNet wide(wider);
+  SaveDregWeights(wide, wider, dir.File("wide.pt"));
+  const std::string msg = InputErrorOf([&] { AverageDregWeights({dir.File("a.pt"), dir.File("wide.pt")}, &o); });
+  EXPECT_NE(msg.find("wide.pt"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("d_model"), std::string::npos) << msg;
+  EXPECT_NE(InputErrorOf([&] { AverageDregWeights({dir.File("a.pt"), dir.File("none.pt")}, &o); }).find("none.pt"),
+            std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { AverageDregWeights({}, &o); }), "");
+}
+
 // Found by fuzz/torch_archive_fuzz.cc: weights whose meta has no "options" escaped as a JSON
 // out_of_range (not an InputError), and options claiming d_model 600000 or a 60000-wide stage
 // built a network of hundreds of GB before the tensors were compared.
