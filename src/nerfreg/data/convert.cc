@@ -41,7 +41,9 @@ Dataset ReadCameras(const std::string& input) {
       const fs::path dir = fs::absolute(input);
       std::string image_root = (dir.parent_path().parent_path() / "images").string();
       if (!DirExists(image_root)) image_root = dir.string();
-      return DatasetFromColmap(ReadColmapModel(input), image_root);
+      Dataset d = DatasetFromColmap(ReadColmapModel(input), image_root);
+      d.Check(input);  // intrinsics (a negative focal length) and magnitudes, as for the other formats
+      return d;
     }
   }
   throw std::logic_error("ReadCameras: unreachable");

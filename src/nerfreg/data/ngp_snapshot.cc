@@ -15,6 +15,72 @@ namespace nerfreg {
 
 namespace {
 
+// The deepest nesting of arrays and maps in a msgpack document, counted without recursion and
+// stopping once it passes `limit` (nlohmann's msgpack reader recurses per level, so 3 MB of 0x91
+// bytes, a 3 KB .ingp, overflowed the stack). Truncated input ends the count; the reader then
+// reports it.
+int MsgpackDepthUpTo(const std::vector<std::uint8_t>& b, int limit) {
+  std::vector<std::uint64_t> remaining;  // items left in each open container
+  size_t p = 0;
+  int deepest = 0;
+  auto be = [&](size_t at, int n) {
+    std::uint64_t v = 0;
+    for (int k = 0; k < n; ++k) v = v << 8 | b[at + k];
+    return v;
+  };
+  auto skip = [&](std::uint64_t n) {
+    if (n > b.size() - p) return false;
+    p += static_cast<size_t>(n);
+    return true;
+  };
+  while (p < b.size()) {
+    const std::uint8_t t = b[p++];
+    std::uint64_t children = 0;
+    bool ok = true;
+    if (t <= 0x7f || t >= 0xe0 || t == 0xc0 || t == 0xc2 || t == 0xc3) {
+    } else if (t <= 0x8f) {  // fixmap: a key and a value per entry
+      children = 2ull * (t & 0x0f);
+      if (children) goto open;
+    } else if (t <= 0x9f) {
+      children = t & 0x0f;
+      if (children) goto open;
+    } else if (t <= 0xbf) {
+      ok = skip(t & 0x1f);
+    } else {
+      static const int kFixed[] = {
+          /*c0*/ 0, 0, 0, 0, /*c4 bin*/ -1, -2, -4, /*c7 ext*/ -11, -12, -14, /*ca*/ 4, 8,
+          /*cc*/ 1, 2, 4, 8, /*d0*/ 1, 2, 4, 8, /*d4 fixext*/ 2, 3, 5, 9, 17, /*d9 str*/ -1, -2, -4};
+      if (t >= 0xdc) {  // array16/32, map16/32
+        const int n = (t == 0xdc || t == 0xde) ? 2 : 4;
+        if (b.size() - p < static_cast<size_t>(n)) break;
+        children = be(p, n) * ((t >= 0xde) ? 2 : 1);
+        p += n;
+        if (children) goto open;
+      } else {
+        const int f = kFixed[t - 0xc0];
+        if (f >= 0) {
+          ok = skip(static_cast<std::uint64_t>(f));
+        } else {
+          const int len_bytes = (-f) % 10, extra = (-f) / 10;  // ext: one type byte after the length
+          if (b.size() - p < static_cast<size_t>(len_bytes)) break;
+          const std::uint64_t len = be(p, len_bytes);
+          p += len_bytes;
+          ok = skip(len + static_cast<std::uint64_t>(extra));
+        }
+      }
+    }
+    if (!ok) break;
+    // One item done: close every container it completes.
+    while (!remaining.empty() && --remaining.back() == 0) remaining.pop_back();
+    continue;
+  open:
+    remaining.push_back(children);
+    deepest = std::max(deepest, static_cast<int>(remaining.size()));
+    if (deepest > limit) return deepest;
+  }
+  return deepest;
+}
+
 std::int64_t RoundUp(std::int64_t v, std::int64_t m) { return (v + m - 1) / m * m; }
 
 // An integer field within [lo, hi]; huge or negative claims are errors before any use.
@@ -209,6 +275,10 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
     std::vector<std::uint8_t> inflated;
     const bool compressed = LooksCompressed(raw);
     if (compressed) inflated = Inflate(raw, source, options.max_inflated_bytes);
+    if (MsgpackDepthUpTo(compressed ? inflated : raw, kMaxJsonDepth) > kMaxJsonDepth) {
+      ThrowInputError(source, "", "an instant-ngp snapshot nested at most " + std::to_string(kMaxJsonDepth) +
+                                      " levels deep (arrays and maps)");
+    }
     try {
       root = Json::from_msgpack(compressed ? inflated : raw);
     } catch (const Json::exception& e) {

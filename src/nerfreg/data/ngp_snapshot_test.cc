@@ -164,5 +164,31 @@ TEST(NgpSnapshot, BadInputsAreInputErrors) {
             std::string::npos);
 }
 
+// Deep nesting is refused before nlohmann's recursive msgpack reader sees it: 3 MB of fixarray-of-1
+// bytes (a 3 KB .ingp) overflowed the stack. Every msgpack container form counts, and a real
+// snapshot, with its binary blobs and strings skipped correctly, passes.
+TEST(NgpSnapshot, DeepNestingIsAnInputErrorNotAStackOverflow) {
+  const std::string expected = "d.ingp: expected an instant-ngp snapshot nested at most 64 levels deep";
+  std::vector<std::uint8_t> deep(3000000, 0x91);
+  deep.push_back(0x00);
+  EXPECT_NE(InputErrorOf([&] { ParseNgpSnapshot(deep, "d.ingp"); }).find(expected), std::string::npos);
+  // array16 / map16 / map32 forms of one child each, and a fixmap of one pair ({0: ...}).
+  for (const std::vector<std::uint8_t>& level : std::vector<std::vector<std::uint8_t>>{
+           {0xdc, 0x00, 0x01}, {0xde, 0x00, 0x01, 0x00}, {0xdf, 0x00, 0x00, 0x00, 0x01, 0x00}, {0x81, 0x00}}) {
+    std::vector<std::uint8_t> bytes;
+    for (int k = 0; k < 100; ++k) bytes.insert(bytes.end(), level.begin(), level.end());
+    bytes.push_back(0xc0);
+    EXPECT_NE(InputErrorOf([&] { ParseNgpSnapshot(bytes, "d.ingp"); }).find(expected), std::string::npos) << int(level[0]);
+  }
+  // Siblings are not depth: 100 arrays side by side inside one array.
+  std::vector<std::uint8_t> wide = {0xdc, 0x00, 100};
+  for (int k = 0; k < 100; ++k) wide.insert(wide.end(), {0x91, 0x91, 0xc0});
+  EXPECT_EQ(InputErrorOf([&] { ParseNgpSnapshot(wide, "w.ingp"); }).find("nested at most"), std::string::npos);
+  const TestNgpSnapshot t = MakeTestNgpSnapshot();
+  for (bool compressed : {false, true}) {
+    EXPECT_EQ(InputErrorOf([&] { ParseNgpSnapshot(TestNgpSnapshotBytes(t.json, compressed), "s.ingp"); }), "");
+  }
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -106,7 +106,7 @@ void SaveDbarfWeights(const DbarfModel& model, const std::string& path) {
   archive.write("feature_net", features);
   archive.write("ibrnet", ibrnet);
   archive.write("pose_net", pose);
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 DbarfModel LoadDbarfWeights(const std::string& path, const DbarfOptions* expected) {

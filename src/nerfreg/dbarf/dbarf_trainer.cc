@@ -313,7 +313,7 @@ void DbarfTrainer::SaveState(const std::string& path) const {
       archive.write("camera_twists_" + std::to_string(s), camera_twists_[s].detach());
     }
   }
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 void DbarfTrainer::LoadState(const std::string& path) {

@@ -101,7 +101,7 @@ void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& pa
   model.ibrnet->save(ibrnet);
   archive.write("feature_net", features);
   archive.write("ibrnet", ibrnet);
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {

@@ -1,5 +1,7 @@
 #include "nerfreg/exe/command.h"
 
+#include "nerfreg/data/dataset.h"
+#include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 
 namespace nerfreg {
@@ -23,6 +25,15 @@ int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& comm
   log.verbose = common.verbose;
   InitLogging(log);
   return -1;
+}
+
+std::vector<std::string> DatasetInputs(const std::string& given_path, const Dataset& dataset) {
+  std::vector<std::string> inputs = {given_path};
+  if (DirExists(given_path)) {
+    for (const char* name : {"transforms.json", "poses_bounds.npy"}) inputs.push_back(JoinPaths(given_path, name));
+  }
+  for (const auto& f : dataset.frames) inputs.push_back(dataset.ImagePath(f));
+  return inputs;
 }
 
 void DescribeCommand(CLI::App& app, const std::string& summary, const std::string& example) {

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 namespace nerfreg {
 
@@ -23,6 +24,12 @@ void AddCommonOptions(CLI::App& app, CommonOptions* options);
 // the exit code to return (0 for --help, 2 for a usage error, with the message printed).
 // Also applies the logging options.
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common);
+
+struct Dataset;
+
+// The files a dataset was read from, for CheckCanWriteOutput: the path given, its camera file
+// (transforms.json, poses_bounds.npy) and every image. An output may not replace any of them.
+std::vector<std::string> DatasetInputs(const std::string& given_path, const Dataset& dataset);
 
 // Sets the app's description followed by an example line, shown by --help.
 void DescribeCommand(CLI::App& app, const std::string& summary, const std::string& example);

@@ -5,6 +5,7 @@
 #include "nerfreg/render/render_dataset.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 
 using namespace nerfreg;
@@ -40,6 +41,7 @@ int RunRender(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.force = common.force;
   if (mesh_path.empty() && procedural < 0) throw InputError("render: give --mesh FILE or --procedural SEED");
+  CheckCanWriteOutput(out, common.force, {mesh_path});
   if (!size.empty()) {
     const size_t x = size.find('x');
     try {

@@ -148,7 +148,7 @@ int RunDbarfPoses(int argc, char** argv) {
   if (intrinsics.empty() && !(focal > 0)) throw InputError("dbarf poses: give --intrinsics T.json or --focal PX (> 0)");
   options.Check();
   while (out.size() > 1 && out.back() == '/') out.pop_back();
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {images_dir, intrinsics});
   const Timer timer;
 
   const std::vector<std::string> names = ListImages(images_dir);
@@ -170,11 +170,11 @@ int RunDbarfPoses(int argc, char** argv) {
   // The depth range and view graph go into the output too: dbarf finetune / render read them.
   double near = 0, far = 0;
   DepthRangeFromPoints(r, images_dir, &near, &far);
-  // Everything goes into a temporary folder renamed into place at the end.
-  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp);
+  // Everything goes into a temporary folder moved into place at the end.
+  OutputDir output(out, common.force, {images_dir, intrinsics});
+  const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "sparse/0"));
-  try {
+  {
     Dataset dataset;
     dataset.root = out;
     const fs::path out_abs = fs::absolute(out);
@@ -210,11 +210,7 @@ int RunDbarfPoses(int argc, char** argv) {
     const CameraPlot plot = PlotCamerasFromAbove({{posed, kEstimateColor}}, false);
     WriteImage(JoinPaths(tmp, "cameras.png"), plot.image);
     LOG_INFO("{}/cameras.png: posed cameras seen from above, scale bar {:g} units", out, plot.scale_bar_length);
-    if (fs::exists(out)) fs::remove_all(out);
-    fs::rename(tmp, out);
-  } catch (...) {
-    fs::remove_all(tmp);
-    throw;
+    output.Commit();
   }
   for (const auto& name : r.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
   LOG_INFO("posed {}/{} images, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}", num_posed, names.size(),

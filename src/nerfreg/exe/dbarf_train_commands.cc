@@ -103,7 +103,9 @@ void WriteRefinedCameras(const std::string& input, const LoadedDbarfScene& loade
 }
 
 int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
-  if (!c.run.resume) CheckCanWriteOutput(c.run.out, common.force);
+  std::vector<std::string> inputs = c.scenes;
+  inputs.push_back(c.weights);
+  if (!c.run.resume) CheckCanWriteOutput(c.run.out, common.force, inputs);
   c.train.Check();
   c.run.Check();
   // Weights and state first: a wrong file fails before minutes of scene loading.
@@ -196,7 +198,7 @@ int RunDbarfFinetune(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.scenes = {scene};
   c.train.refine_cameras = !c.cameras_out.empty();
-  if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force);
+  if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force, {scene, c.weights});
   // The configuration is the starting weights' (or, resuming, the run's own).
   const DbarfModel start = LoadDbarfWeights(c.run.resume ? c.run.out : c.weights);
   c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
@@ -223,7 +225,7 @@ int RunDbarfRender(int argc, char** argv) {
   app.add_option("--sources", num_sources, "Source views per rendered view (nearest cameras)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (num_sources < 1) throw InputError("--sources: expected >= 1");
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {posed, transforms, weights});
   DbarfModel model = LoadDbarfWeights(weights);
   LoadedDbarfScene loaded = LoadDbarfScene(posed, scene_options);
   if (loaded.estimated_here) {
@@ -231,10 +233,10 @@ int RunDbarfRender(int argc, char** argv) {
              "not the file's", posed);
   }
   const Dataset cams = ReadCameras(transforms);
-  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp);
+  OutputDir output(out, common.force, {posed, transforms, weights});
+  const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "depth"));
-  try {
+  {
     ProgressBar bar("dbarf render", static_cast<int64_t>(cams.frames.size()), "view");
     for (const Frame& f : cams.frames) {
       const torch::Tensor k = IntrinsicsToTensor(f.camera);
@@ -247,11 +249,7 @@ int RunDbarfRender(int argc, char** argv) {
       bar.Tick();
     }
     bar.Finish();
-    if (fs::exists(out)) fs::remove_all(out);
-    fs::rename(tmp, out);
-  } catch (...) {
-    fs::remove_all(tmp);
-    throw;
+    output.Commit();
   }
   LOG_INFO("rendered {} views -> {}", cams.frames.size(), out);
   return 0;
@@ -286,7 +284,7 @@ int RunDbarfEval(int argc, char** argv) {
   if (!(perturb.deg >= 0 && perturb.deg <= 30 && perturb.translation >= 0 && perturb.translation <= 1)) {
     throw InputError("--perturb-deg / --perturb-translation: expected 0 to 30 degrees and 0 to 1");
   }
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {dataset, weights});
   DbarfModel model = LoadDbarfWeights(weights);
   const Timer timer;
   LoadedDbarfScene loaded = LoadDbarfScene(dataset, scene_options);
@@ -326,13 +324,13 @@ int RunDbarfEval(int argc, char** argv) {
   }
 
   // Novel views: test views at their estimated cameras, from training views.
-  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp);
+  OutputDir output(out, common.force, {dataset, weights});
+  const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "views"));
   Json views = Json::array();
   std::vector<double> psnrs, ssims;
   std::vector<Image> sheet;
-  try {
+  {
     int num_test = 0;
     for (int v = 0; v < scene.NumViews(); ++v) num_test += loaded.is_test[v];
     ProgressBar bar("dbarf eval", num_test, "view");
@@ -386,8 +384,7 @@ int RunDbarfEval(int argc, char** argv) {
                                       "from view-graph neighbours among the training views"}};
     WriteJsonFile(JoinPaths(tmp, "eval.json"), result);
     if (!sheet.empty()) WriteImage(JoinPaths(tmp, "compare.png"), ContactSheet(sheet, 3));
-    if (fs::exists(out)) fs::remove_all(out);
-    fs::rename(tmp, out);
+    output.Commit();
     if (common.json) {
       std::printf("%s\n", result.dump().c_str());
     } else {
@@ -401,9 +398,6 @@ int RunDbarfEval(int argc, char** argv) {
       std::printf("novel views        %zu rendered: PSNR %.2f dB  SSIM %.4f\n", psnrs.size(), mean(psnrs), mean(ssims));
       std::printf("time               %.1f s (poses %.1f s)\n", timer.Seconds(), seconds_poses);
     }
-  } catch (...) {
-    fs::remove_all(tmp);
-    throw;
   }
   return 0;
 }

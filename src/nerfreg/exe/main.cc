@@ -2,9 +2,11 @@
 // printed as one line; the exit code tells their kind (2 bad input or usage, 3 internal error).
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 
 namespace {
@@ -56,6 +59,7 @@ void EnsureThreadingEnvironment(char** argv) {
 
 int main(int argc, char** argv) {
   EnsureThreadingEnvironment(argv);
+  nerfreg::InstallOutputSignalHandlers();
   nerfreg::InitLogging(nerfreg::LogOptions{});
   nerfreg::InitThreads();
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
@@ -97,6 +101,21 @@ int main(int argc, char** argv) {
   } catch (const nerfreg::InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A failed copy or folder operation outside our checked writers: a full disk or a folder the
+    // user cannot write is still the user's to fix, so it is reported as such.
+    const int err = e.code().value();
+    const std::string path = e.path1().empty() ? std::string("output") : e.path1().string();
+    if (err == ENOSPC || err == EDQUOT || err == EFBIG) {
+      std::fprintf(stderr, "error: %s: expected space to write (disk full?)\n", path.c_str());
+      return 2;
+    }
+    if (err == EACCES || err == EROFS || err == EPERM) {
+      std::fprintf(stderr, "error: %s: expected a writable location (%s)\n", path.c_str(), e.code().message().c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "internal error: %s\n", e.what());
+    return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "internal error: %s\n", e.what());
     return 3;

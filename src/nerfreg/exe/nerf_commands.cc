@@ -42,18 +42,25 @@ int RunNerfTrain(int argc, char** argv) {
   app.add_option("--samples", samples, "Target samples per batch (default: the preset's)");
   app.add_flag("--resume", resume, "Continue the run in --out from its last checkpoint");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (app.count("--iters") && iters < 1) ThrowInputError("--iters", "", "at least 1 iteration, got " + std::to_string(iters));
+  if (app.count("--stop-after") && stop_after < 1) ThrowInputError("--stop-after", "", "a step >= 1, got " + std::to_string(stop_after));
+  if (app.count("--checkpoint-every") && checkpoint_every < 0) ThrowInputError("--checkpoint-every", "", ">= 0");
+  if (app.count("--samples") && samples < 1) ThrowInputError("--samples", "", ">= 1");
   NerfTrainOptions options = NerfTrainOptions::Preset(preset);
   if (iters > 0) options.iterations = iters;
   options.seed = seed;
   options.stop_after = stop_after;
   if (checkpoint_every >= 0) options.checkpoint_every = checkpoint_every;
   if (samples > 0) options.target_samples = samples;
+  const Dataset dataset = ReadCameras(dataset_path);
+  const std::vector<std::string> inputs = DatasetInputs(dataset_path, dataset);
   if (resume) {
     if (!FileExists(out)) ThrowInputError(out, "", "an existing checkpoint to resume (drop --resume to start a new run)");
+    CheckCanWriteOutput(out, /*force=*/true, inputs);  // writable, and not an input
   } else {
-    CheckCanWriteOutput(out, common.force);
+    CheckCanWriteOutput(out, common.force, inputs);
   }
-  const Dataset dataset = ReadCameras(dataset_path);
+  CheckCanWriteOutput(out + ".json", /*force=*/true, inputs);
   CheckImagesMatchCameras(dataset);
   const NerfTrainResult r = TrainNerfBlock(dataset, options, out, resume);
   if (r.iterations == options.iterations) {
@@ -75,17 +82,20 @@ int RunNerfRender(int argc, char** argv) {
   app.add_option("--transforms", transforms, "transforms.json with the cameras to render")->required();
   app.add_option("--out", out, "Output folder")->required();
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {ckpt, transforms});
   NerfBlock block = LoadNerfBlock(ckpt);
   const Dataset cams = ReadCameras(transforms);
+  // Rendered into a temporary folder moved into place whole: a killed run leaves no partial set of
+  // PNGs under the real name (which a rerun would then refuse as existing).
+  OutputDir output(out, common.force, {ckpt, transforms});
   ProgressBar bar("nerf render", static_cast<std::int64_t>(cams.frames.size()), "view");
-  CreateDirectories(out);
   for (const auto& f : cams.frames) {
-    WriteImage(JoinPaths(out, std::filesystem::path(f.name).replace_extension(".png").string()),
+    WriteImage(output.Path(std::filesystem::path(f.name).replace_extension(".png").string()),
                RenderImage(block, f.camera, f.cam_from_world));
     bar.Tick();
   }
   bar.Finish();
+  output.Commit();
   return 0;
 }
 
@@ -100,7 +110,7 @@ int RunNerfEval(int argc, char** argv) {
   app.add_option("dataset", dataset_path, "Dataset whose test split is evaluated")->required();
   app.add_option("--out", out, "Also write the result to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  if (!out.empty()) CheckCanWriteOutput(out, common.force);
+  if (!out.empty()) CheckCanWriteOutput(out, common.force, {ckpt, dataset_path});
   NerfBlock block = LoadNerfBlock(ckpt);
   const Dataset dataset = ReadCameras(dataset_path);
   if (dataset.IndicesOfSplit("test").empty()) ThrowInputError(dataset_path, "frames", "at least one frame with \"split\": \"test\"");
@@ -133,7 +143,7 @@ int RunNerfExport(int argc, char** argv) {
   if (!mesh_path.empty()) {
     if (threshold > 0) mesh_options.density_threshold = threshold;
     mesh_options.Check();
-    CheckCanWriteOutput(mesh_path, common.force);
+    CheckCanWriteOutput(mesh_path, common.force, {ckpt});
     NerfBlock block = LoadNerfBlock(ckpt);
     const ColoredMesh mesh = ExtractMesh(block, mesh_options);
     WriteMeshPly(mesh, mesh_path);
@@ -141,7 +151,7 @@ int RunNerfExport(int argc, char** argv) {
     return 0;
   }
   if (threshold <= 0) threshold = 5.0;
-  CheckCanWriteOutput(points, common.force);
+  CheckCanWriteOutput(points, common.force, {ckpt});
   NerfBlock block = LoadNerfBlock(ckpt);
   torch::NoGradGuard no_grad;
   // One jittered point per occupied cell above the density threshold, view-averaged colour.
@@ -182,7 +192,7 @@ int RunNerfImport(int argc, char** argv) {
   app.add_option("--frame", options.frame, "Block frame: nerf (the transforms.json frame, default) or ngp");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (options.frame != "nerf" && options.frame != "ngp") throw InputError("nerf import: --frame must be nerf or ngp");
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {snapshot_path, transforms});
   const NgpSnapshot snapshot = ReadNgpSnapshot(snapshot_path);
   std::optional<Dataset> cameras;
   if (!transforms.empty()) cameras = ReadCameras(transforms);

@@ -233,7 +233,7 @@ int RunRegRegister(int argc, char** argv) {
                "Grids (dreg, auto): ICP on the grids only, not again on the blocks' occupied points (by default it "
                "runs after ICP on the grids, before --refine field)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {source_path, target_path, weights});
   field_options.Check();
   Timer timer;
   NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
@@ -653,7 +653,7 @@ int RunRegEval(int argc, char** argv) {
   AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  if (!out.empty()) CheckCanWriteOutput(out, common.force);
+  if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
   if (!pairs_path.empty()) {
     for (const auto& m : methods)
       if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth") {
@@ -719,7 +719,7 @@ int RunRegRegisterMany(int argc, char** argv) {
   app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
       ->check(CLI::IsMember({"icp", "field"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, paths);
   Timer timer;
   const int n = static_cast<int>(paths.size());
   std::vector<Eigen::Matrix3Xd> clouds;
@@ -762,7 +762,10 @@ int RunRegRegisterMany(int argc, char** argv) {
       edges.push_back(e);
     }
   }
-  const PoseGraphResult g = OptimizePoseGraph(n, edges, PoseGraphOptions{});
+  // Pairs that disagree with their loops are dropped (a block of another object, a wrong
+  // registration), and named: the graph never silently fuses them.
+  std::vector<bool> dropped;
+  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
   Json world_from_block = Json::array(), connected = Json::array();
   for (int k = 0; k < n; ++k) {
     // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
@@ -771,12 +774,32 @@ int RunRegRegisterMany(int argc, char** argv) {
     if (!g.connected[k]) LOG_WARN("{}: no confident registration links it to block 0; left at identity", paths[k]);
   }
   size_t used = 0;
+  std::vector<int> dropped_edges_of(n, 0), kept_edges_of(n, 0);
   for (size_t e = 0, k = 0; e < edges_json.size(); ++e) {
     if (!edges_json[e]["used"].get<bool>()) continue;
     edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
     edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
+    edges_json[e]["translation_residual"] = g.edge_translation_error[k];
+    const int i = edges[k].i, j = edges[k].j;
+    if (dropped[k]) {
+      edges_json[e]["used"] = false;
+      edges_json[e]["dropped"] = "disagrees with the other registrations of its loops";
+      ++dropped_edges_of[i];
+      ++dropped_edges_of[j];
+      LOG_WARN("{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
+               "belong to the scene)", paths[i], paths[j], g.edge_rotation_error_deg[k]);
+    } else {
+      ++kept_edges_of[i];
+      ++kept_edges_of[j];
+      ++used;
+    }
     ++k;
-    ++used;
+  }
+  for (int b = 0; b < n; ++b) {
+    if (dropped_edges_of[b] > 0 && dropped_edges_of[b] >= kept_edges_of[b]) {
+      LOG_WARN("{}: {} of its {} registrations disagree with the others: it may not belong to this scene", paths[b],
+               dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
+    }
   }
   const Json result = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
                        {"seconds", timer.Seconds()}, {"blocks", paths}};

@@ -47,7 +47,7 @@ int RunRegExtract(int argc, char** argv) {
   app.add_option("--out", out, "Output grid file")->required();
   AddGridOptions(app, &g);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, {block_path});
   Timer timer;
   NerfBlock block = LoadNerfBlock(block_path);
   const RegGrid grid = ExtractRegGrid(block, g);
@@ -140,7 +140,7 @@ int RunRegTrain(int argc, char** argv) {
                "surface at the true match (the overlap; ours), not S alone (the paper)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  if (!resume) CheckCanWriteOutput(out, common.force);
+  if (!resume) CheckCanWriteOutput(out, common.force, data);
   const DregTrainResult r = TrainDreg(data, o, out, resume);
   std::printf("%s\n", Json({{"weights", out}, {"iterations", r.iterations}, {"seconds", r.seconds}, {"final_loss", r.final_loss},
                             {"val_median_rotation_deg", r.val.median_rotation_deg}, {"val_success_rate", r.val.success_rate},
@@ -163,7 +163,7 @@ int RunRegAverage(int argc, char** argv) {
   app.add_option("weights", inputs, "Weights files (reg train), all of one architecture")->required()->expected(1, 1000);
   app.add_option("--out", out, "Output weights file")->required();
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force);
+  CheckCanWriteOutput(out, common.force, inputs);
   DregModelOptions options;
   DregNet net = AverageDregWeights(inputs, &options);
   SaveDregWeights(net, options, out);

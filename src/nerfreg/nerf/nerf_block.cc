@@ -126,7 +126,7 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
   archive.write("grid_density", block.grid->density());
   archive.write("grid_occupied", block.grid->occupied().to(torch::kUInt8));
   if (extra) extra(archive);
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch::serialize::InputArchive&)>& extra) {

@@ -210,6 +210,7 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   double loss_value = 0, psnr_test = 0;
   const double step_size = block.march.step_size;
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;
+  const int first_step = block.step;
   for (; block.step < end_step;) {
     const int step = block.step;
     // Learning-rate schedule: x0.33 at 50, 75 and 90 % of the run.
@@ -275,6 +276,9 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     if ((options.checkpoint_every > 0 && block.step % options.checkpoint_every == 0) || last || block.step == end_step) save();
   }
   bar.Finish();
+  // Resuming a finished run trains nothing; its test PSNR is measured again rather than reported
+  // as the 0 of a loop that never ran.
+  if (block.step == first_step && block.step == options.iterations) psnr_test = EvaluateNerfBlock(block, dataset, 0).psnr;
   NerfTrainResult r;
   r.psnr_test = psnr_test;
   r.seconds = seconds_before + timer.Seconds();

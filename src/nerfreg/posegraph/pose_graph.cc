@@ -187,4 +187,49 @@ PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge
   return result;
 }
 
+PoseGraphResult OptimizePoseGraphWithoutOutliers(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                                 const PoseGraphOptions& options, std::vector<bool>* dropped) {
+  dropped->assign(edges.size(), false);
+  for (;;) {
+    std::vector<PoseGraphEdge> kept;
+    std::vector<size_t> index;  // into edges
+    for (size_t k = 0; k < edges.size(); ++k) {
+      if ((*dropped)[k]) continue;
+      kept.push_back(edges[k]);
+      index.push_back(k);
+    }
+    PoseGraphResult r = OptimizePoseGraph(num_nodes, kept, options);
+    int worst = -1;
+    double worst_excess = 1;  // error over its threshold; > 1 is an outlier
+    for (size_t m = 0; m < kept.size(); ++m) {
+      if (!r.connected[kept[m].i] || !r.connected[kept[m].j]) continue;  // not in the solve at all
+      const double excess = std::max(r.edge_rotation_error_deg[m] / options.max_rotation_error_deg,
+                                     r.edge_translation_error[m] / options.max_translation_error);
+      if (excess > worst_excess) {
+        worst_excess = excess;
+        worst = static_cast<int>(m);
+      }
+    }
+    if (worst >= 0) {
+      (*dropped)[index[worst]] = true;
+      continue;
+    }
+    // Per-edge figures for every input edge, against the final poses.
+    r.edge_rotation_error_deg.clear();
+    r.edge_translation_error.clear();
+    r.edge_inlier.clear();
+    for (size_t k = 0; k < edges.size(); ++k) {
+      const PoseGraphEdge& e = edges[k];
+      const Rigid3d pred = r.world_from_node[e.j].Inverse() * r.world_from_node[e.i];
+      const double rot = RotationErrorDeg(pred.rotation, e.j_from_i.rotation);
+      const double trans = TranslationError(pred.translation, e.j_from_i.translation);
+      r.edge_rotation_error_deg.push_back(rot);
+      r.edge_translation_error.push_back(trans);
+      r.edge_inlier.push_back(!(*dropped)[k] && r.connected[e.i] && r.connected[e.j] &&
+                              rot <= options.max_rotation_error_deg && trans <= options.max_translation_error);
+    }
+    return r;
+  }
+}
+
 }  // namespace nerfreg

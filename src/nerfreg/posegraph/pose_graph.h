@@ -61,4 +61,12 @@ std::vector<Rigid3d> InitializeFromSpanningTree(int num_nodes, const std::vector
 PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge>& edges,
                                   const PoseGraphOptions& options);
 
+// OptimizePoseGraph, then, while some edge disagrees with the fused poses (its loop), drops the
+// edge that disagrees most and solves again: a wrong registration in a loop pulls its neighbours
+// off too, so one solve's outlier flags are not enough to trust what remains. On return,
+// (*dropped)[k] tells whether edges[k] was dropped; the result's per-edge arrays cover every input
+// edge (a dropped edge is never an inlier; its errors are against the final poses).
+PoseGraphResult OptimizePoseGraphWithoutOutliers(int num_nodes, const std::vector<PoseGraphEdge>& edges,
+                                                 const PoseGraphOptions& options, std::vector<bool>* dropped);
+
 }  // namespace nerfreg

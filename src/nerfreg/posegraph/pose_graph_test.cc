@@ -54,6 +54,37 @@ TEST(PoseGraph, RecoversPosesFromNoisyLoopAndRejectsAnOutlier) {
   EXPECT_EQ(inliers, static_cast<int>(edges.size()) - 1);
 }
 
+// A block of another object: its registrations to the others are arbitrary, so the loops through
+// it disagree. They are dropped until every remaining edge agrees; the true blocks keep their
+// poses and their own edges.
+TEST(PoseGraph, EdgesThatDisagreeWithTheirLoopsAreDropped) {
+  std::mt19937 rng(7);
+  const int n = 4;
+  const auto gt = RandomPoses(rng, n);
+  std::vector<PoseGraphEdge> edges = {Measure(gt, 0, 1, rng, 0.002), Measure(gt, 0, 2, rng, 0.002),
+                                      Measure(gt, 1, 2, rng, 0.002)};
+  const auto other = RandomPoses(rng, n);  // block 3 registered as if it were somewhere else
+  for (int i = 0; i < 3; ++i) {
+    PoseGraphEdge e = Measure(other, i, 3, rng, 0.0);
+    e.j_from_i = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(1.0 + i, Eigen::Vector3d(1, i, 2).normalized())),
+                         Eigen::Vector3d(0.5 * i, 1, -1)) * e.j_from_i;
+    edges.push_back(e);
+  }
+  std::vector<bool> dropped;
+  const PoseGraphResult r = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
+  ASSERT_EQ(dropped.size(), edges.size());
+  EXPECT_FALSE(dropped[0] || dropped[1] || dropped[2]);
+  EXPECT_GE(dropped[3] + dropped[4] + dropped[5], 2);  // at most one, a tree edge, is left
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(RotationErrorDeg(r.world_from_node[k].rotation, gt[k].rotation), 0.5) << k;
+  }
+  for (size_t k = 0; k < edges.size(); ++k) EXPECT_EQ(r.edge_inlier[k], !dropped[k]) << k;
+  // A consistent graph loses nothing.
+  const std::vector<PoseGraphEdge> good(edges.begin(), edges.begin() + 3);
+  OptimizePoseGraphWithoutOutliers(n - 1, good, PoseGraphOptions{}, &dropped);
+  EXPECT_EQ(dropped, std::vector<bool>(3, false));
+}
+
 TEST(PoseGraph, DisconnectedNodesAreFlagged) {
   std::mt19937 rng(6);
   const auto gt = RandomPoses(rng, 4);

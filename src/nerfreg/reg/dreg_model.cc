@@ -375,7 +375,7 @@ void SaveDregWeights(DregNet& net, const DregModelOptions& options, const std::s
   torch::serialize::OutputArchive model_archive;
   net->save(model_archive);
   archive.write("model", model_archive);
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 namespace {

@@ -14,6 +14,7 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/progress.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/torch_archive.h"
 
 namespace nerfreg {
 
@@ -168,7 +169,7 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     ss << rng;
     const std::string s = ss.str();
     ar.write("rng", torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone());
-    WriteAtomically(state_path, [&](const std::string& tmp) { ar.save_to(tmp); });
+    SaveArchiveAtomic(ar, state_path);
     SaveDregWeights(net, model_options, out);
   };
 

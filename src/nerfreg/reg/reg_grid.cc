@@ -63,7 +63,7 @@ void SaveRegGrid(const RegGrid& grid, const std::string& path) {
   archive.write("xyz", grid.xyz.contiguous());
   archive.write("surface", grid.surface.contiguous());
   archive.write("mask", grid.mask.to(torch::kUInt8).contiguous());
-  WriteAtomically(path, [&](const std::string& tmp) { archive.save_to(tmp); });
+  SaveArchiveAtomic(archive, path);
 }
 
 RegGrid LoadRegGrid(const std::string& path) {

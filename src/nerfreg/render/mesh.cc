@@ -265,6 +265,21 @@ void TriangleMesh::Check(const std::string& source) const {
   for (const auto& v : vertices) {
     if (!v.allFinite()) ThrowInputError(source, "vertices", "finite coordinates");
   }
+  // Coinciding vertices (or all triangles on a line) render nothing: every image would be empty.
+  Eigen::Vector3f mn, mx;
+  Bounds(&mn, &mx);
+  const float side = (mx - mn).maxCoeff();
+  if (!(side > 0) || !std::isfinite(side)) {
+    ThrowInputError(source, "vertices", "vertices spanning a finite, non-zero extent (they all coincide)");
+  }
+  double largest_area = 0;
+  for (const auto& t : triangles) {
+    const Eigen::Vector3d a = vertices[t[0]].cast<double>(), b = vertices[t[1]].cast<double>(), c = vertices[t[2]].cast<double>();
+    largest_area = std::max(largest_area, 0.5 * (b - a).cross(c - a).norm());
+  }
+  if (!(largest_area > 1e-12 * double(side) * double(side))) {
+    ThrowInputError(source, "triangles", "at least one triangle of non-zero area (every triangle is degenerate)");
+  }
 }
 
 TriangleMesh LoadMesh(const std::string& path) {

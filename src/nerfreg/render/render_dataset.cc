@@ -44,7 +44,6 @@ Json RenderDatasetOptions::ToJson() const {
 RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options, const std::string& out_dir) {
   options.Check();
   mesh.Check("mesh");
-  if (fs::exists(out_dir) && !options.force) throw InputError(out_dir + ": exists; pass --force to overwrite");
   Timer timer;
   const bool orbit = options.trajectory == "orbit";
   std::vector<PosedCamera> cams;
@@ -65,10 +64,9 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
   const int n = static_cast<int>(cams.size());
   if (options.blocks > n) ThrowInputError("--blocks", "", "at most the number of views (" + std::to_string(n) + ")");
 
-  const std::string tmp = out_dir + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp);
-  CreateDirectories(tmp);
-  try {
+  OutputDir output(out_dir, options.force);
+  const std::string& tmp = output.tmp();
+  {
     RayCaster caster(mesh);
     Dataset world;
     world.root = tmp;
@@ -163,21 +161,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     }
     WriteJsonFile(JoinPaths(tmp, "render_options.json"), options.ToJson());
 
-    // Into place: the old output (with --force) is removed only once the new one is complete.
-    if (fs::exists(out_dir)) {
-      const std::string old = out_dir + ".old-" + std::to_string(::getpid());
-      fs::rename(out_dir, old);
-      fs::rename(tmp, out_dir);
-      fs::remove_all(old);
-    } else {
-      const std::string parent = ParentDir(out_dir);
-      if (!parent.empty()) CreateDirectories(parent);
-      fs::rename(tmp, out_dir);
-    }
-  } catch (...) {
-    std::error_code ec;
-    fs::remove_all(tmp, ec);
-    throw;
+    output.Commit();
   }
   RenderDatasetSummary s;
   s.views = n;

@@ -93,18 +93,23 @@ void WriteImage(const std::string& path, const Image& image) {
     bytes[i] = static_cast<unsigned char>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
   }
   const std::string ext = LowerExtension(path);
-  WriteAtomically(path, [&](const std::string& tmp) {
-    int ok = 0;
-    if (ext == ".png") {
-      ok = stbi_write_png(tmp.c_str(), image.width, image.height, image.channels, bytes.data(),
-                          image.width * image.channels);
-    } else if (ext == ".jpg" || ext == ".jpeg") {
-      ok = stbi_write_jpg(tmp.c_str(), image.width, image.height, image.channels, bytes.data(), 95);
-    } else {
-      ThrowInputError(path, "extension", ".png, .jpg or .jpeg");
-    }
-    if (!ok) throw InputError(path + ": could not write image");
-  });
+  // Encoded in memory, then written by WriteFileAtomic: stb's own file writer ignores a failed
+  // fwrite (a full disk left truncated PNGs that reported success).
+  std::string encoded;
+  auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
+  };
+  int ok = 0;
+  if (ext == ".png") {
+    ok = stbi_write_png_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
+                                image.width * image.channels);
+  } else if (ext == ".jpg" || ext == ".jpeg") {
+    ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(), 95);
+  } else {
+    ThrowInputError(path, "extension", ".png, .jpg or .jpeg");
+  }
+  if (!ok || encoded.empty()) throw std::runtime_error("WriteImage: could not encode " + path);
+  WriteFileAtomic(path, encoded);
 }
 
 Image CompositeOver(const Image& rgba, float r, float g, float b) {

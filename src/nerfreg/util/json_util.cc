@@ -7,15 +7,28 @@
 
 namespace nerfreg {
 
-Json ReadJsonFile(const std::string& path) {
-  const std::string text = ReadFileToString(path);
+Json ParseJson(const std::string& text, const std::string& source) {
+  bool too_deep = false;
+  Json json;
   try {
-    return Json::parse(text);
+    json = Json::parse(text, [&](int depth, Json::parse_event_t, Json&) {
+      if (depth > kMaxJsonDepth) {
+        too_deep = true;
+        throw std::length_error("nesting");
+      }
+      return true;
+    });
   } catch (const Json::exception& e) {
     // parse_error, and out_of_range for numbers too large for a double (found by fuzzing).
-    ThrowInputError(path, "", std::string("valid JSON (") + e.what() + ")");
+    ThrowInputError(source, "", std::string("valid JSON (") + e.what() + ")");
+  } catch (const std::length_error&) {
+    if (!too_deep) throw;
+    ThrowInputError(source, "", "JSON nested at most " + std::to_string(kMaxJsonDepth) + " levels deep");
   }
+  return json;
 }
+
+Json ReadJsonFile(const std::string& path) { return ParseJson(ReadFileToString(path), path); }
 
 void WriteJsonFile(const std::string& path, const Json& json, int indent) {
   WriteFileAtomic(path, json.dump(indent) + "\n");

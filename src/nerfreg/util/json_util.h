@@ -14,6 +14,15 @@ using Json = nlohmann::json;
 // Parses a JSON file. Throws InputError("FILE: expected valid JSON (...)") on syntax errors.
 Json ReadJsonFile(const std::string& path);
 
+// Deepest nesting of arrays and objects any reader accepts. Readers of nested documents recurse
+// (nlohmann's msgpack reader, our report's tables), so a few KB of "[[[[..." would overflow the
+// stack; no file of ours nests deeper than ~8.
+constexpr int kMaxJsonDepth = 64;
+
+// Parses JSON text; `source` names it in errors. Throws InputError on invalid JSON or nesting
+// deeper than kMaxJsonDepth.
+Json ParseJson(const std::string& text, const std::string& source);
+
 // Writes JSON atomically, pretty-printed with `indent` spaces.
 void WriteJsonFile(const std::string& path, const Json& json, int indent = 2);
 

@@ -113,8 +113,8 @@ std::vector<CurveSeries> ReadCurves(const std::string& jsonl_path) {
   while (std::getline(in, line)) {
     Json j;
     try {
-      j = Json::parse(line);
-    } catch (const Json::parse_error&) {
+      j = ParseJson(line, jsonl_path);
+    } catch (const InputError&) {
       continue;
     }
     if (!j.is_object() || !j.contains("step") || !j["step"].is_number()) continue;
@@ -203,7 +203,7 @@ void WriteRunReport(const std::string& run_dir, const std::string& out_path, con
     const std::string rel = fs::relative(p, run_dir).string();
     h << "<h3>" << HtmlEscape(rel) << "</h3>";
     try {
-      const Json j = Json::parse(ReadFileToString(p.string(), 4 << 20));
+      const Json j = ParseJson(ReadFileToString(p.string(), 4 << 20), p.string());
       h << JsonTable(j);
     } catch (const std::exception& e) {
       h << "<p>unreadable: " << HtmlEscape(e.what()) << "</p>";

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <sstream>
 #include <string>
 
 #include "nerfreg/util/error.h"
@@ -100,6 +101,15 @@ inline std::string ZipArchiveProblem(const std::string& b) {
   }
   if (!has_version) return "no " + folder + "version record";
   return "";
+}
+
+// Saves `archive` to `path` through memory and WriteFileAtomic. LibTorch's own file writer fails a
+// short write by throwing from a destructor, which terminates the process (exit 134, temporary
+// file left) on a full disk; in memory nothing can fail, and the file write is checked.
+inline void SaveArchiveAtomic(torch::serialize::OutputArchive& archive, const std::string& path) {
+  std::ostringstream stream;
+  archive.save_to(stream);
+  WriteFileAtomic(path, stream.str());
 }
 
 // Loads `path` into `archive` and returns its meta JSON after checking the format tag and the

@@ -15,11 +15,14 @@
 namespace nerfreg {
 
 void ViewGraphOptions::Check() const {
-  if (max_features <= 0 || !(ratio > 0 && ratio < 1) || !(ransac_threshold_px > 0) ||
-      !(ransac_confidence > 0 && ransac_confidence < 1) || min_inliers < 5 || !(contrast_threshold > 0) ||
-      upsample < 1 || upsample > 4) {
-    throw std::invalid_argument("ViewGraphOptions: out of range");
-  }
+  // Named by the command-line options that set them (dbarf poses), since users set them there.
+  if (max_features <= 0) ThrowInputError("--max-features", "", "> 0, got " + std::to_string(max_features));
+  if (!(ratio > 0 && ratio < 1)) ThrowInputError("ratio", "", "in (0, 1)");
+  if (!(ransac_threshold_px > 0)) ThrowInputError("ransac_threshold_px", "", "> 0");
+  if (!(ransac_confidence > 0 && ransac_confidence < 1)) ThrowInputError("ransac_confidence", "", "in (0, 1)");
+  if (min_inliers < 5) ThrowInputError("--min-inliers", "", ">= 5 (an essential matrix needs 5), got " + std::to_string(min_inliers));
+  if (!(contrast_threshold > 0)) ThrowInputError("--sift-contrast", "", "> 0");
+  if (upsample < 1 || upsample > 4) ThrowInputError("--sift-upsample", "", "1..4, got " + std::to_string(upsample));
 }
 
 std::vector<int> ViewGraph::Neighbors(int i, int k) const {
