@@ -1,5 +1,5 @@
 #pragma once
-// The nerfreg binary is one table of subcommands (see ../shared/spec/cli.md). Each subcommand is a
+// The nerfreg binary is one table of subcommands (see docs/cli.md). Each subcommand is a
 // `int RunX(int argc, char** argv)` that parses its options with CLI11, checks them, and calls a
 // typed, testable function in a library layer. argv[0] is the full command name ("nerf train").
 #include <CLI/CLI.hpp>

@@ -25,7 +25,7 @@ struct CommandEntry {
   const char* summary;
 };
 
-// The contract is ../shared/spec/cli.md; keep names stable.
+// The contract is docs/cli.md; keep names stable.
 const std::vector<CommandEntry>& Commands() {
   static const std::vector<CommandEntry> commands = {
       NERFREG_COMMAND_TABLE
