@@ -12,6 +12,7 @@
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/render/camera_plot.h"
 #include "nerfreg/sfm/global_sfm.h"
+#include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/sfm/pose_evaluation.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -166,6 +167,11 @@ int RunDbarfPoses(int argc, char** argv) {
   int num_posed = 0;
   for (bool p : r.posed) num_posed += p;
   if (num_posed == 0) ThrowInputError(images_dir, "", "images that share enough features to be posed (no two do)");
+  // A low reprojection error is no proof: a solution the data cannot pin down is reported as such.
+  const SfmQuality quality = AssessSfm(r, cameras);
+  for (const auto& problem : quality.problems) {
+    LOG_WARN("{}: the poses are not well constrained: {}; do not trust them", images_dir, problem);
+  }
 
   // The depth range and view graph go into the output too: dbarf finetune / render read them.
   double near = 0, far = 0;
@@ -202,7 +208,15 @@ int RunDbarfPoses(int argc, char** argv) {
                            {"seconds", timer.Seconds()},
                            {"near", near},
                            {"far", far},
-                           {"frame", "first posed camera at the identity; mean distance of the others to it = 1"}};
+                           {"frame", "first posed camera at the identity; mean distance of the others to it = 1"},
+                           {"well_constrained", quality.WellConstrained()},
+                           {"problems", quality.problems},
+                           {"quality",
+                            {{"min_image_side_px", quality.min_image_side_px},
+                             {"min_points_per_image", quality.min_points_per_image},
+                             {"median_points_per_image", quality.median_points_per_image},
+                             {"median_track_length", quality.median_track_length},
+                             {"median_triangulation_angle_deg", quality.median_triangulation_angle_deg}}}};
     WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> posed;
@@ -213,8 +227,9 @@ int RunDbarfPoses(int argc, char** argv) {
     output.Commit();
   }
   for (const auto& name : r.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
-  LOG_INFO("posed {}/{} images, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}", num_posed, names.size(),
-           r.num_points, r.mean_reprojection_error_px, timer.Seconds(), out);
+  LOG_INFO("posed {}/{} images{}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}", num_posed, names.size(),
+           quality.WellConstrained() ? "" : " (NOT well constrained: see the warnings)", r.num_points,
+           r.mean_reprojection_error_px, timer.Seconds(), out);
   return 0;
 }
 

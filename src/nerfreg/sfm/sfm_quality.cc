@@ -1,0 +1,97 @@
+#include "nerfreg/sfm/sfm_quality.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "nerfreg/util/error.h"
+
+namespace nerfreg {
+namespace {
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+std::string Fmt(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+void SfmQualityOptions::Check() const {
+  if (min_image_side_px < 0) ThrowInputError("SfmQualityOptions", "min_image_side_px", ">= 0");
+  if (min_points_per_image < 0) ThrowInputError("SfmQualityOptions", "min_points_per_image", ">= 0");
+  if (!(min_median_track_length >= 0)) ThrowInputError("SfmQualityOptions", "min_median_track_length", ">= 0");
+  if (!(min_median_triangulation_angle_deg >= 0)) {
+    ThrowInputError("SfmQualityOptions", "min_median_triangulation_angle_deg", ">= 0");
+  }
+}
+
+SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras, const SfmQualityOptions& options) {
+  options.Check();
+  SfmQuality q;
+  const size_t n = result.posed.size();
+  q.points_per_image.assign(n, 0);
+  q.min_image_side_px = cameras.empty() ? 0 : std::min(cameras[0].width, cameras[0].height);
+  for (size_t k = 0; k < n && k < cameras.size(); ++k) {
+    if (result.posed[k]) q.min_image_side_px = std::min({q.min_image_side_px, cameras[k].width, cameras[k].height});
+  }
+  std::vector<double> track_lengths, angles;
+  for (const SfmPoint& p : result.points) {
+    track_lengths.push_back(static_cast<double>(p.elements.size()));
+    std::vector<Eigen::Vector3d> rays;
+    for (const TrackElement& e : p.elements) {
+      if (e.image < 0 || static_cast<size_t>(e.image) >= n) continue;
+      ++q.points_per_image[e.image];
+      const Rigid3d& cam = result.cam_from_world[e.image];
+      const Eigen::Vector3d centre = -(cam.rotation.conjugate() * cam.translation);
+      rays.push_back((p.x_in_world - centre).normalized());
+    }
+    double widest = 0;
+    for (size_t a = 0; a < rays.size(); ++a)
+      for (size_t b = a + 1; b < rays.size(); ++b) {
+        widest = std::max(widest, std::acos(std::clamp(rays[a].dot(rays[b]), -1.0, 1.0)));
+      }
+    angles.push_back(widest * 180.0 / M_PI);
+  }
+  std::vector<double> per_image;
+  q.min_points_per_image = -1;
+  for (size_t k = 0; k < n; ++k) {
+    if (!result.posed[k]) continue;
+    per_image.push_back(q.points_per_image[k]);
+    q.min_points_per_image = q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
+  }
+  q.min_points_per_image = std::max(q.min_points_per_image, 0);
+  q.median_points_per_image = Median(per_image);
+  q.median_track_length = Median(track_lengths);
+  q.median_triangulation_angle_deg = Median(angles);
+
+  if (q.min_image_side_px < options.min_image_side_px) {
+    q.problems.push_back("images of " + std::to_string(q.min_image_side_px) + " px on their short side (at least " +
+                         std::to_string(options.min_image_side_px) +
+                         " are needed): a sub-pixel reprojection error there does not pin the cameras down");
+  }
+  if (q.min_points_per_image < options.min_points_per_image) {
+    q.problems.push_back("an image observes only " + std::to_string(q.min_points_per_image) + " triangulated points (at least " +
+                         std::to_string(options.min_points_per_image) + " are needed)");
+  }
+  if (q.median_track_length < options.min_median_track_length) {
+    q.problems.push_back("points are seen by " + Fmt(q.median_track_length) + " images (median; at least " +
+                         Fmt(options.min_median_track_length) + " are needed)");
+  }
+  if (q.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
+    q.problems.push_back("points are triangulated under " + Fmt(q.median_triangulation_angle_deg) +
+                         " deg (median; at least " + Fmt(options.min_median_triangulation_angle_deg) +
+                         " are needed): depth and motion are not separable");
+  }
+  return q;
+}
+
+}  // namespace nerfreg
