@@ -121,6 +121,51 @@ const std::vector<BadInputCase>& Cases() {
          return "nerf import " + d + "/s.msgpack --out " + d + "/b.ckpt";
        },
        "s.msgpack: encoding.otype: expected \"HashGrid\"", "b.ckpt"},
+      {"ngp_deeply_nested_snapshot",
+       [](const std::string& d) {
+         // 3 MB of nested one-element arrays, gzip-compressed to 3 KB: overflowed the stack.
+         WriteFileAtomic(d + "/d.ingp", ReadFileToString(std::string(NERFREG_SOURCE_DIR) +
+                                                         "/fuzz/corpus/ngp_snapshot/deep_nesting.ingp"));
+         return "nerf import " + d + "/d.ingp --out " + d + "/b.ckpt";
+       },
+       "d.ingp: expected an instant-ngp snapshot nested at most 64 levels deep", "b.ckpt"},
+      {"colmap_negative_focal",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/m/cameras.txt", "1 PINHOLE 16 16 -20 20 8 8\n");
+         WriteFileAtomic(d + "/m/images.txt", "1 1 0 0 0 0 0 0 1 a.png\n\n");
+         WriteFileAtomic(d + "/m/points3D.txt", "");
+         return "convert " + d + "/m --to nerf --out " + d + "/t.json";
+       },
+       "m: frames[0]: expected valid intrinsics", "t.json"},
+      {"transforms_absurd_focal",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/transforms.json",
+                         R"({"fl_x": 1e308, "fl_y": 1e308, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
+       },
+       "frames[0].fl_x: expected a focal length of at most 1e6 pixels", "sparse"},
+      {"transforms_absurd_translation",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/transforms.json",
+                         R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,1e308],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
+       },
+       "frames[0].transform_matrix: expected a finite camera position within 1e7 scene units", "sparse"},
+      {"mesh_vertices_coincide",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/same.off", "OFF\n3 1 0\n1 1 1\n1 1 1\n1 1 1\n3 0 1 2\n");
+         return "render --mesh " + d + "/same.off --views 2 --size 8 --out " + d + "/out";
+       },
+       "same.off: vertices: expected vertices spanning a finite, non-zero extent", "out"},
+      {"dbarf_poses_zero_features",
+       [](const std::string& d) { return "dbarf poses " + d + " --focal 100 --max-features 0 --out " + d + "/p"; },
+       "error: --max-features: expected > 0, got 0", "p"},
+      {"reg_register_grid_not_a_multiple_of_16",
+       [](const std::string& d) { return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json"; },
+       "error: --grid-resolution: expected a multiple of 16 for the network", "t.json"},
+      {"render_empty_out",
+       [](const std::string& d) { return "render --procedural 1 --views 2 --size 8 --out \"\""; },
+       "error: --out: expected a path", ""},
       {"unknown_option", [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
        "no-such-option", "r.html"},
   };

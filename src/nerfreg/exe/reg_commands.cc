@@ -235,6 +235,12 @@ int RunRegRegister(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, {source_path, target_path, weights});
   field_options.Check();
+  grid_options.Check();
+  // The network's 3D backbone halves the grid four times (reg/backbone.h).
+  if ((method == "dreg" || method == "auto") && grid_options.resolution % 16 != 0) {
+    ThrowInputError("--grid-resolution", "", "a multiple of 16 for the network (--method dreg or auto), got " +
+                                                 std::to_string(grid_options.resolution));
+  }
   Timer timer;
   NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
   OccupiedPoints occupied(source, target, min_density, seed);
