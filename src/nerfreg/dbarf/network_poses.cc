@@ -16,6 +16,7 @@ namespace nerfreg {
 void NetworkPosesOptions::Check() const {
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
   if (min_graph_neighbours < 0) throw InputError("min_graph_neighbours: expected >= 0");
+  if (refine_passes < 0) throw InputError("--refine-passes: expected >= 0, got " + std::to_string(refine_passes));
   if (!(near > 0) || !(far > near)) {
     throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " + std::to_string(far));
   }
@@ -80,13 +81,21 @@ std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::ve
 }
 
 NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, const torch::Tensor& intrinsics,
-                                int target, const std::vector<int>& sources) {
+                                int target, const std::vector<int>& sources, const std::vector<Rigid3d>& initial_src_from_tgt) {
   TORCH_CHECK(!sources.empty(), "RunPoseNetwork: no sources");
+  TORCH_CHECK(initial_src_from_tgt.empty() || initial_src_from_tgt.size() == sources.size(),
+              "RunPoseNetwork: one initial pose per source");
   torch::NoGradGuard no_grad;
   net->eval();
   const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  torch::Tensor initial;  // [N, 4, 4] or undefined (the network's own start)
+  if (!initial_src_from_tgt.empty()) {
+    std::vector<torch::Tensor> m;
+    for (const Rigid3d& p : initial_src_from_tgt) m.push_back(Matrix4ToTensor(p.ToMatrix()));
+    initial = torch::stack(m);
+  }
   const PoseDepthPrediction pred =
-      net->forward(images.slice(0, target, target + 1), images.index_select(0, idx), intrinsics[target]);
+      net->forward(images.slice(0, target, target + 1), images.index_select(0, idx), intrinsics[target], initial);
   const torch::Tensor src_from_tgt = pred.src_from_tgt.back();  // [N, 4, 4]
   NetworkTargetRun run;
   for (size_t k = 0; k < sources.size(); ++k) {
@@ -155,6 +164,54 @@ NetworkRegistration RegisterFromRelativePoses(const std::vector<Rigid3d>& src_fr
   return r;
 }
 
+NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
+                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options) {
+  const int n = num_images;
+  std::vector<RelativePose> edges;
+  for (const NetworkRelativePose& p : poses) edges.push_back({p.target, p.source, p.src_from_tgt, 1.0});
+  NetworkEdgeAverage out;
+  out.averaged = GlobalPosesFromRelativePoses(n, edges, options);
+  const RelativePoseAveragingResult& averaged = out.averaged;
+  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
+  std::vector<double> scales;  // output units per network unit, on the kept edges
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const RelativePose& e = edges[k];
+    if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
+    for (int m : {e.i, e.j}) {
+      residuals[m].push_back(averaged.edge_rotation_error_deg[k]);
+      direction_residuals[m].push_back(averaged.edge_direction_error_deg[k]);
+    }
+    const double length = e.j_from_i.translation.norm();
+    if (averaged.edge_inlier[k] && length > 1e-9) {
+      scales.push_back((averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation).norm() /
+                       length);
+    }
+  }
+  out.scale = scales.empty() ? 1.0 : Median(scales);
+  // Where images were matched, their essential matrices are an independent check: a network that
+  // is consistently wrong (e.g. near the identity everywhere) agrees with itself around every cycle.
+  std::vector<std::vector<double>> graph_residuals(n), graph_direction_residuals(n);
+  for (const ViewGraphEdge& e : graph.edges) {
+    if (e.i >= n || e.j >= n || !averaged.posed[e.i] || !averaged.posed[e.j]) continue;
+    const Rigid3d j_from_i = averaged.cam_from_world[e.j] * averaged.cam_from_world[e.i].Inverse();
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
+    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
+  }
+  out.confidence.assign(n, ImagePoseConfidence());
+  for (int k = 0; k < n; ++k) {
+    if (!averaged.posed[k]) continue;
+    const bool by_graph = !graph_residuals[k].empty();
+    const std::vector<double>& rotation = by_graph ? graph_residuals[k] : residuals[k];
+    const std::vector<double>& direction = by_graph ? graph_direction_residuals[k] : direction_residuals[k];
+    ImagePoseConfidence& c = out.confidence[k];
+    c.edges = static_cast<int>(rotation.size());
+    c.rotation_residual_deg = rotation.empty() ? 180.0 : Median(rotation);
+    c.direction_residual_deg = direction.empty() ? 180.0 : Median(direction);
+  }
+  return out;
+}
+
 namespace {
 
 torch::Tensor StackImages(const std::vector<Image>& images) {
@@ -211,68 +268,49 @@ void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, 
   }
 }
 
-// Method network over all images: one network pass per target, averaging of the edges.
+// Method network over all images: one network pass per target from the identity, averaging of
+// the edges; then refine_passes more, each starting from the relative poses of the last cameras.
 void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const torch::Tensor& intrinsics,
                         const ViewGraph& graph, const NetworkPosesOptions& options, ImagePosesResult* result) {
   const int n = static_cast<int>(images.size(0));
   const Timer timer;
   const std::vector<std::vector<int>> appearance = AppearanceNeighbours(images);
   model.pose_net->SetDepthRange(options.near, options.far);
-  std::vector<RelativePose> edges;
-  std::vector<double> p02, p98;
-  for (int t = 0; t < n; ++t) {
-    const std::vector<int> sources = ChooseSources(t, graph, appearance, {}, options);
-    if (sources.empty()) continue;
-    const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, t, sources);
-    for (const NetworkRelativePose& p : run.poses) edges.push_back({p.target, p.source, p.src_from_tgt, 1.0});
-    p02.push_back(run.depth_p02);
-    p98.push_back(run.depth_p98);
-  }
-  result->num_network_edges = static_cast<int>(edges.size());
-  const RelativePoseAveragingResult averaged = GlobalPosesFromRelativePoses(n, edges, options.averaging);
-  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
-  std::vector<double> scales;  // output units per network unit, on the kept edges
-  for (size_t k = 0; k < edges.size(); ++k) {
-    const RelativePose& e = edges[k];
-    if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
-    for (int m : {e.i, e.j}) {
-      residuals[m].push_back(averaged.edge_rotation_error_deg[k]);
-      direction_residuals[m].push_back(averaged.edge_direction_error_deg[k]);
+  std::vector<std::vector<int>> sources(n);
+  for (int t = 0; t < n; ++t) sources[t] = ChooseSources(t, graph, appearance, {}, options);
+  NetworkEdgeAverage average;
+  for (int pass = 0; pass <= options.refine_passes; ++pass) {
+    std::vector<NetworkRelativePose> poses;
+    std::vector<double> p02, p98;
+    for (int t = 0; t < n; ++t) {
+      if (sources[t].empty()) continue;
+      std::vector<Rigid3d> initial;
+      if (pass > 0 && average.averaged.posed[t]) {
+        // The last cameras, in the output frame (mean distance to the first camera 1: the frame of
+        // the scenes the network is trained on, whose depth range options.near / far is).
+        for (int s : sources[t])
+          initial.push_back(average.averaged.posed[s] ? average.averaged.cam_from_world[s] * average.averaged.cam_from_world[t].Inverse()
+                                                      : Rigid3d());
+      }
+      const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, t, sources[t], initial);
+      poses.insert(poses.end(), run.poses.begin(), run.poses.end());
+      p02.push_back(run.depth_p02);
+      p98.push_back(run.depth_p98);
     }
-    const double length = e.j_from_i.translation.norm();
-    if (averaged.edge_inlier[k] && length > 1e-9) {
-      scales.push_back((averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation).norm() /
-                       length);
-    }
-  }
-  // Where images were matched, their essential matrices are an independent check: a network that
-  // is consistently wrong (e.g. near the identity everywhere) agrees with itself around every cycle.
-  std::vector<std::vector<double>> graph_residuals(n), graph_direction_residuals(n);
-  for (const ViewGraphEdge& e : graph.edges) {
-    if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
-    const Rigid3d j_from_i = averaged.cam_from_world[e.j] * averaged.cam_from_world[e.i].Inverse();
-    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
-    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
+    result->num_network_edges += static_cast<int>(poses.size());
+    average = AverageNetworkEdges(n, poses, graph, options.averaging);
+    // The depth range: the network's predicted depths, widened as DepthRangeFromPoints widens the
+    // triangulated ones, brought into the output frame by the fitted scale.
+    result->near = p02.empty() ? options.near : 0.7 * average.scale * Median(p02);
+    result->far = p98.empty() ? options.far : 1.4 * average.scale * Median(p98);
   }
   for (int k = 0; k < n; ++k) {
-    result->posed[k] = averaged.posed[k];
-    if (!averaged.posed[k]) continue;
-    result->cam_from_world[k] = averaged.cam_from_world[k];
+    result->posed[k] = average.averaged.posed[k];
+    if (!result->posed[k]) continue;
+    result->cam_from_world[k] = average.averaged.cam_from_world[k];
     result->posed_by[k] = "network";
-    const bool by_graph = !graph_residuals[k].empty();
-    const std::vector<double>& rotation = by_graph ? graph_residuals[k] : residuals[k];
-    const std::vector<double>& direction = by_graph ? graph_direction_residuals[k] : direction_residuals[k];
-    ImagePoseConfidence& c = result->confidence[k];
-    c.edges = static_cast<int>(rotation.size());
-    c.rotation_residual_deg = rotation.empty() ? 180.0 : Median(rotation);
-    c.direction_residual_deg = direction.empty() ? 180.0 : Median(direction);
+    result->confidence[k] = average.confidence[k];
   }
-  // The depth range: the network's predicted depths, widened as DepthRangeFromPoints widens the
-  // triangulated ones, brought into the output frame by the fitted scale.
-  const double scale = scales.empty() ? 1.0 : Median(scales);
-  result->near = p02.empty() ? options.near : 0.7 * scale * Median(p02);
-  result->far = p98.empty() ? options.far : 1.4 * scale * Median(p98);
   result->seconds_network += timer.Seconds();
 }
 

@@ -61,6 +61,9 @@ struct NetworkPosesOptions {
   // cameras to the first one 1). method auto uses the SfM's range instead.
   // The defaults are typical of the classical output on 20-view forward-facing 128x96 renders.
   double near = 7.0, far = 40.0;
+  // method network: more passes after the first, each starting the network from the relative poses
+  // of the cameras averaged from the last (what weights trained to refine cameras expect).
+  int refine_passes = 0;
   RelativePoseAveragingOptions averaging;
   void Check() const;  // throws InputError naming the option
 };
@@ -131,11 +134,24 @@ struct NetworkTargetRun {
   std::vector<NetworkRelativePose> poses;
   double depth_p02 = 0, depth_p98 = 0;  // percentiles of the predicted target depth
 };
-// One forward pass, target `target` with `sources`, from the identity. images: [V, 3, H, W]
+// One forward pass, target `target` with `sources`, from the identity (pose_init "network") or
+// from initial_src_from_tgt (one per source: the network refines them). images: [V, 3, H, W]
 // float32; intrinsics: [V, 3, 3] float32 (the target's are used for all, as in training). The
 // depth range must be set on the network (SetDepthRange).
 NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, const torch::Tensor& intrinsics,
-                                int target, const std::vector<int>& sources);
+                                int target, const std::vector<int>& sources,
+                                const std::vector<Rigid3d>& initial_src_from_tgt = {});
+
+// The network's relative poses (each an edge target -> source) averaged into cameras, with each
+// image's confidence (network method, see the top of this file; graph: the view graph, possibly
+// without edges).
+struct NetworkEdgeAverage {
+  RelativePoseAveragingResult averaged;
+  std::vector<ImagePoseConfidence> confidence;  // per image
+  double scale = 1;  // output units per network unit: median over the kept edges
+};
+NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
+                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options);
 
 // A target registered against posed sources from the network's src_from_tgt per source.
 struct NetworkRegistration {

@@ -51,6 +51,51 @@ TEST(NetworkPoses, ANetworkThatPredictsIdentityIsCaughtOnTheSharedEdges) {
   EXPECT_THROW(RegisterFromRelativePoses({}, {}), std::invalid_argument);
 }
 
+// The network's edges (target -> source, src_from_tgt) go the right way into the averaging: exact
+// relative poses in any unit give the cameras back, and the confidence comes from the view graph
+// where it has edges (the independent check), from the network's own edges elsewhere.
+TEST(NetworkPoses, ExactNetworkEdgesAverageToTheCamerasAndTheGraphChecksThem) {
+  std::vector<Rigid3d> truth;
+  for (int k = 0; k < 6; ++k) truth.push_back(LookAt({-1.0 + 0.4 * k, 0.3 * (k % 2), -4 + 0.2 * (k % 3)}, {0, 0, 0}));
+  std::vector<NetworkRelativePose> poses;
+  for (int t = 0; t < 6; ++t)
+    for (int s : {t - 2, t - 1, t + 1, t + 2}) {
+      if (s < 0 || s >= 6) continue;
+      Rigid3d rel = truth[s] * truth[t].Inverse();
+      rel.translation *= 0.01;  // a network whose unit is 100 scene units
+      poses.push_back({t, s, rel});
+    }
+  ViewGraph graph;
+  graph.names = {"0", "1", "2", "3", "4", "5"};
+  graph.keypoints.resize(6);
+  // One essential matrix, 10 deg off the truth, between images 0 and 1.
+  ViewGraphEdge e;
+  e.i = 0;
+  e.j = 1;
+  e.j_from_i = truth[1] * truth[0].Inverse();
+  e.j_from_i.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitY())) * e.j_from_i.rotation;
+  e.j_from_i.translation.normalize();
+  graph.edges.push_back(e);
+  const NetworkEdgeAverage a = AverageNetworkEdges(6, poses, graph, {});
+  // The output frame: camera 0 at the identity, mean distance of the others to it 1.
+  double mean = 0;
+  for (int k = 1; k < 6; ++k) mean += (truth[k].Inverse().translation - truth[0].Inverse().translation).norm() / 5;
+  for (int k = 0; k < 6; ++k) {
+    ASSERT_TRUE(a.averaged.posed[k]);
+    const Rigid3d k_from_0 = a.averaged.cam_from_world[k];  // world = camera 0
+    const Rigid3d true_k_from_0 = truth[k] * truth[0].Inverse();
+    EXPECT_LT(RotationErrorDeg(k_from_0.rotation, true_k_from_0.rotation), 1e-4) << k;
+    EXPECT_LT((k_from_0.translation * mean - true_k_from_0.translation).norm(), 1e-4) << k;
+  }
+  EXPECT_NEAR(a.scale, 100.0 / mean, 1e-3);
+  EXPECT_NEAR(a.confidence[0].rotation_residual_deg, 10.0, 1e-3);  // the essential matrix's error
+  EXPECT_EQ(a.confidence[0].edges, 1);
+  EXPECT_NEAR(a.confidence[1].rotation_residual_deg, 10.0, 1e-3);
+  EXPECT_LT(a.confidence[3].rotation_residual_deg, 1e-4);  // no graph edge: the network's own edges
+  EXPECT_LT(a.confidence[3].direction_residual_deg, 1e-3);
+  EXPECT_EQ(a.confidence[3].edges, 8);                     // 4 as target, 4 as source
+}
+
 // Two "places": images 0, 2, 4 show one texture, 1, 3 another, each slightly shifted.
 torch::Tensor TwoPlaces() {
   const testing_scene::PlaneScene a = testing_scene::PlaneScene::Tilted(3.0);

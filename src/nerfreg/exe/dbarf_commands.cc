@@ -155,6 +155,8 @@ int RunDbarfPoses(int argc, char** argv) {
                  "appearance (thumbnail similarity only, no SIFT) (default graph)");
   app.add_option("--near", options.network.near, "Network method: nearest depth the network predicts, in units of the mean camera distance to the first camera (default 7)");
   app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
+  app.add_option("--refine-passes", options.network.refine_passes,
+                 "Network method: passes after the first, each starting from the last cameras (default 0)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");
