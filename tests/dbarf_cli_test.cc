@@ -178,6 +178,12 @@ TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
     EXPECT_TRUE(f["confidence"].contains("rotation_residual_deg")) << f.dump();
     EXPECT_EQ(f["confidence"].contains("observations"), !is_blurred) << f.dump();
   }
+  // The pairs the network was run on join the view graph (0 inliers), so dbarf finetune / render
+  // find neighbours for the image the matcher could not relate.
+  int blurred_edges = 0;
+  for (const Json& e : j["view_graph"])
+    blurred_edges += e[0].get<std::string>() == "r_004.png" || e[1].get<std::string>() == "r_004.png";
+  EXPECT_EQ(blurred_edges, 5) << j["view_graph"].dump();
   // Images whose confidence is low are listed (and named in a warning).
   int num_low = 0;
   for (const Json& f : j["frames"]) num_low += f["confidence"]["low"].get<bool>();

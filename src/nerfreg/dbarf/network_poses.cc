@@ -277,7 +277,10 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
   const std::vector<std::vector<int>> appearance = AppearanceNeighbours(images);
   model.pose_net->SetDepthRange(options.near, options.far);
   std::vector<std::vector<int>> sources(n);
-  for (int t = 0; t < n; ++t) sources[t] = ChooseSources(t, graph, appearance, {}, options);
+  for (int t = 0; t < n; ++t) {
+    sources[t] = ChooseSources(t, graph, appearance, {}, options);
+    for (int s : sources[t]) result->network_pairs.push_back({t, s});
+  }
   NetworkEdgeAverage average;
   for (int pass = 0; pass <= options.refine_passes; ++pass) {
     std::vector<NetworkRelativePose> poses;
@@ -328,6 +331,7 @@ void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, 
     if (sources.empty()) continue;
     const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, u, sources);
     result->num_network_edges += static_cast<int>(run.poses.size());
+    for (int s : sources) result->network_pairs.push_back({u, s});
     std::vector<Rigid3d> src_from_world, src_from_tgt;
     for (const NetworkRelativePose& p : run.poses) {
       src_from_world.push_back(result->cam_from_world[p.source]);

@@ -38,6 +38,7 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nerfreg/dbarf/pose_depth_net.h"
@@ -102,6 +103,9 @@ struct ImagePosesResult {
   SfmResult sfm;
   std::string method_used;              // classical | network | auto (auto may fall back to network)
   int num_network_edges = 0;            // relative poses predicted by the network
+  // The (target, source) pairs the network was run on (once each, whatever the passes): neighbours
+  // for dbarf finetune / render where the view graph has none (images without matches).
+  std::vector<std::pair<int, int>> network_pairs;
   double seconds_network = 0;
   double seconds = 0;
 };

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <unistd.h>
 
 #include "nerfreg/data/colmap.h"
@@ -236,7 +237,15 @@ int RunDbarfPoses(int argc, char** argv) {
         "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "
         "edge, rotation residual above --low-confidence-deg, direction residual above 30 deg, or (sfm) fewer than "
         "10 observations.";
+    // The view graph, plus the pairs the network was run on that it lacks (0 inliers, so they rank
+    // last): dbarf finetune / render take their neighbours from it, and images the matcher could
+    // not relate have none otherwise.
     json["view_graph"] = ViewGraphToJson(r.view_graph);
+    std::set<std::pair<int, int>> added;
+    for (const auto& [t, s] : result.network_pairs)
+      if (!r.view_graph.FindEdge(t, s) && added.insert({std::min(t, s), std::max(t, s)}).second) {
+        json["view_graph"].push_back({names[t], names[s], 0});
+      }
     json["dbarf_poses"] = {{"images", names.size()},
                            {"posed", num_posed},
                            {"posed_by_network", num_by_network},
