@@ -378,7 +378,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     }
   }
   const Timer timer;
-  // Weights are read before any work, so a bad path fails at once (auto may not need them).
+  // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
+  // pose everything and the network not run).
   std::unique_ptr<DbarfModel> model;
   if (options.method != "classical") {
     model = std::make_unique<DbarfModel>(LoadDbarfWeights(options.weights));

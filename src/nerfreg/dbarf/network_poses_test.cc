@@ -176,6 +176,14 @@ TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
   EXPECT_GT(r.far, r.near);
   EXPECT_GT(r.near, 0);
 
+  // auto: the SfM cannot relate these small smooth renders (too few SIFT matches), so the network
+  // poses them all.
+  o.method = "auto";
+  const ImagePosesResult a = EstimateImagePoses(images, cameras, names, o);
+  EXPECT_EQ(a.method_used, "network");
+  for (int k = 0; k < 5; ++k)
+    if (a.posed[k]) EXPECT_EQ(a.posed_by[k], "network");
+
   // Bad options are one-line input errors naming the option.
   o.method = "sfm";
   EXPECT_NE(InputErrorOf([&] { EstimateImagePoses(images, cameras, names, o); }).find("--method"), std::string::npos);
