@@ -3,6 +3,7 @@
 // against the renderer's ground truth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include "cli_test_util.h"
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
@@ -132,6 +134,100 @@ TEST(DbarfCli, MissingIntrinsicsAndAnImageOfAnotherSizeAreOneLineErrors) {
   EXPECT_NE(r.output.find(std::filesystem::path(first).filename().string()), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("size"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.File("e")));
+}
+
+
+// A box blur of radius `r`, `passes` times (about a Gaussian of sigma r * sqrt(passes / 3)): what a
+// badly focused photo looks like, with too little texture left for SIFT.
+Image Blurred(const Image& in, int r, int passes) {
+  Image a = in;
+  for (int p = 0; p < passes; ++p)
+    for (int axis = 0; axis < 2; ++axis) {
+      Image b = a;
+      for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+          for (int c = 0; c < a.channels; ++c) {
+            float sum = 0;
+            for (int d = -r; d <= r; ++d) {
+              const int xx = axis == 0 ? std::clamp(x + d, 0, a.width - 1) : x;
+              const int yy = axis == 1 ? std::clamp(y + d, 0, a.height - 1) : y;
+              sum += a.at(xx, yy, c);
+            }
+            b.at(x, y, c) = sum / (2 * r + 1);
+          }
+      a = std::move(b);
+    }
+  return a;
+}
+
+const Json* FrameNamed(const Json& transforms, const std::string& name) {
+  for (const Json& f : transforms["frames"])
+    if (std::filesystem::path(f["file_path"].get<std::string>()).filename() == name) return &f;
+  return nullptr;
+}
+
+// --method auto: an image the SfM cannot pose (blurred: no matches) is posed by the network against
+// its SfM-posed neighbours; the others keep their classical cameras, and each frame says which
+// method posed it.
+TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene");
+  CommandResult r = RunNerfreg("render --procedural 5 --trajectory forward --views 8 --quiet --out " + data);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string blurred = data + "/images/r_004.png";
+  WriteImage(blurred, Blurred(ReadImage(blurred, 3), 4, 3));
+  const std::string args = "dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --quiet --out ";
+
+  r = RunNerfreg(args + dir.File("classical") + " --method classical");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json classical = ReadJsonFile(dir.File("classical") + "/transforms.json");
+  ASSERT_EQ(classical["not_posed"].size(), 1u) << classical["not_posed"].dump();
+  EXPECT_EQ(classical["not_posed"][0].get<std::string>(), "r_004.png");
+
+  r = RunNerfreg(args + dir.File("auto") + " --method auto");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = ReadJsonFile(dir.File("auto") + "/transforms.json");
+  EXPECT_TRUE(j["not_posed"].empty()) << j["not_posed"].dump();
+  ASSERT_EQ(j["frames"].size(), 8u);
+  EXPECT_EQ(j["dbarf_poses"]["posed_by_network"].get<int>(), 1);
+  for (const Json& f : j["frames"]) {
+    const bool is_blurred = std::filesystem::path(f["file_path"].get<std::string>()).filename() == "r_004.png";
+    EXPECT_EQ(f["posed_by"].get<std::string>(), is_blurred ? "network" : "sfm") << f.dump();
+    EXPECT_TRUE(f["confidence"].contains("rotation_residual_deg")) << f.dump();
+    EXPECT_EQ(f["confidence"].contains("observations"), !is_blurred) << f.dump();
+  }
+  // The pairs the network was run on join the view graph (0 inliers), so dbarf finetune / render
+  // find neighbours for the image the matcher could not relate.
+  int blurred_edges = 0;
+  for (const Json& e : j["view_graph"])
+    blurred_edges += e[0].get<std::string>() == "r_004.png" || e[1].get<std::string>() == "r_004.png";
+  EXPECT_EQ(blurred_edges, 5) << j["view_graph"].dump();
+  // Images whose confidence is low are listed (and named in a warning).
+  int num_low = 0;
+  for (const Json& f : j["frames"]) num_low += f["confidence"]["low"].get<bool>();
+  EXPECT_EQ(j["low_confidence"].size(), static_cast<size_t>(num_low));
+  // The classical cameras are kept as they were.
+  for (const std::string name : {"r_000.png", "r_003.png", "r_007.png"})
+    EXPECT_EQ((*FrameNamed(j, name))["transform_matrix"], (*FrameNamed(classical, name))["transform_matrix"]) << name;
+
+  // The network's camera is near its true place: its rotation relative to its neighbours' (frame-
+  // independent) within a few degrees, and its centre between theirs.
+  const Dataset est = ReadTransformsJson(dir.File("auto") + "/transforms.json");
+  const Dataset gt = ReadTransformsJson(data + "/transforms.json");
+  const auto pose_of = [](const Dataset& d, const std::string& name) {
+    for (const Frame& f : d.frames)
+      if (f.name == name) return f.cam_from_world;
+    ADD_FAILURE() << name;
+    return Rigid3d();
+  };
+  for (const std::string other : {"r_003.png", "r_005.png"}) {
+    const Eigen::Quaterniond e = pose_of(est, "r_004.png").rotation * pose_of(est, other).rotation.conjugate();
+    const Eigen::Quaterniond g = pose_of(gt, "r_004.png").rotation * pose_of(gt, other).rotation.conjugate();
+    EXPECT_LT(RotationErrorDeg(e, g), 3.0) << other;
+  }
+  const Eigen::Vector3d c3 = pose_of(est, "r_003.png").Inverse().translation, c4 = pose_of(est, "r_004.png").Inverse().translation,
+                        c5 = pose_of(est, "r_005.png").Inverse().translation;
+  EXPECT_LT((c4 - 0.5 * (c3 + c5)).norm(), 0.5 * (c5 - c3).norm()) << c3.transpose() << " | " << c4.transpose() << " | " << c5.transpose();
 }
 
 }  // namespace

@@ -3,11 +3,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <unistd.h>
 
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf/network_poses.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/render/camera_plot.h"
@@ -126,28 +128,51 @@ int RunDbarfPoses(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Estimate every image's camera from a folder of unposed images with known intrinsics: SIFT view "
-                  "graph, robust rotation and translation averaging, triangulation and bundle adjustment (the "
-                  "classical initialisation of DBARF). Writes OUT/transforms.json (camera 0 at the identity, mean "
-                  "distance of the others to it 1; images that could not be posed under \"not_posed\"), a COLMAP "
-                  "model in OUT/sparse/0 and OUT/cameras.png (the posed cameras seen from above: centres and "
-                  "viewing directions, with a scale bar whose length is logged).",
+                  "Estimate every image's camera from a folder of unposed images with known intrinsics. --method "
+                  "classical: SIFT view graph, robust rotation and translation averaging, triangulation and bundle "
+                  "adjustment (the classical initialisation of DBARF). --method network: the DBARF pose network "
+                  "predicts each image's neighbours relative to it (from the identity), and the relative poses are "
+                  "averaged into global cameras (no SfM). --method auto (default): classical, and the images it "
+                  "cannot pose are posed by the network against their posed neighbours. Writes OUT/transforms.json "
+                  "(camera 0 at the identity, mean distance of the others to it 1; per frame \"posed_by\" (sfm or "
+                  "network) and \"confidence\" (see its \"confidence_doc\"); images that could not be posed under "
+                  "\"not_posed\", low-confidence ones under \"low_confidence\"), a COLMAP model in OUT/sparse/0 and "
+                  "OUT/cameras.png (the posed cameras seen from above: centres and viewing directions, with a scale "
+                  "bar whose length is logged).",
                   "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");
-  std::string images_dir, intrinsics, out;
+  std::string images_dir, intrinsics, out, neighbours = "graph";
   double focal = 0;
-  SfmOptions options;
+  ImagePosesOptions options;
+  options.weights = DefaultDbarfWeights();
   app.add_option("images", images_dir, "Folder of PNG / JPEG images (sorted by name)")->required();
   auto* t_opt = app.add_option("--intrinsics", intrinsics, "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
   auto* f_opt = app.add_option("--focal", focal, "Focal length in pixels (principal point at the image centre)");
   t_opt->excludes(f_opt);
   app.add_option("--out", out, "Output folder")->required();
-  app.add_option("--max-features", options.view_graph.max_features, "SIFT keypoints per image (default 4000)");
-  app.add_option("--min-inliers", options.view_graph.min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
-  app.add_option("--sift-contrast", options.view_graph.contrast_threshold, "SIFT contrast threshold (default 0.005)");
-  app.add_option("--sift-upsample", options.view_graph.upsample, "Enlarge images by this factor before SIFT (default 2)");
+  app.add_option("--method", options.method, "classical, network or auto (default auto)");
+  app.add_option("--weights", options.weights, "DBARF weights for the network (default: the shipped ones)");
+  app.add_option("--sources", options.network.num_sources, "Network: neighbours per target image (default 5)");
+  app.add_option("--neighbours", neighbours,
+                 "Network method: graph (SIFT view-graph neighbours, appearance where an image has too few) or "
+                 "appearance (thumbnail similarity only, no SIFT) (default graph)");
+  app.add_option("--near", options.network.near, "Network method: nearest depth the network predicts, in units of the mean camera distance to the first camera (default 7)");
+  app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
+  app.add_option("--refine-passes", options.network.refine_passes,
+                 "Network method: passes after the first, each starting from the last cameras (default 0)");
+  app.add_option("--low-confidence-deg", options.low_confidence_deg,
+                 "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
+  app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");
+  app.add_option("--min-inliers", options.sfm.view_graph.min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
+  app.add_option("--sift-contrast", options.sfm.view_graph.contrast_threshold, "SIFT contrast threshold (default 0.005)");
+  app.add_option("--sift-upsample", options.sfm.view_graph.upsample, "Enlarge images by this factor before SIFT (default 2)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (intrinsics.empty() && !(focal > 0)) throw InputError("dbarf poses: give --intrinsics T.json or --focal PX (> 0)");
+  if (neighbours != "graph" && neighbours != "appearance") {
+    throw InputError("--neighbours: expected graph or appearance, got \"" + neighbours + "\"");
+  }
+  options.network.match_images = neighbours == "graph";
   options.Check();
+  if (options.method != "classical" && !FileExists(options.weights)) ThrowInputError(options.weights, "", "a DBARF weights file (--weights)");
   while (out.size() > 1 && out.back() == '/') out.pop_back();
   CheckCanWriteOutput(out, common.force, {images_dir, intrinsics});
   const Timer timer;
@@ -162,20 +187,24 @@ int RunDbarfPoses(int argc, char** argv) {
   } else {
     for (const Image& im : images) cameras.push_back(Camera::Pinhole(im.width, im.height, focal, focal, 0.5 * im.width, 0.5 * im.height));
   }
-  LOG_INFO("posing {} images of {}", names.size(), images_dir);
-  const SfmResult r = PoseImages(images, cameras, names, options);
-  int num_posed = 0;
-  for (bool p : r.posed) num_posed += p;
+  LOG_INFO("posing {} images of {} (method {})", names.size(), images_dir, options.method);
+  const ImagePosesResult result = EstimateImagePoses(images, cameras, names, options, images_dir);
+  const SfmResult& r = result.sfm;  // final cameras, with the SfM's points (if any)
+  int num_posed = 0, num_by_network = 0;
+  for (size_t k = 0; k < names.size(); ++k) num_posed += result.posed[k], num_by_network += result.posed_by[k] == "network";
   if (num_posed == 0) ThrowInputError(images_dir, "", "images that share enough features to be posed (no two do)");
   // A low reprojection error is no proof: a solution the data cannot pin down is reported as such.
-  const SfmQuality quality = AssessSfm(r, cameras);
+  // Judged on the images the SfM posed (the network's have their own confidence below).
+  SfmResult sfm_part = r;
+  for (size_t k = 0; k < sfm_part.posed.size() && k < result.posed_by.size(); ++k) sfm_part.posed[k] = result.posed_by[k] == "sfm";
+  const bool any_sfm = std::count(result.posed_by.begin(), result.posed_by.end(), "sfm") > 0;
+  const SfmQuality quality = any_sfm ? AssessSfm(sfm_part, cameras) : SfmQuality{};
   for (const auto& problem : quality.problems) {
     LOG_WARN("{}: the poses are not well constrained: {}; do not trust them", images_dir, problem);
   }
 
   // The depth range and view graph go into the output too: dbarf finetune / render read them.
-  double near = 0, far = 0;
-  DepthRangeFromPoints(r, images_dir, &near, &far);
+  const double near = result.near, far = result.far;
   // Everything goes into a temporary folder moved into place at the end.
   OutputDir output(out, common.force, {images_dir, intrinsics});
   const std::string& tmp = output.tmp();
@@ -184,39 +213,76 @@ int RunDbarfPoses(int argc, char** argv) {
     Dataset dataset;
     dataset.root = out;
     const fs::path out_abs = fs::absolute(out);
+    std::vector<int> posed_index;
     for (size_t k = 0; k < names.size(); ++k) {
-      if (!r.posed[k]) continue;
+      if (!result.posed[k]) continue;
       Frame f;
       f.name = names[k];
       // Relative to OUT, so the file stays usable as a dataset; the file name is the image's.
       f.file_path = fs::relative(fs::absolute(JoinPaths(images_dir, names[k])), out_abs).generic_string();
       f.camera = cameras[k];
-      f.cam_from_world = r.cam_from_world[k];
+      f.cam_from_world = result.cam_from_world[k];
       dataset.frames.push_back(std::move(f));
+      posed_index.push_back(static_cast<int>(k));
     }
     Json json = TransformsJsonFromDataset(dataset);
-    json["not_posed"] = r.not_posed;
+    for (size_t m = 0; m < posed_index.size(); ++m) {
+      const ImagePoseConfidence& c = result.confidence[posed_index[m]];
+      Json conf = {{"edges", c.edges},
+                   {"rotation_residual_deg", c.rotation_residual_deg},
+                   {"direction_residual_deg", c.direction_residual_deg},
+                   {"low", c.low}};
+      if (c.observations >= 0) conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
+      json["frames"][m]["posed_by"] = result.posed_by[posed_index[m]];
+      json["frames"][m]["confidence"] = conf;
+    }
+    json["not_posed"] = result.not_posed;
+    json["low_confidence"] = result.low_confidence;
+    json["confidence_doc"] =
+        "per frame: the median angles (deg) between the image's pairwise relative rotations / translation "
+        "directions and those of the accepted poses, over `edges` of them. sfm: its view-graph (essential-matrix) "
+        "edges to other SfM-posed images, plus its triangulated observations and their mean reprojection error. "
+        "network, method network: its view-graph edges against the averaged cameras (its network edges where it has "
+        "none). network, method auto: the network's relative "
+        "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "
+        "edge, rotation residual above --low-confidence-deg, direction residual above 30 deg, or (sfm) fewer than "
+        "10 observations.";
+    // The view graph, plus the pairs the network was run on that it lacks (0 inliers, so they rank
+    // last): dbarf finetune / render take their neighbours from it, and images the matcher could
+    // not relate have none otherwise.
     json["view_graph"] = ViewGraphToJson(r.view_graph);
+    std::set<std::pair<int, int>> added;
+    for (const auto& [t, s] : result.network_pairs)
+      if (!r.view_graph.FindEdge(t, s) && added.insert({std::min(t, s), std::max(t, s)}).second) {
+        json["view_graph"].push_back({names[t], names[s], 0});
+      }
     json["dbarf_poses"] = {{"images", names.size()},
                            {"posed", num_posed},
-                           {"points", r.num_points},
+                           {"posed_by_network", num_by_network},
+                           {"method", options.method},
+                           {"method_used", result.method_used},
+                           {"points", r.points.size()},
                            {"mean_reprojection_error_px", r.mean_reprojection_error_px},
                            {"edges", r.view_graph.edges.size()},
                            {"edges_used", r.num_edges_used},
+                           {"network_edges", result.num_network_edges},
                            {"seconds_view_graph", r.seconds_view_graph},
                            {"seconds_sfm", r.seconds_sfm},
+                           {"seconds_network", result.seconds_network},
                            {"seconds", timer.Seconds()},
                            {"near", near},
                            {"far", far},
                            {"frame", "first posed camera at the identity; mean distance of the others to it = 1"},
                            {"well_constrained", quality.WellConstrained()},
-                           {"problems", quality.problems},
-                           {"quality",
-                            {{"min_image_side_px", quality.min_image_side_px},
-                             {"min_points_per_image", quality.min_points_per_image},
-                             {"median_points_per_image", quality.median_points_per_image},
-                             {"median_track_length", quality.median_track_length},
-                             {"median_triangulation_angle_deg", quality.median_triangulation_angle_deg}}}};
+                           {"problems", quality.problems}};
+    if (any_sfm) {
+      json["dbarf_poses"]["quality"] = {{"min_image_side_px", quality.min_image_side_px},
+                                        {"min_points_per_image", quality.min_points_per_image},
+                                        {"median_points_per_image", quality.median_points_per_image},
+                                        {"median_track_length", quality.median_track_length},
+                                        {"median_triangulation_angle_deg", quality.median_triangulation_angle_deg}};
+    }
+    if (options.method != "classical") json["dbarf_poses"]["weights"] = options.weights;
     WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> posed;
@@ -226,10 +292,15 @@ int RunDbarfPoses(int argc, char** argv) {
     LOG_INFO("{}/cameras.png: posed cameras seen from above, scale bar {:g} units", out, plot.scale_bar_length);
     output.Commit();
   }
-  for (const auto& name : r.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
-  LOG_INFO("posed {}/{} images{}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}", num_posed, names.size(),
-           quality.WellConstrained() ? "" : " (NOT well constrained: see the warnings)", r.num_points,
-           r.mean_reprojection_error_px, timer.Seconds(), out);
+  for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
+  if (!result.low_confidence.empty()) {
+    std::string list;
+    for (const auto& name : result.low_confidence) list += (list.empty() ? "" : ", ") + name;
+    LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(), list, out);
+  }
+  LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
+           num_posed, names.size(), num_by_network, quality.WellConstrained() ? "" : " (NOT well constrained: see the warnings)",
+           r.points.size(), r.mean_reprojection_error_px, timer.Seconds(), out);
   return 0;
 }
 

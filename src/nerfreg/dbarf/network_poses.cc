@@ -1,0 +1,457 @@
+#include "nerfreg/dbarf/network_poses.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+void NetworkPosesOptions::Check() const {
+  if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
+  if (min_graph_neighbours < 0) throw InputError("min_graph_neighbours: expected >= 0");
+  if (refine_passes < 0) throw InputError("--refine-passes: expected >= 0, got " + std::to_string(refine_passes));
+  if (!(near > 0) || !(far > near)) {
+    throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " + std::to_string(far));
+  }
+  try {
+    averaging.Check();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("averaging options: expected values in range (") + e.what() + ")");
+  }
+}
+
+void ImagePosesOptions::Check() const {
+  if (method != "classical" && method != "network" && method != "auto") {
+    throw InputError("--method: expected classical, network or auto, got \"" + method + "\"");
+  }
+  if (method != "classical" && weights.empty()) throw InputError("--weights: expected a DBARF weights file");
+  if (!(low_confidence_deg > 0)) throw InputError("--low-confidence-deg: expected > 0");
+  try {
+    sfm.Check();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("SfM options: expected values in range (") + e.what() + ")");
+  }
+  network.Check();
+}
+
+std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images) {
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "AppearanceNeighbours: expected [V, 3, H, W], got ", images.sizes());
+  torch::NoGradGuard no_grad;
+  const int64_t v = images.size(0);
+  namespace F = torch::nn::functional;
+  const torch::Tensor grey = images.to(torch::kFloat).mean(1, true);  // [V, 1, H, W]
+  torch::Tensor thumbs =
+      F::interpolate(grey, F::InterpolateFuncOptions().size(std::vector<int64_t>{12, 16}).mode(torch::kArea)).reshape({v, -1});
+  thumbs = thumbs - thumbs.mean(1, true);
+  thumbs = thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);              // [V, 192]
+  const torch::Tensor similarity = torch::matmul(thumbs, thumbs.t()).contiguous();  // [V, V]
+  const auto sim = similarity.accessor<float, 2>();
+  std::vector<std::vector<int>> out(v);
+  for (int64_t i = 0; i < v; ++i) {
+    for (int64_t j = 0; j < v; ++j)
+      if (j != i) out[i].push_back(static_cast<int>(j));
+    // Ties (identical thumbnails) by index, so the order does not depend on the sort.
+    std::stable_sort(out[i].begin(), out[i].end(), [&](int a, int b) { return sim[i][a] > sim[i][b]; });
+  }
+  return out;
+}
+
+std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::vector<std::vector<int>>& appearance,
+                               const std::vector<bool>& allowed, const NetworkPosesOptions& options) {
+  std::vector<int> out;
+  const auto ok = [&](int j) {
+    return j != target && (allowed.empty() || allowed[j]) && std::find(out.begin(), out.end(), j) == out.end();
+  };
+  for (int j : graph.Neighbors(target, static_cast<int>(graph.names.size())))
+    if (static_cast<int>(out.size()) < options.num_sources && ok(j)) out.push_back(j);
+  if (static_cast<int>(out.size()) < options.min_graph_neighbours && target < static_cast<int>(appearance.size())) {
+    for (int j : appearance[target]) {
+      if (static_cast<int>(out.size()) >= options.num_sources) break;
+      if (ok(j)) out.push_back(j);
+    }
+  }
+  return out;
+}
+
+NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, const torch::Tensor& intrinsics,
+                                int target, const std::vector<int>& sources, const std::vector<Rigid3d>& initial_src_from_tgt) {
+  TORCH_CHECK(!sources.empty(), "RunPoseNetwork: no sources");
+  TORCH_CHECK(initial_src_from_tgt.empty() || initial_src_from_tgt.size() == sources.size(),
+              "RunPoseNetwork: one initial pose per source");
+  torch::NoGradGuard no_grad;
+  net->eval();
+  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  torch::Tensor initial;  // [N, 4, 4] or undefined (the network's own start)
+  if (!initial_src_from_tgt.empty()) {
+    std::vector<torch::Tensor> m;
+    for (const Rigid3d& p : initial_src_from_tgt) m.push_back(Matrix4ToTensor(p.ToMatrix()));
+    initial = torch::stack(m);
+  }
+  const PoseDepthPrediction pred =
+      net->forward(images.slice(0, target, target + 1), images.index_select(0, idx), intrinsics[target], initial);
+  const torch::Tensor src_from_tgt = pred.src_from_tgt.back();  // [N, 4, 4]
+  NetworkTargetRun run;
+  for (size_t k = 0; k < sources.size(); ++k) {
+    const Eigen::Matrix4d m = TensorToMatrix4(src_from_tgt[static_cast<int64_t>(k)]);
+    run.poses.push_back({target, sources[k], Rigid3d(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>()))});
+  }
+  const torch::Tensor depth = std::get<0>((1.0 / pred.inv_depths.back().reshape({-1})).sort());  // [H * W]
+  const int64_t last = depth.size(0) - 1;
+  run.depth_p02 = depth[static_cast<int64_t>(0.02 * last)].item<double>();
+  run.depth_p98 = depth[static_cast<int64_t>(0.98 * last)].item<double>();
+  return run;
+}
+
+namespace {
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  if (a.norm() == 0 || b.norm() == 0) return 180.0;
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI;
+}
+
+}  // namespace
+
+NetworkRegistration RegisterFromRelativePoses(const std::vector<Rigid3d>& src_from_world,
+                                              const std::vector<Rigid3d>& src_from_tgt) {
+  if (src_from_world.empty() || src_from_world.size() != src_from_tgt.size()) {
+    throw std::invalid_argument("RegisterFromRelativePoses: one relative pose per source, at least one");
+  }
+  const size_t n = src_from_world.size();
+  NetworkRegistration r;
+  std::vector<double> ratios, rotation_errors, direction_errors;
+  for (size_t a = 0; a < n; ++a)
+    for (size_t b = a + 1; b < n; ++b) {
+      const Rigid3d net_b_from_a = src_from_tgt[b] * src_from_tgt[a].Inverse();
+      const Rigid3d sfm_b_from_a = src_from_world[b] * src_from_world[a].Inverse();
+      rotation_errors.push_back(RotationErrorDeg(net_b_from_a.rotation, sfm_b_from_a.rotation));
+      const double net_length = net_b_from_a.translation.norm(), sfm_length = sfm_b_from_a.translation.norm();
+      const double direction_error = AngleDeg(net_b_from_a.translation, sfm_b_from_a.translation);
+      direction_errors.push_back(direction_error);
+      // A length ratio means something only where the network's translation points the right way
+      // (and only when it does so on most pairs): a network that barely moves from the identity,
+      // its translations pointing anywhere, would otherwise blow the scale up.
+      if (direction_error <= kScaleMaxDirectionErrorDeg && net_length > 1e-9 && sfm_length > 1e-12) {
+        ratios.push_back(sfm_length / net_length);
+      }
+    }
+  r.pairs = static_cast<int>(rotation_errors.size());
+  if (!rotation_errors.empty()) r.pair_rotation_error_deg = Median(rotation_errors);
+  if (!direction_errors.empty()) r.pair_direction_error_deg = Median(direction_errors);
+  if (!ratios.empty() && r.pair_direction_error_deg <= kScaleMaxDirectionErrorDeg) r.scale = Median(ratios);
+
+  // Rotation: mean of the per-source estimates (tgt_from_world = tgt_from_src * src_from_world),
+  // signs aligned to the first (q and -q are one rotation).
+  Eigen::Vector4d sum = Eigen::Vector4d::Zero();
+  std::vector<double> cx, cy, cz;
+  for (size_t s = 0; s < n; ++s) {
+    const Eigen::Quaterniond q = (src_from_tgt[s].rotation.conjugate() * src_from_world[s].rotation).normalized();
+    sum += (s > 0 && sum.dot(q.coeffs()) < 0 ? -1.0 : 1.0) * q.coeffs();
+    // The target's centre is src_from_tgt's translation in the source frame.
+    const Eigen::Vector3d c = src_from_world[s].Inverse() * Eigen::Vector3d(r.scale * src_from_tgt[s].translation);
+    cx.push_back(c.x()), cy.push_back(c.y()), cz.push_back(c.z());
+  }
+  Eigen::Quaterniond q;
+  q.coeffs() = sum.normalized();
+  const Eigen::Vector3d centre(Median(cx), Median(cy), Median(cz));
+  r.tgt_from_world = Rigid3d(q, -(q * centre));
+  return r;
+}
+
+NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
+                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options) {
+  const int n = num_images;
+  std::vector<RelativePose> edges;
+  for (const NetworkRelativePose& p : poses) edges.push_back({p.target, p.source, p.src_from_tgt, 1.0});
+  NetworkEdgeAverage out;
+  out.averaged = GlobalPosesFromRelativePoses(n, edges, options);
+  const RelativePoseAveragingResult& averaged = out.averaged;
+  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
+  std::vector<double> scales;  // output units per network unit, on the kept edges
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const RelativePose& e = edges[k];
+    if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
+    for (int m : {e.i, e.j}) {
+      residuals[m].push_back(averaged.edge_rotation_error_deg[k]);
+      direction_residuals[m].push_back(averaged.edge_direction_error_deg[k]);
+    }
+    const double length = e.j_from_i.translation.norm();
+    if (averaged.edge_inlier[k] && length > 1e-9) {
+      scales.push_back((averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation).norm() /
+                       length);
+    }
+  }
+  out.scale = scales.empty() ? 1.0 : Median(scales);
+  // Where images were matched, their essential matrices are an independent check: a network that
+  // is consistently wrong (e.g. near the identity everywhere) agrees with itself around every cycle.
+  std::vector<std::vector<double>> graph_residuals(n), graph_direction_residuals(n);
+  for (const ViewGraphEdge& e : graph.edges) {
+    if (e.i >= n || e.j >= n || !averaged.posed[e.i] || !averaged.posed[e.j]) continue;
+    const Rigid3d j_from_i = averaged.cam_from_world[e.j] * averaged.cam_from_world[e.i].Inverse();
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
+    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
+  }
+  out.confidence.assign(n, ImagePoseConfidence());
+  for (int k = 0; k < n; ++k) {
+    if (!averaged.posed[k]) continue;
+    const bool by_graph = !graph_residuals[k].empty();
+    const std::vector<double>& rotation = by_graph ? graph_residuals[k] : residuals[k];
+    const std::vector<double>& direction = by_graph ? graph_direction_residuals[k] : direction_residuals[k];
+    ImagePoseConfidence& c = out.confidence[k];
+    c.edges = static_cast<int>(rotation.size());
+    c.rotation_residual_deg = rotation.empty() ? 180.0 : Median(rotation);
+    c.direction_residual_deg = direction.empty() ? 180.0 : Median(direction);
+  }
+  return out;
+}
+
+namespace {
+
+torch::Tensor StackImages(const std::vector<Image>& images) {
+  std::vector<torch::Tensor> t;
+  for (const Image& im : images) t.push_back(ImageToTensor(im));
+  return torch::stack(t);  // [V, 3, H, W]
+}
+
+torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
+  std::vector<torch::Tensor> t;
+  for (const Camera& c : cameras) t.push_back(IntrinsicsToTensor(c));
+  return torch::stack(t);  // [V, 3, 3]
+}
+
+// The SfM's depth range when it has enough triangulated depths (DepthRangeFromPoints' rule).
+bool SfmDepthRange(const SfmResult& sfm, const std::string& source, double* near, double* far) {
+  try {
+    DepthRangeFromPoints(sfm, source, near, far);
+    return true;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
+void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, ImagePosesResult* result) {
+  const int n = static_cast<int>(cameras.size());
+  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
+  for (const ViewGraphEdge& e : sfm.view_graph.edges) {
+    if (!sfm.posed[e.i] || !sfm.posed[e.j]) continue;
+    const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
+    for (int k : {e.i, e.j}) residuals[k].push_back(angle), direction_residuals[k].push_back(direction);
+  }
+  std::vector<int> observations(n, 0);
+  std::vector<double> error_sum(n, 0.0);
+  for (const SfmPoint& p : sfm.points)
+    for (const TrackElement& e : p.elements) {
+      ++observations[e.image];
+      error_sum[e.image] += ReprojectionErrorPx(cameras[e.image], sfm.cam_from_world[e.image], p.x_in_world,
+                                                sfm.view_graph.keypoints[e.image][e.keypoint]);
+    }
+  for (int k = 0; k < n; ++k) {
+    if (!sfm.posed[k]) continue;
+    ImagePoseConfidence& c = result->confidence[k];
+    c.edges = static_cast<int>(residuals[k].size());
+    c.rotation_residual_deg = residuals[k].empty() ? 180.0 : Median(residuals[k]);
+    c.direction_residual_deg = direction_residuals[k].empty() ? 180.0 : Median(direction_residuals[k]);
+    c.observations = observations[k];
+    c.reprojection_error_px = observations[k] > 0 ? error_sum[k] / observations[k] : 0.0;
+    result->posed[k] = true;
+    result->posed_by[k] = "sfm";
+    result->cam_from_world[k] = sfm.cam_from_world[k];
+  }
+}
+
+// Method network over all images: one network pass per target from the identity, averaging of
+// the edges; then refine_passes more, each starting from the relative poses of the last cameras.
+void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const torch::Tensor& intrinsics,
+                        const ViewGraph& graph, const NetworkPosesOptions& options, ImagePosesResult* result) {
+  const int n = static_cast<int>(images.size(0));
+  const Timer timer;
+  const std::vector<std::vector<int>> appearance = AppearanceNeighbours(images);
+  model.pose_net->SetDepthRange(options.near, options.far);
+  std::vector<std::vector<int>> sources(n);
+  for (int t = 0; t < n; ++t) {
+    sources[t] = ChooseSources(t, graph, appearance, {}, options);
+    for (int s : sources[t]) result->network_pairs.push_back({t, s});
+  }
+  NetworkEdgeAverage average;
+  for (int pass = 0; pass <= options.refine_passes; ++pass) {
+    std::vector<NetworkRelativePose> poses;
+    std::vector<double> p02, p98;
+    for (int t = 0; t < n; ++t) {
+      if (sources[t].empty()) continue;
+      std::vector<Rigid3d> initial;
+      if (pass > 0 && average.averaged.posed[t]) {
+        // The last cameras, in the output frame (mean distance to the first camera 1: the frame of
+        // the scenes the network is trained on, whose depth range options.near / far is).
+        for (int s : sources[t])
+          initial.push_back(average.averaged.posed[s] ? average.averaged.cam_from_world[s] * average.averaged.cam_from_world[t].Inverse()
+                                                      : Rigid3d());
+      }
+      const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, t, sources[t], initial);
+      poses.insert(poses.end(), run.poses.begin(), run.poses.end());
+      p02.push_back(run.depth_p02);
+      p98.push_back(run.depth_p98);
+    }
+    result->num_network_edges += static_cast<int>(poses.size());
+    average = AverageNetworkEdges(n, poses, graph, options.averaging);
+    // The depth range: the network's predicted depths, widened as DepthRangeFromPoints widens the
+    // triangulated ones, brought into the output frame by the fitted scale.
+    result->near = p02.empty() ? options.near : 0.7 * average.scale * Median(p02);
+    result->far = p98.empty() ? options.far : 1.4 * average.scale * Median(p98);
+  }
+  for (int k = 0; k < n; ++k) {
+    result->posed[k] = average.averaged.posed[k];
+    if (!result->posed[k]) continue;
+    result->cam_from_world[k] = average.averaged.cam_from_world[k];
+    result->posed_by[k] = "network";
+    result->confidence[k] = average.confidence[k];
+  }
+  result->seconds_network += timer.Seconds();
+}
+
+// Method auto: the images the SfM left out, each registered against posed sources.
+void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, const torch::Tensor& intrinsics,
+                                const NetworkPosesOptions& options, ImagePosesResult* result) {
+  const int n = static_cast<int>(images.size(0));
+  const Timer timer;
+  const std::vector<std::vector<int>> appearance = AppearanceNeighbours(images);
+  const std::vector<bool> sfm_posed = result->posed;
+  model.pose_net->SetDepthRange(result->near, result->far);
+  for (int u = 0; u < n; ++u) {
+    if (sfm_posed[u]) continue;
+    const std::vector<int> sources = ChooseSources(u, result->sfm.view_graph, appearance, sfm_posed, options);
+    if (sources.empty()) continue;
+    const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, u, sources);
+    result->num_network_edges += static_cast<int>(run.poses.size());
+    for (int s : sources) result->network_pairs.push_back({u, s});
+    std::vector<Rigid3d> src_from_world, src_from_tgt;
+    for (const NetworkRelativePose& p : run.poses) {
+      src_from_world.push_back(result->cam_from_world[p.source]);
+      src_from_tgt.push_back(p.src_from_tgt);
+    }
+    const NetworkRegistration reg = RegisterFromRelativePoses(src_from_world, src_from_tgt);
+    result->cam_from_world[u] = reg.tgt_from_world;
+    result->posed[u] = true;
+    result->posed_by[u] = "network";
+    result->confidence[u].edges = reg.pairs;
+    result->confidence[u].rotation_residual_deg = reg.pair_rotation_error_deg;
+    result->confidence[u].direction_residual_deg = reg.pair_direction_error_deg;
+    LOG_INFO("{}: posed by the network against {} SfM cameras (scale {:.3g}; on the edges between them, rotation "
+             "error {:.2f} deg, direction error {:.1f} deg)",
+             result->sfm.view_graph.names[u], sources.size(), reg.scale, reg.pair_rotation_error_deg,
+             reg.pair_direction_error_deg);
+  }
+  result->seconds_network += timer.Seconds();
+}
+
+}  // namespace
+
+ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                                    const std::vector<std::string>& names, const ImagePosesOptions& options,
+                                    const std::string& source) {
+  options.Check();
+  if (images.size() != cameras.size() || images.size() != names.size()) {
+    throw std::invalid_argument("EstimateImagePoses: images, cameras and names differ in count");
+  }
+  const int n = static_cast<int>(images.size());
+  if (n < 3) {
+    ThrowInputError(names.empty() ? std::string("images") : names[0], "", "at least 3 images to pose, got " + std::to_string(n));
+  }
+  // As the view graph checks them (the network method may not build one).
+  for (int k = 0; k < n; ++k) {
+    if (images[k].width != images[0].width || images[k].height != images[0].height) {
+      ThrowInputError(names[k], "size", std::to_string(images[0].width) + "x" + std::to_string(images[0].height) +
+                                            " like " + names[0] + ", got " + std::to_string(images[k].width) + "x" +
+                                            std::to_string(images[k].height));
+    }
+    if (images[k].width != cameras[k].width || images[k].height != cameras[k].height) {
+      ThrowInputError(names[k], "size", "the camera's " + std::to_string(cameras[k].width) + "x" +
+                                            std::to_string(cameras[k].height));
+    }
+  }
+  const Timer timer;
+  // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
+  // pose everything and the network not run).
+  std::unique_ptr<DbarfModel> model;
+  if (options.method != "classical") {
+    model = std::make_unique<DbarfModel>(LoadDbarfWeights(options.weights));
+    model->Train(false);
+  }
+  ImagePosesResult result;
+  result.cam_from_world.assign(n, Rigid3d());
+  result.posed.assign(n, false);
+  result.posed_by.assign(n, "");
+  result.confidence.assign(n, ImagePoseConfidence());
+  result.method_used = options.method;
+
+  bool run_network_on_all = options.method == "network";
+  if (options.method != "network") {
+    result.sfm = PoseImages(images, cameras, names, options.sfm);
+    int num_posed = 0;
+    for (bool p : result.sfm.posed) num_posed += p;
+    const bool complete = num_posed == n;
+    const bool have_range = SfmDepthRange(result.sfm, source, &result.near, &result.far);
+    if (options.method == "classical" || complete) {
+      // The classical result as it was: the depth range is required (InputError otherwise).
+      if (num_posed > 0) DepthRangeFromPoints(result.sfm, source, &result.near, &result.far);
+      SetSfmConfidence(result.sfm, cameras, &result);
+    } else if (num_posed >= 3 && have_range) {
+      SetSfmConfidence(result.sfm, cameras, &result);
+      RegisterUnposedWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), options.network, &result);
+    } else {
+      LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
+               num_posed, n);
+      run_network_on_all = true;
+      result.method_used = "network";
+    }
+  }
+  if (run_network_on_all) {
+    ViewGraph graph = result.sfm.view_graph;
+    if (graph.names.empty()) {
+      if (options.network.match_images) {
+        const Timer matching;
+        graph = BuildViewGraph(images, cameras, names, options.sfm.view_graph);
+        result.sfm.seconds_view_graph = matching.Seconds();
+      } else {
+        graph.names = names;
+        graph.keypoints.resize(n);
+      }
+    }
+    const double seconds_view_graph = result.sfm.seconds_view_graph;
+    result.sfm = SfmResult();
+    result.sfm.view_graph = graph;
+    result.sfm.seconds_view_graph = seconds_view_graph;
+    result.posed.assign(n, false);
+    result.posed_by.assign(n, "");
+    result.confidence.assign(n, ImagePoseConfidence());
+    PoseAllWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), graph, options.network, &result);
+  }
+
+  result.sfm.cam_from_world = result.cam_from_world;
+  result.sfm.posed = result.posed;
+  result.sfm.not_posed.clear();
+  for (int k = 0; k < n; ++k) {
+    if (!result.posed[k]) {
+      result.not_posed.push_back(names[k]);
+      continue;
+    }
+    ImagePoseConfidence& c = result.confidence[k];
+    c.low = c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
+            c.direction_residual_deg > options.low_confidence_direction_deg ||
+            (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+    if (c.low) result.low_confidence.push_back(names[k]);
+  }
+  result.sfm.not_posed = result.not_posed;
+  result.seconds = timer.Seconds();
+  return result;
+}
+
+}  // namespace nerfreg

@@ -1,0 +1,196 @@
+#include "nerfreg/dbarf/network_poses.h"
+
+#include <gtest/gtest.h>
+
+#include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf/test_scene.h"
+#include "nerfreg/util/test_util.h"
+
+namespace nerfreg {
+namespace {
+
+Rigid3d LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - center).normalized();
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
+  Eigen::Matrix3d world_from_cam;
+  world_from_cam << x, z.cross(x), z;
+  const Eigen::Matrix3d r = world_from_cam.transpose();
+  return Rigid3d(r, -(r * center));
+}
+
+TEST(NetworkPoses, RegistrationFromExactRelativePosesRecoversTheTargetAndTheNetworkScale) {
+  const Rigid3d target = LookAt({0.3, 0.1, -4}, {0, 0, 0});
+  std::vector<Rigid3d> src_from_world, src_from_tgt;
+  for (const Eigen::Vector3d c : {Eigen::Vector3d(-1, 0, -4), Eigen::Vector3d(1, 0.3, -4.2), Eigen::Vector3d(0, -0.8, -3.7)}) {
+    src_from_world.push_back(LookAt(c, {0.1, 0, 0.2}));
+    Rigid3d rel = src_from_world.back() * target.Inverse();
+    rel.translation /= 2.5;  // the network's units: 2.5 SfM units each
+    src_from_tgt.push_back(rel);
+  }
+  const NetworkRegistration r = RegisterFromRelativePoses(src_from_world, src_from_tgt);
+  EXPECT_NEAR(r.scale, 2.5, 1e-9);
+  EXPECT_EQ(r.pairs, 3);
+  EXPECT_LT(r.pair_rotation_error_deg, 1e-6);
+  EXPECT_LT(r.pair_direction_error_deg, 1e-6);
+  EXPECT_LT(RotationErrorDeg(r.tgt_from_world.rotation, target.rotation), 1e-6);
+  EXPECT_LT((r.tgt_from_world.translation - target.translation).norm(), 1e-9);
+}
+
+TEST(NetworkPoses, ANetworkThatPredictsIdentityIsCaughtOnTheSharedEdges) {
+  // Sources 20 deg apart: a network that always answers "no motion" claims they coincide, and the
+  // pair check (its relative rotation between the sources against the SfM's) says so.
+  std::vector<Rigid3d> src_from_world = {LookAt({-1.5, 0, -4}, {0, 0, 0}), LookAt({1.5, 0, -4}, {0, 0, 0})};
+  const NetworkRegistration r = RegisterFromRelativePoses(src_from_world, {Rigid3d(), Rigid3d()});
+  EXPECT_EQ(r.pairs, 1);
+  EXPECT_NEAR(r.pair_rotation_error_deg, RotationErrorDeg(src_from_world[1].rotation, src_from_world[0].rotation), 1e-9);
+  EXPECT_GT(r.pair_rotation_error_deg, 20.0);
+  // No translation: no direction, and no scale fitted from it (the depth range's units are kept).
+  EXPECT_EQ(r.pair_direction_error_deg, 180.0);
+  EXPECT_EQ(r.scale, 1.0);
+  EXPECT_THROW(RegisterFromRelativePoses({}, {}), std::invalid_argument);
+}
+
+// The network's edges (target -> source, src_from_tgt) go the right way into the averaging: exact
+// relative poses in any unit give the cameras back, and the confidence comes from the view graph
+// where it has edges (the independent check), from the network's own edges elsewhere.
+TEST(NetworkPoses, ExactNetworkEdgesAverageToTheCamerasAndTheGraphChecksThem) {
+  std::vector<Rigid3d> truth;
+  for (int k = 0; k < 6; ++k) truth.push_back(LookAt({-1.0 + 0.4 * k, 0.3 * (k % 2), -4 + 0.2 * (k % 3)}, {0, 0, 0}));
+  std::vector<NetworkRelativePose> poses;
+  for (int t = 0; t < 6; ++t)
+    for (int s : {t - 2, t - 1, t + 1, t + 2}) {
+      if (s < 0 || s >= 6) continue;
+      Rigid3d rel = truth[s] * truth[t].Inverse();
+      rel.translation *= 0.01;  // a network whose unit is 100 scene units
+      poses.push_back({t, s, rel});
+    }
+  ViewGraph graph;
+  graph.names = {"0", "1", "2", "3", "4", "5"};
+  graph.keypoints.resize(6);
+  // One essential matrix, 10 deg off the truth, between images 0 and 1.
+  ViewGraphEdge e;
+  e.i = 0;
+  e.j = 1;
+  e.j_from_i = truth[1] * truth[0].Inverse();
+  e.j_from_i.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitY())) * e.j_from_i.rotation;
+  e.j_from_i.translation.normalize();
+  graph.edges.push_back(e);
+  const NetworkEdgeAverage a = AverageNetworkEdges(6, poses, graph, {});
+  // The output frame: camera 0 at the identity, mean distance of the others to it 1.
+  double mean = 0;
+  for (int k = 1; k < 6; ++k) mean += (truth[k].Inverse().translation - truth[0].Inverse().translation).norm() / 5;
+  for (int k = 0; k < 6; ++k) {
+    ASSERT_TRUE(a.averaged.posed[k]);
+    const Rigid3d k_from_0 = a.averaged.cam_from_world[k];  // world = camera 0
+    const Rigid3d true_k_from_0 = truth[k] * truth[0].Inverse();
+    EXPECT_LT(RotationErrorDeg(k_from_0.rotation, true_k_from_0.rotation), 1e-4) << k;
+    EXPECT_LT((k_from_0.translation * mean - true_k_from_0.translation).norm(), 1e-4) << k;
+  }
+  EXPECT_NEAR(a.scale, 100.0 / mean, 1e-3);
+  EXPECT_NEAR(a.confidence[0].rotation_residual_deg, 10.0, 1e-3);  // the essential matrix's error
+  EXPECT_EQ(a.confidence[0].edges, 1);
+  EXPECT_NEAR(a.confidence[1].rotation_residual_deg, 10.0, 1e-3);
+  EXPECT_LT(a.confidence[3].rotation_residual_deg, 1e-4);  // no graph edge: the network's own edges
+  EXPECT_LT(a.confidence[3].direction_residual_deg, 1e-3);
+  EXPECT_EQ(a.confidence[3].edges, 8);                     // 4 as target, 4 as source
+}
+
+// Two "places": images 0, 2, 4 show one texture, 1, 3 another, each slightly shifted.
+torch::Tensor TwoPlaces() {
+  const testing_scene::PlaneScene a = testing_scene::PlaneScene::Tilted(3.0);
+  const testing_scene::PlaneScene b = testing_scene::PlaneScene::Ridge(2.0);
+  std::vector<torch::Tensor> images;
+  for (int k = 0; k < 5; ++k) {
+    const torch::Tensor shift = Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
+    images.push_back(k % 2 == 0 ? a.Render(shift)[0] : 1.0 - b.Render(shift)[0]);
+  }
+  return torch::stack(images);  // [5, 3, 48, 64]
+}
+
+TEST(NetworkPoses, AppearanceNeighboursRankImagesOfTheSamePlaceFirst) {
+  const auto n = AppearanceNeighbours(TwoPlaces());
+  ASSERT_EQ(n.size(), 5u);
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_EQ(n[k].size(), 4u);
+    EXPECT_EQ(n[k][0] % 2, k % 2) << k;
+    EXPECT_EQ(std::count(n[k].begin(), n[k].end(), k), 0);
+  }
+  EXPECT_EQ(n[0][0], 2);  // the nearest shift of the same place
+}
+
+TEST(NetworkPoses, SourcesComeFromTheViewGraphAndFromAppearanceWhereItHasTooFewEdges) {
+  ViewGraph graph;
+  graph.names = {"a", "b", "c", "d", "e"};
+  graph.keypoints.resize(5);
+  graph.edges.push_back({0, 1, 50, 40, Rigid3d(), {}});
+  graph.edges.push_back({0, 2, 50, 90, Rigid3d(), {}});
+  graph.edges.push_back({3, 0, 50, 20, Rigid3d(), {}});
+  const std::vector<std::vector<int>> appearance = {{4, 1, 2, 3}, {0, 2, 3, 4}, {0, 1, 3, 4}, {4, 2, 1, 0}, {3, 2, 1, 0}};
+  NetworkPosesOptions o;
+  o.num_sources = 3;
+  o.min_graph_neighbours = 2;
+  EXPECT_EQ(ChooseSources(0, graph, appearance, {}, o), (std::vector<int>{2, 1, 3}));  // by inliers
+  EXPECT_EQ(ChooseSources(3, graph, appearance, {}, o), (std::vector<int>{0, 4, 2}));  // one edge: topped up
+  EXPECT_EQ(ChooseSources(4, graph, appearance, {}, o), (std::vector<int>{3, 2, 1}));  // no edge at all
+  // Only allowed images (e.g. those the SfM posed).
+  EXPECT_EQ(ChooseSources(4, graph, appearance, {true, true, false, false, false}, o), (std::vector<int>{1, 0}));
+}
+
+// The whole network method with whatever weights are given (here untrained ones): every image is a
+// target once, every (target, source) pair an edge, and the images are posed by the network.
+TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
+  ScopedTempDir dir;
+  torch::manual_seed(0);
+  const std::string weights = dir.File("w.pt");
+  SaveDbarfWeights(DbarfModel(DbarfOptions::Cpu()), weights);
+  const testing_scene::PlaneScene plane = testing_scene::PlaneScene::Ridge(3.0);
+  std::vector<Image> images;
+  std::vector<Camera> cameras;
+  std::vector<std::string> names;
+  for (int k = 0; k < 5; ++k) {
+    const Rigid3d cam_from_plane(Eigen::Matrix3d(Eigen::AngleAxisd(0.03 * k, Eigen::Vector3d::UnitY())), Eigen::Vector3d(-0.2 * k, 0.02 * k, 0));
+    images.push_back(TensorToImage(plane.Render(Matrix4ToTensor(cam_from_plane.ToMatrix()))[0]));
+    const float f = plane.intrinsics[0][0].item<float>();
+    cameras.push_back(Camera::Pinhole(64, 48, f, f, 32, 24));
+    names.push_back("im" + std::to_string(k) + ".png");
+  }
+  ImagePosesOptions o;
+  o.method = "network";
+  o.weights = weights;
+  o.network.match_images = false;  // appearance neighbours only: no SIFT on 64 x 48 renders
+  o.network.num_sources = 2;
+  const ImagePosesResult r = EstimateImagePoses(images, cameras, names, o);
+  EXPECT_EQ(r.method_used, "network");
+  EXPECT_EQ(r.num_network_edges, 5 * 2);
+  int posed = 0;
+  for (int k = 0; k < 5; ++k) {
+    if (!r.posed[k]) continue;
+    ++posed;
+    EXPECT_EQ(r.posed_by[k], "network");
+    EXPECT_GT(r.confidence[k].edges, 0);
+    EXPECT_EQ(r.confidence[k].observations, -1);
+  }
+  EXPECT_EQ(posed + static_cast<int>(r.not_posed.size()), 5);
+  EXPECT_TRUE(r.sfm.points.empty());
+  EXPECT_GT(r.far, r.near);
+  EXPECT_GT(r.near, 0);
+
+  // auto: the SfM cannot relate these small smooth renders (too few SIFT matches), so the network
+  // poses them all.
+  o.method = "auto";
+  const ImagePosesResult a = EstimateImagePoses(images, cameras, names, o);
+  EXPECT_EQ(a.method_used, "network");
+  for (int k = 0; k < 5; ++k)
+    if (a.posed[k]) EXPECT_EQ(a.posed_by[k], "network");
+
+  // Bad options are one-line input errors naming the option.
+  o.method = "sfm";
+  EXPECT_NE(InputErrorOf([&] { EstimateImagePoses(images, cameras, names, o); }).find("--method"), std::string::npos);
+  o.method = "network";
+  o.weights = dir.File("missing.pt");
+  EXPECT_NE(InputErrorOf([&] { EstimateImagePoses(images, cameras, names, o); }).find("missing.pt"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace nerfreg
