@@ -127,6 +127,9 @@ void DbarfTrainOptions::Check() const {
   if (!(supervise_rotation_weight >= 0 && std::isfinite(supervise_rotation_weight))) {
     throw InputError("--supervise-rotation-weight: expected >= 0, got " + std::to_string(supervise_rotation_weight));
   }
+  if (!(supervise_depth >= 0 && std::isfinite(supervise_depth))) {
+    throw InputError("--supervise-depth: expected a weight >= 0, got " + std::to_string(supervise_depth));
+  }
   if (!(supervise_poses >= 0 && std::isfinite(supervise_poses))) {
     throw InputError("--supervise-poses: expected a weight >= 0, got " + std::to_string(supervise_poses));
   }
@@ -141,7 +144,7 @@ DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, co
     if ((options_.nerf_poses == "cameras" || options_.pose_init == "cameras") && !scenes_[s].cam_from_world.defined()) {
       ThrowInputError(scenes_[s].name, "cameras", "estimated cameras (--nerf-poses cameras)");
     }
-    if (options_.supervise_poses > 0 &&
+    if ((options_.supervise_poses > 0 || options_.supervise_depth > 0) &&
         (!scenes_[s].supervision_cam_from_world.defined() ||
          scenes_[s].supervision_cam_from_world.sizes() != torch::IntArrayRef({scenes_[s].NumViews(), 4, 4}))) {
       ThrowInputError(scenes_[s].name, "ground truth", "ground-truth cameras for every image (--supervise-poses)");
@@ -319,7 +322,8 @@ DbarfStepResult DbarfTrainer::Step() {
         const torch::Tensor norms = tp.norm(2, 1), true_norms = tg.norm(2, 1).clamp_min(1e-9);
         const torch::Tensor cosine = (tp * tg).sum(1) / (norms * true_norms).clamp_min(1e-12);
         result.direction_err_deg = (torch::acos(cosine.clamp(-1, 1)) * (180.0 / M_PI)).mean().item<double>();
-        result.translation_ratio = (norms / true_norms).mean().item<double>();
+        // Of the sums: a source that is the target itself (no baseline) does not blow it up.
+        result.translation_ratio = (norms.sum() / true_norms.sum()).item<double>();
       }
     }
     if (options_.supervise_poses > 0) {
@@ -328,6 +332,12 @@ DbarfStepResult DbarfTrainer::Step() {
                              options_.supervise_rotation_weight);
       result.pose_loss = pose_loss.item<double>();
       loss = loss + options_.supervise_poses * pose_loss;
+    }
+    if (options_.supervise_depth > 0) {
+      const torch::Tensor truth = RelativeCameras(scene.supervision_cam_from_world, t, sources);  // [N, 4, 4]
+      const std::vector<torch::Tensor> true_poses(pred.inv_depths.size(), truth);
+      const SfmLossResult depth_sfm = SfmLoss(target, source_images, pred.inv_depths, true_poses, k_t, options_.sfm);
+      loss = loss + options_.supervise_depth * depth_sfm.total;
     }
   }
   bool rgb_valid = false;

@@ -105,6 +105,11 @@ struct DbarfTrainOptions {
   // distance is about the angle in radians, as the relative translation error is about the
   // direction error, and rotations need to be ~5x more exact than directions (1 deg vs 5 deg).
   double supervise_rotation_weight = 5;
+  // Weight of a second SfM loss on the predicted depths with the sources warped by the TRUE relative
+  // poses (supervision_cam_from_world; a departure like supervise_poses, 0 = off): the depth gets
+  // a photometric signal in the estimated cameras' units while the predicted poses are still
+  // wrong, instead of retreating to the far bound (where a wrong translation costs least).
+  double supervise_depth = 0;
   // The SfM loss's options (smoothness weight, auto-masking, ...): the original's by default.
   SfmLossOptions sfm;
   uint64_t seed = 0;
@@ -122,7 +127,8 @@ struct DbarfStepResult {
   double pose_loss = 0;  // the supervised pose loss (unweighted); 0 when not computed
   // Monitoring of the pose network's last prediction (no gradient; < 0 when not computed): mean
   // normalised disparity of the target (0 = the far bound, 1 = the near bound), and, when the scene
-  // has supervision cameras, the mean rotation error, translation-direction error and |t| / |t_true|.
+  // has supervision cameras, the mean rotation error, translation-direction error and
+  // sum |t| / sum |t_true| over the sources.
   double disparity = -1;
   double rotation_err_deg = -1, direction_err_deg = -1, translation_ratio = -1;
   double psnr = 0;       // of the rendered rays (nerf and joint stages)

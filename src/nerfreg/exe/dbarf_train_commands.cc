@@ -131,7 +131,7 @@ int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
     scenes.push_back(loaded[i].scene);
     // The dataset's own poses, kept apart from the estimated cameras: read only by the supervised
     // pose loss and the log's error columns.
-    if (c.train.supervise_poses > 0 && !loaded[i].ground_truth.defined()) {
+    if ((c.train.supervise_poses > 0 || c.train.supervise_depth > 0) && !loaded[i].ground_truth.defined()) {
       ThrowInputError(c.scenes[i], "poses", "a dataset with ground-truth poses (--supervise-poses), not dbarf poses output");
     }
     if (loaded[i].ground_truth.defined()) {
@@ -144,6 +144,7 @@ int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
     model.training["kind"] = what;
     model.training["pose_init"] = c.train.pose_init;
     model.training["supervise_poses"] = c.train.supervise_poses;
+    model.training["supervise_depth"] = c.train.supervise_depth;
     if (!c.weights.empty()) model.training["initial_weights"] = c.weights;
   }
   model.training["data"] = c.scenes;
@@ -188,6 +189,9 @@ int RunDbarfPretrain(int argc, char** argv) {
   app.add_option("--supervise-poses", c.train.supervise_poses,
                  "Weight of a SUPERVISED loss on the pose network's relative poses against the datasets' own poses "
                  "(rescaled to the estimated cameras; a departure from the self-supervised original; 0: off)");
+  app.add_option("--supervise-depth", c.train.supervise_depth,
+                 "Weight of an SfM loss on the predicted depth with the sources placed by the datasets' own relative "
+                 "poses (a departure like --supervise-poses; 0: off)");
   app.add_option("--supervise-rotation-weight", c.train.supervise_rotation_weight,
                  "Weight of the rotation term of the supervised pose loss against the translation term (default 5)");
   app.add_option("--rotation-scale", c.rotation_scale,
