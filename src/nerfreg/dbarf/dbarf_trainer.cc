@@ -123,6 +123,16 @@ void DbarfTrainOptions::Check() const {
   if ((init_noise_deg > 0 || init_noise_translation > 0) && pose_init != "cameras") {
     throw InputError("--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
   }
+  if (!sfm.Check()) throw InputError("SfM loss options: expected valid weights (see the log)");
+  if (!(supervise_rotation_weight >= 0 && std::isfinite(supervise_rotation_weight))) {
+    throw InputError("--supervise-rotation-weight: expected >= 0, got " + std::to_string(supervise_rotation_weight));
+  }
+  if (!(supervise_depth >= 0 && std::isfinite(supervise_depth))) {
+    throw InputError("--supervise-depth: expected a weight >= 0, got " + std::to_string(supervise_depth));
+  }
+  if (!(supervise_poses >= 0 && std::isfinite(supervise_poses))) {
+    throw InputError("--supervise-poses: expected a weight >= 0, got " + std::to_string(supervise_poses));
+  }
 }
 
 DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options)
@@ -133,6 +143,11 @@ DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, co
     scenes_[s].Check();
     if ((options_.nerf_poses == "cameras" || options_.pose_init == "cameras") && !scenes_[s].cam_from_world.defined()) {
       ThrowInputError(scenes_[s].name, "cameras", "estimated cameras (--nerf-poses cameras)");
+    }
+    if ((options_.supervise_poses > 0 || options_.supervise_depth > 0) &&
+        (!scenes_[s].supervision_cam_from_world.defined() ||
+         scenes_[s].supervision_cam_from_world.sizes() != torch::IntArrayRef({scenes_[s].NumViews(), 4, 4}))) {
+      ThrowInputError(scenes_[s].name, "ground truth", "ground-truth cameras for every image (--supervise-poses)");
     }
     for (int v = 0; v < scenes_[s].NumViews(); ++v)
       if (scenes_[s].usable[v] && !SourcesOf(scenes_[s], v, 1).empty()) targets_.push_back({static_cast<int>(s), v});
@@ -176,6 +191,55 @@ std::vector<int> DbarfTrainer::SourcesOf(const DbarfScene& scene, int target, in
     if (static_cast<int>(out.size()) >= k) break;
     if (j != target && scene.usable[j]) out.push_back(j);
   }
+  return out;
+}
+
+torch::Tensor SupervisedPoseLoss(const std::vector<torch::Tensor>& src_from_tgts, const torch::Tensor& truth,
+                                 double rotation_weight, double prediction_decay) {
+  TORCH_CHECK(!src_from_tgts.empty(), "SupervisedPoseLoss: no predictions");
+  TORCH_CHECK(truth.dim() == 3 && truth.size(1) == 4 && truth.size(2) == 4, "SupervisedPoseLoss: truth [N, 4, 4], got ",
+              truth.sizes());
+  const torch::Tensor r_true = truth.slice(1, 0, 3).slice(2, 0, 3);                  // [N, 3, 3]
+  const torch::Tensor t_true = truth.slice(1, 0, 3).select(2, 3);                    // [N, 3]
+  // A pose whose source is the target itself has no baseline: its translation error is measured
+  // against a tenth of the step's longest baseline instead.
+  const torch::Tensor norms = t_true.norm(2, 1);                                   // [N]
+  const torch::Tensor baseline = norms.clamp_min((0.1 * norms.max()).clamp_min(1e-6).item<double>());
+  const int64_t k_count = static_cast<int64_t>(src_from_tgts.size());
+  torch::Tensor total = torch::zeros({}, truth.options());
+  for (int64_t k = 0; k < k_count; ++k) {
+    const torch::Tensor& p = src_from_tgts[k];
+    TORCH_CHECK(p.sizes() == truth.sizes(), "SupervisedPoseLoss: prediction ", p.sizes(), " vs truth ", truth.sizes());
+    // The square root's gradient is unbounded at 0: the epsilon keeps an exact prediction finite.
+    const torch::Tensor rot = ((p.slice(1, 0, 3).slice(2, 0, 3) - r_true).pow(2).sum({1, 2}) + 1e-12).sqrt();  // [N]
+    const torch::Tensor trans = ((p.slice(1, 0, 3).select(2, 3) - t_true).pow(2).sum(1) + 1e-12).sqrt() / baseline;
+    const double w = std::pow(prediction_decay, static_cast<double>(k_count - 1 - k));
+    total = total + w * (rotation_weight * rot + trans).mean();
+  }
+  return total;
+}
+
+torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_world,
+                                          const torch::Tensor& estimated_cam_from_world,
+                                          const std::vector<bool>& use, const std::string& source) {
+  TORCH_CHECK(true_cam_from_world.dim() == 3 && true_cam_from_world.sizes() == estimated_cam_from_world.sizes() &&
+                  true_cam_from_world.size(1) == 4 && true_cam_from_world.size(2) == 4 &&
+                  static_cast<int64_t>(use.size()) == true_cam_from_world.size(0),
+              "GroundTruthInEstimatedScale: cameras [V, 4, 4] and one flag per view");
+  std::vector<int64_t> views;
+  for (size_t v = 0; v < use.size(); ++v)
+    if (use[v]) views.push_back(static_cast<int64_t>(v));
+  if (views.size() < 2) ThrowInputError(source, "ground truth", "at least 2 estimated cameras to fix the scale");
+  const auto centres = [&](const torch::Tensor& c) {  // -R^T t of the used views: [U, 3]
+    const torch::Tensor u = c.index_select(0, torch::tensor(views, torch::kLong)).to(torch::kDouble);
+    return -torch::matmul(u.slice(1, 0, 3).slice(2, 0, 3).transpose(1, 2), u.slice(1, 0, 3).slice(2, 3, 4)).squeeze(2);
+  };
+  const auto spread = [](const torch::Tensor& c) { return (c - c.mean(0, true)).pow(2).sum(1).mean().sqrt().item<double>(); };
+  const double true_spread = spread(centres(true_cam_from_world));
+  if (!(true_spread > 1e-12)) ThrowInputError(source, "ground truth", "cameras at distinct centres");
+  const double scale = spread(centres(estimated_cam_from_world)) / true_spread;
+  torch::Tensor out = true_cam_from_world.to(torch::kFloat).clone();
+  out.slice(1, 0, 3).select(2, 3).mul_(scale);
   return out;
 }
 
@@ -243,9 +307,38 @@ DbarfStepResult DbarfTrainer::Step() {
   }
   torch::Tensor loss = torch::zeros({}, torch::kFloat);
   if (pose_grad) {
-    const SfmLossResult sfm = SfmLoss(target, source_images, pred.inv_depths, pred.src_from_tgt, k_t);
+    const SfmLossResult sfm = SfmLoss(target, source_images, pred.inv_depths, pred.src_from_tgt, k_t, options_.sfm);
     result.sfm_loss = sfm.total.item<double>();
     loss = result.stage == DbarfStage::kJoint ? std::pow(2.0, -options_.joint_decay * step_) * sfm.total : sfm.total;
+    {
+      torch::NoGradGuard no_grad;
+      const double lo = 1.0 / scene.far, hi = 1.0 / scene.near;
+      result.disparity = ((pred.inv_depths.back() - lo) / (hi - lo)).mean().item<double>();
+      if (scene.supervision_cam_from_world.defined()) {
+        const torch::Tensor truth = RelativeCameras(scene.supervision_cam_from_world, t, sources);  // [N, 4, 4]
+        const torch::Tensor last = pred.src_from_tgt.back().detach();                               // [N, 4, 4]
+        result.rotation_err_deg = RotationAngleDeg(last, truth).mean().item<double>();
+        const torch::Tensor tp = last.slice(1, 0, 3).select(2, 3), tg = truth.slice(1, 0, 3).select(2, 3);  // [N, 3]
+        const torch::Tensor norms = tp.norm(2, 1), true_norms = tg.norm(2, 1).clamp_min(1e-9);
+        const torch::Tensor cosine = (tp * tg).sum(1) / (norms * true_norms).clamp_min(1e-12);
+        result.direction_err_deg = (torch::acos(cosine.clamp(-1, 1)) * (180.0 / M_PI)).mean().item<double>();
+        // Of the sums: a source that is the target itself (no baseline) does not blow it up.
+        result.translation_ratio = (norms.sum() / true_norms.sum()).item<double>();
+      }
+    }
+    if (options_.supervise_poses > 0) {
+      const torch::Tensor pose_loss =
+          SupervisedPoseLoss(pred.src_from_tgt, RelativeCameras(scene.supervision_cam_from_world, t, sources),
+                             options_.supervise_rotation_weight);
+      result.pose_loss = pose_loss.item<double>();
+      loss = loss + options_.supervise_poses * pose_loss;
+    }
+    if (options_.supervise_depth > 0) {
+      const torch::Tensor truth = RelativeCameras(scene.supervision_cam_from_world, t, sources);  // [N, 4, 4]
+      const std::vector<torch::Tensor> true_poses(pred.inv_depths.size(), truth);
+      const SfmLossResult depth_sfm = SfmLoss(target, source_images, pred.inv_depths, true_poses, k_t, options_.sfm);
+      loss = loss + options_.supervise_depth * depth_sfm.total;
+    }
   }
   bool rgb_valid = false;
   if (nerf_on) {
@@ -392,9 +485,17 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
                  {"sources", r.num_sources}, {"seconds", elapsed()}};
     if (r.sfm_loss > 0) line["sfm_loss"] = r.sfm_loss;
     if (r.rgb_loss > 0) line["rgb_loss"] = r.rgb_loss, line["psnr"] = r.psnr;
+    if (r.pose_loss > 0) line["pose_loss"] = r.pose_loss;
+    if (r.disparity >= 0) line["disparity"] = r.disparity;
+    if (r.rotation_err_deg >= 0) {
+      line["rot_err_deg"] = r.rotation_err_deg;
+      line["dir_err_deg"] = r.direction_err_deg;
+      line["t_ratio"] = r.translation_ratio;
+    }
     log << line.dump() << "\n";
     if (r.psnr > 0) bar.SetMetric("psnr", r.psnr);
     if (r.sfm_loss > 0) bar.SetMetric("sfm", r.sfm_loss);
+    if (r.pose_loss > 0) bar.SetMetric("pose", r.pose_loss);
     bar.Tick();
     if (trainer.step() % run.checkpoint_every == 0 || trainer.step() == run.steps) {
       log.flush();
@@ -466,6 +567,20 @@ RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const tor
     const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
     if (!sources.empty()) {
       sum.Add(InitialRelativePoses(scene, t, sources, noise), RelativeCameras(true_cam_from_world, t, sources));
+    }
+  }
+  return sum.Result();
+}
+
+RelativePoseError EvaluateIdentityRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
+                                                int num_sources) {
+  PoseErrorSum sum;
+  for (int t = 0; t < scene.NumViews(); ++t) {
+    if (!scene.usable[t]) continue;
+    const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
+    if (!sources.empty()) {
+      const int64_t n = static_cast<int64_t>(sources.size());
+      sum.Add(torch::eye(4).expand({n, 4, 4}), RelativeCameras(true_cam_from_world, t, sources));
     }
   }
   return sum.Result();

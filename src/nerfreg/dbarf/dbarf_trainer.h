@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf/sfm_loss.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
@@ -39,6 +40,12 @@ struct DbarfScene {
   // Views that may be used (targets and sources); held-out views are false.
   std::vector<bool> usable;
   double near = 0, far = 0;  // depth range of the content, scene units
+  // [V, 4, 4] float32 or undefined: GROUND-TRUTH cameras, rescaled to the estimated cameras' units
+  // (GroundTruthInEstimatedScale), read ONLY by the supervised pose loss of training
+  // (DbarfTrainOptions::supervise_poses, a departure from the self-supervised original) and by the
+  // training log's error columns (no gradient). Nothing else (view selection, initial poses,
+  // rendering, depth range) may read it.
+  torch::Tensor supervision_cam_from_world;
 
   int64_t NumViews() const { return images.defined() ? images.size(0) : 0; }
   // Throws InputError naming the scene when sizes disagree, the depth range is invalid, or no
@@ -85,6 +92,26 @@ struct DbarfTrainOptions {
   // others; it does not sharpen cameras that are already within ~0.1 deg (README).
   bool refine_cameras = false;
   double lr_cameras = 3e-3;
+  // Weight of the supervised pose loss (a departure from the original, which is self-supervised
+  // only; 0 = off): in pose and joint stages, every prediction k of the pose network is compared
+  // with the scene's supervision_cam_from_world relative poses and weighted like the SfM loss
+  // (0.85^(K-1-k)): chordal rotation distance |R_pred - R_true|_F plus the translation error
+  // relative to the baseline, |t_pred - t_true| / |t_true|. The ground truth is rescaled to the
+  // estimated cameras' units, in which the depth range (and so the network's depth) is expressed,
+  // so the term fixes the scale that the photometric loss leaves free. Needs scenes with
+  // supervision cameras.
+  double supervise_poses = 0;
+  // Weight of the rotation term within that loss, relative to the translation term: the chordal
+  // distance is about the angle in radians, as the relative translation error is about the
+  // direction error, and rotations need to be ~5x more exact than directions (1 deg vs 5 deg).
+  double supervise_rotation_weight = 5;
+  // Weight of a second SfM loss on the predicted depths with the sources warped by the TRUE relative
+  // poses (supervision_cam_from_world; a departure like supervise_poses, 0 = off): the depth gets
+  // a photometric signal in the estimated cameras' units while the predicted poses are still
+  // wrong, instead of retreating to the far bound (where a wrong translation costs least).
+  double supervise_depth = 0;
+  // The SfM loss's options (smoothness weight, auto-masking, ...): the original's by default.
+  SfmLossOptions sfm;
   uint64_t seed = 0;
 
   static DbarfTrainOptions Pretrain();
@@ -97,6 +124,13 @@ struct DbarfStepResult {
   DbarfStage stage = DbarfStage::kPose;
   double sfm_loss = 0;   // 0 when not computed
   double rgb_loss = 0;   // 0 when not computed
+  double pose_loss = 0;  // the supervised pose loss (unweighted); 0 when not computed
+  // Monitoring of the pose network's last prediction (no gradient; < 0 when not computed): mean
+  // normalised disparity of the target (0 = the far bound, 1 = the near bound), and, when the scene
+  // has supervision cameras, the mean rotation error, translation-direction error and
+  // sum |t| / sum |t_true| over the sources.
+  double disparity = -1;
+  double rotation_err_deg = -1, direction_err_deg = -1, translation_ratio = -1;
   double psnr = 0;       // of the rendered rays (nerf and joint stages)
   int scene = 0, target = 0, num_sources = 0;
 };
@@ -154,6 +188,21 @@ struct DbarfRunResult {
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
                                 const DbarfRunOptions& run);
 
+// The supervised pose loss of one step (see DbarfTrainOptions::supervise_poses): predictions
+// src_from_tgts[k] [N, 4, 4], truth [N, 4, 4] in the same units -> scalar, sum over k of
+// prediction_decay^(K-1-k) * mean over the N poses of (rotation_weight |R_k - R|_F + |t_k - t| / |t|).
+torch::Tensor SupervisedPoseLoss(const std::vector<torch::Tensor>& src_from_tgts, const torch::Tensor& truth,
+                                 double rotation_weight = 1.0, double prediction_decay = 0.85);
+
+// Ground-truth cameras [V, 4, 4] rescaled into the units of the estimated ones [V, 4, 4]: every
+// translation times s, s = RMS spread of the estimated camera centres about their mean over that of
+// the true centres (over the views flagged in `use`; their Sim(3) alignment's scale when the
+// estimate is good). Relative poses of the result compare directly with the estimated cameras'.
+// Throws InputError naming `source` when fewer than 2 views are used or the true centres coincide.
+torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_world,
+                                          const torch::Tensor& estimated_cam_from_world,
+                                          const std::vector<bool>& use, const std::string& source);
+
 // src_from_tgt [N, 4, 4] of views `sources` relative to `target` from the scene's cameras.
 torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources);
 
@@ -188,6 +237,10 @@ RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& sce
                                         const torch::Tensor& true_cam_from_world, int num_sources,
                                         const std::string& pose_init = "network",
                                         const RelativePoseNoise& noise = {});
+// The error of identity relative poses (the start of pose_init "network"), measured the same way:
+// the rotation error is the true relative rotation; the direction of a zero translation counts 90 deg.
+RelativePoseError EvaluateIdentityRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
+                                                int num_sources);
 // The error of the scene's own cameras, measured the same way (what the network should improve on).
 RelativePoseError EvaluateCameraRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,
                                               int num_sources, const RelativePoseNoise& noise = {});

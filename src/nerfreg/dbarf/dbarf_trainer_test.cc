@@ -244,6 +244,84 @@ TEST(DbarfTrainer, WeightsAndStateRoundTripAndResumeReproducesTheNextStep) {
   EXPECT_THROW(LoadDbarfWeights(dir + "/missing.pt"), InputError);
 }
 
+TEST(DbarfTrainer, SupervisedPoseLossVanishesAtTheTruthAndIsScaleFree) {
+  const torch::Tensor truth = testing_scene::SourcePoses(3);
+  EXPECT_LT(SupervisedPoseLoss({truth, truth}, truth).item<double>(), 1e-4);
+  // One degree about y, and a translation off by a tenth of each baseline.
+  const torch::Tensor turn = Se3Exp(torch::tensor({{0.0, 0.0, 0.0, 0.0, M_PI / 180.0, 0.0}}, torch::kFloat)).expand({3, 4, 4});
+  torch::Tensor turned = truth.clone();  // the rotation turned, the translation kept
+  turned.slice(1, 0, 3).slice(2, 0, 3).copy_(torch::matmul(turn, truth).slice(1, 0, 3).slice(2, 0, 3));
+  const double chordal = 2 * std::sqrt(2.0) * std::sin(M_PI / 360.0);  // |R_a - R_b|_F a degree apart
+  EXPECT_NEAR(SupervisedPoseLoss({turned}, truth).item<double>(), chordal, 1e-4);
+  torch::Tensor shifted = truth.clone();
+  shifted.slice(1, 0, 3).select(2, 3).mul_(1.1);
+  EXPECT_NEAR(SupervisedPoseLoss({shifted}, truth).item<double>(), 0.1, 1e-4);
+  // Scaling prediction and truth together leaves it unchanged.
+  torch::Tensor big_truth = truth.clone(), big_shifted = shifted.clone();
+  big_truth.slice(1, 0, 3).select(2, 3).mul_(7.0);
+  big_shifted.slice(1, 0, 3).select(2, 3).mul_(7.0);
+  EXPECT_NEAR(SupervisedPoseLoss({big_shifted}, big_truth).item<double>(), 0.1, 1e-4);
+  // Earlier predictions weigh 0.85 per step back, like the SfM loss.
+  EXPECT_NEAR(SupervisedPoseLoss({shifted, truth}, truth).item<double>(), 0.085, 1e-4);
+  // The rotation term's weight multiplies it alone.
+  EXPECT_NEAR(SupervisedPoseLoss({turned}, truth, 3.0).item<double>(), 3 * chordal, 3e-4);
+  // Finite gradients at the truth.
+  const torch::Tensor p = truth.clone().requires_grad_(true);
+  SupervisedPoseLoss({p}, truth).backward();
+  EXPECT_TRUE(torch::isfinite(p.grad()).all().item<bool>());
+}
+
+TEST(DbarfTrainer, GroundTruthIsRescaledToTheEstimatedCamerasUnits) {
+  torch::Tensor truth;
+  RidgeScene(&truth);
+  // The estimate: the truth in another frame (a rigid motion) and 3x its scale.
+  torch::Tensor scaled = truth.clone();
+  scaled.slice(1, 0, 3).select(2, 3).mul_(3.0);
+  const torch::Tensor frame = Se3Exp(torch::tensor({0.4, -0.2, 0.9, 0.3, -0.5, 0.2}, torch::kFloat));
+  const torch::Tensor estimated = torch::matmul(scaled, Se3Inverse(frame));
+  const torch::Tensor rescaled = GroundTruthInEstimatedScale(truth, estimated, {true, true, true, true}, "x");
+  const std::vector<int> sources = {1, 2, 3};
+  EXPECT_TRUE(torch::allclose(RelativeCameras(rescaled, 0, sources), RelativeCameras(estimated, 0, sources), 1e-4, 1e-4));
+  EXPECT_THROW(GroundTruthInEstimatedScale(truth, estimated, {true, false, false, false}, "x"), InputError);
+}
+
+TEST(DbarfTrainer, SupervisedPosesNeedGroundTruthAndTeachPosesFromTheIdentity) {
+  torch::Tensor truth;
+  DbarfScene scene = RidgeScene(&truth);
+  DbarfTrainOptions options = SmallOptions();
+  options.stage_steps = 1000;  // pose stage only
+  options.supervise_poses = 1.0;
+  options.lr_pose = 1e-3;
+  DbarfModel model(DbarfOptions::Cpu());
+  EXPECT_THROW(DbarfTrainer(&model, {scene}, options), InputError);  // no supervision cameras
+  options.supervise_poses = -1;
+  EXPECT_THROW(options.Check(), InputError);
+  options.supervise_poses = 1.0;
+  scene.supervision_cam_from_world = truth;
+  torch::manual_seed(3);
+  // A smaller recurrence than the cpu config's, to keep the test short.
+  DbarfOptions unscaled = DbarfOptions::Cpu();
+  unscaled.pose.rotation_scale = 1.0;
+  unscaled.pose.outer_iterations = 1;
+  unscaled.pose.inner_iterations = 2;
+  DbarfModel fresh(unscaled);
+  const RelativePoseError before = EvaluateRelativePoses(fresh, scene, truth, 3, "network");
+  DbarfTrainer trainer(&fresh, {scene}, options);
+  DbarfStepResult first;
+  double last_losses = 0;  // summed over the last 20 steps (each step sees one target)
+  for (int i = 0; i < 300; ++i) {
+    const DbarfStepResult r = trainer.Step();
+    if (i == 0) first = r;
+    if (i >= 280) last_losses += r.pose_loss;
+  }
+  EXPECT_GT(first.pose_loss, 0.0);
+  EXPECT_GE(first.rotation_err_deg, 0.0);  // logged when the scene has supervision cameras
+  EXPECT_LT(last_losses / 20, 0.5 * first.pose_loss);
+  const RelativePoseError after = EvaluateRelativePoses(fresh, scene, truth, 3, "network");
+  EXPECT_LT(after.rotation_deg, 0.5 * before.rotation_deg);
+  EXPECT_LT(after.translation_deg, 0.5 * before.translation_deg);
+}
+
 TEST(DbarfTrainer, RejectsScenesWithoutUsableNeighboursOrDepthRange) {
   torch::Tensor truth;
   DbarfModel model(DbarfOptions::Cpu());

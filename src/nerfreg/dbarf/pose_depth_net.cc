@@ -1,5 +1,7 @@
 #include "nerfreg/dbarf/pose_depth_net.h"
 
+#include <cmath>
+
 #include "nerfreg/dbarf/inverse_warp.h"
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/util/logging.h"
@@ -230,6 +232,18 @@ void PoseDepthNetImpl::SetDepthRange(double near, double far) {
   TORCH_CHECK(near > 0.0 && far > near, "PoseDepthNet: need 0 < near < far, got ", near, " ", far);
   options_.near = near;
   options_.far = far;
+}
+
+void PoseDepthNetImpl::SetRotationScale(double scale) {
+  TORCH_CHECK(scale > 0.0 && std::isfinite(scale), "PoseDepthNet: need a rotation scale > 0, got ", scale);
+  const double factor = options_.rotation_scale / scale;
+  torch::NoGradGuard no_grad;
+  for (auto* head : {&init_pose_head_, &pose_delta_head_}) {
+    auto last = (*head)->ptr(2)->as<nn::Conv2d>();
+    last->weight.narrow(0, 3, 3).mul_(factor);  // [6, C, k, k]: rows 3-5 are the rotation
+    if (last->bias.defined()) last->bias.narrow(0, 3, 3).mul_(factor);
+  }
+  options_.rotation_scale = scale;
 }
 
 torch::Tensor PoseDepthNetImpl::ToInverseDepth(const torch::Tensor& disparity) const {

@@ -150,6 +150,11 @@ class PoseDepthNetImpl : public torch::nn::Module {
   // normalised disparity in (0, 1) and this maps it to inverse depth, so one set of weights serves
   // scenes of different extents (DBARF passes each scene's bounds the same way).
   void SetDepthRange(double near, double far);
+  // Changes the rotation scale of the pose heads to `scale` (> 0) and divides the rotation rows of
+  // their last layers by the change, so the network computes the same function: only how fast
+  // training moves rotations changes (Adam steps are about the same size in every parameter, so a
+  // smaller scale turns rotations more slowly).
+  void SetRotationScale(double scale);
 
  private:
   torch::Tensor ToInverseDepth(const torch::Tensor& disparity) const;

@@ -156,6 +156,35 @@ TEST_F(PoseDepthNetTest, ForwardShapesRangesAndFiniteGradients) {
   EXPECT_EQ(with_grad, total);
 }
 
+TEST_F(PoseDepthNetTest, SetRotationScaleKeepsTheFunction) {
+  PoseDepthNetOptions o = PoseDepthNetOptions::Cpu();
+  o.outer_iterations = 1;
+  o.inner_iterations = 1;
+  PoseDepthNet net(o);
+  // Non-zero pose heads (they start at zero), so the rotation rows matter.
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : net->named_parameters()) {
+      if (p.key().find("pose_head") != std::string::npos || p.key().find("pose_delta_head") != std::string::npos) {
+        p.value().normal_(0.0, 0.05);
+      }
+    }
+  }
+  net->eval();
+  const torch::Tensor target = torch::rand({1, 3, 32, 48}), sources = torch::rand({2, 3, 32, 48});
+  const torch::Tensor k = torch::tensor({40.0, 0.0, 24.0, 0.0, 40.0, 16.0, 0.0, 0.0, 1.0}).view({3, 3});
+  torch::NoGradGuard no_grad;
+  const PoseDepthPrediction before = net->forward(target, sources, k);
+  net->SetRotationScale(1.0);
+  EXPECT_EQ(net->options().rotation_scale, 1.0);
+  const PoseDepthPrediction after = net->forward(target, sources, k);
+  EXPECT_GT(Se3Log(before.src_from_tgt.back()).slice(1, 3, 6).abs().max().item<double>(), 1e-5);
+  for (size_t i = 0; i < before.src_from_tgt.size(); ++i) {
+    EXPECT_TRUE(torch::allclose(before.src_from_tgt[i], after.src_from_tgt[i], 1e-4, 1e-5)) << i;
+  }
+  EXPECT_THROW(net->SetRotationScale(0.0), c10::Error);
+}
+
 TEST_F(PoseDepthNetTest, PaperConfigurationRunsOnASmallImage) {
   torch::NoGradGuard no_grad;
   PoseDepthNet net(PoseDepthNetOptions::Paper());

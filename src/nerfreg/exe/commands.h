@@ -38,6 +38,7 @@ int RunDbarfPretrain(int argc, char** argv);
 int RunDbarfFinetune(int argc, char** argv);
 int RunDbarfRender(int argc, char** argv);
 int RunDbarfEval(int argc, char** argv);
+int RunDbarfEvalNet(int argc, char** argv);
 // The shipped DBARF weights (NERFREG_DBARF_WEIGHTS overrides).
 std::string DefaultDbarfWeights();
 // Reports (exe/report_command.cc)
@@ -64,4 +65,5 @@ int RunReport(int argc, char** argv);
   {"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"}, \
   {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"}, \
   {"dbarf eval", RunDbarfEval, "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"}, \
+  {"dbarf eval-net", RunDbarfEvalNet, "The pose network's relative poses (from the identity) against ground truth"}, \
   {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -1,6 +1,7 @@
 // Commands of DBARF's learned part: dbarf pretrain | finetune (training, resumable) | render (novel
 // views from posed images) | eval (the whole pose-free pipeline against ground truth).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -37,6 +38,7 @@ struct TrainCli {
   std::vector<std::string> scenes;
   std::string out, config = "cpu", weights;
   std::string cameras_out;  // finetune --refine-cameras: where the refined cameras go
+  double rotation_scale = 0;  // pretrain: the pose heads' rotation scale (0: the config's or the weights')
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;
@@ -66,6 +68,8 @@ void AddTrainOptions(CLI::App& app, TrainCli* c) {
   app.add_option("--lr-pose", c->train.lr_pose, "Pose-network learning rate");
   app.add_option("--joint-decay", c->train.joint_decay, "Joint stage: SfM weight a = 2^(-joint_decay * step)");
   app.add_option("--lr-decay-steps", c->train.lr_decay_steps, "Halve the learning rates every this many steps");
+  app.add_option("--smoothness", c->train.sfm.smoothness_weight, "SfM loss: depth smoothness weight (original 0.01)");
+  app.add_option("--auto-mask", c->train.sfm.auto_mask, "SfM loss: auto-masking, true or false (original true)");
   app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
   app.add_option("--seed", c->train.seed, "Seed");
 }
@@ -112,18 +116,37 @@ int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
   if (c.run.resume && !FileExists(c.run.out + ".train")) {
     ThrowInputError(c.run.out + ".train", "", "a training state to resume (written by dbarf pretrain / finetune)");
   }
-  const DbarfOptions expected = DbarfOptions::Named(c.config);
+  DbarfOptions expected = DbarfOptions::Named(c.config);
+  if (c.rotation_scale > 0) expected.pose.rotation_scale = c.rotation_scale;
   DbarfModel model = c.run.resume ? LoadDbarfWeights(c.run.out, &expected)
                                   : (c.weights.empty() ? DbarfModel(expected) : LoadDbarfWeights(c.weights));
+  if (!c.run.resume && !c.weights.empty() && c.rotation_scale > 0) {
+    model.pose_net->SetRotationScale(c.rotation_scale);
+    model.options.pose.rotation_scale = c.rotation_scale;
+  }
   const std::vector<LoadedDbarfScene> loaded = LoadScenes(c.scenes, c.scene);
   if (!c.cameras_out.empty() && loaded[0].estimated_here) {
     ThrowInputError(c.scenes[0], "dbarf_poses", "posed images written by dbarf poses (--refine-cameras refines their cameras)");
   }
   std::vector<DbarfScene> scenes;
-  for (const auto& l : loaded) scenes.push_back(l.scene);
+  for (size_t i = 0; i < loaded.size(); ++i) {
+    scenes.push_back(loaded[i].scene);
+    // The dataset's own poses, kept apart from the estimated cameras: read only by the supervised
+    // pose loss and the log's error columns.
+    if ((c.train.supervise_poses > 0 || c.train.supervise_depth > 0) && !loaded[i].ground_truth.defined()) {
+      ThrowInputError(c.scenes[i], "poses", "a dataset with ground-truth poses (--supervise-poses), not dbarf poses output");
+    }
+    if (loaded[i].ground_truth.defined()) {
+      scenes.back().supervision_cam_from_world = GroundTruthInEstimatedScale(
+          loaded[i].ground_truth, loaded[i].scene.cam_from_world, loaded[i].scene.usable, c.scenes[i]);
+    }
+  }
   if (!c.run.resume) {
     model.training = Json::object();
     model.training["kind"] = what;
+    model.training["pose_init"] = c.train.pose_init;
+    model.training["supervise_poses"] = c.train.supervise_poses;
+    model.training["supervise_depth"] = c.train.supervise_depth;
     if (!c.weights.empty()) model.training["initial_weights"] = c.weights;
   }
   model.training["data"] = c.scenes;
@@ -165,8 +188,22 @@ int RunDbarfPretrain(int argc, char** argv) {
   app.add_option("scenes", c.scenes, "Scene datasets")->required();
   app.add_option("--config", c.config, "Network sizes: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
   app.add_option("--weights", c.weights, "Weights to continue pretraining from (default: a fresh network)");
+  app.add_option("--supervise-poses", c.train.supervise_poses,
+                 "Weight of a SUPERVISED loss on the pose network's relative poses against the datasets' own poses "
+                 "(rescaled to the estimated cameras; a departure from the self-supervised original; 0: off)");
+  app.add_option("--supervise-depth", c.train.supervise_depth,
+                 "Weight of an SfM loss on the predicted depth with the sources placed by the datasets' own relative "
+                 "poses (a departure like --supervise-poses; 0: off)");
+  app.add_option("--supervise-rotation-weight", c.train.supervise_rotation_weight,
+                 "Weight of the rotation term of the supervised pose loss against the translation term (default 5)");
+  app.add_option("--rotation-scale", c.rotation_scale,
+                 "Scale on the rotation half of the pose heads' twists (default: the config's or the weights', 0.01 "
+                 "as in the original; --weights keep their function, rescaled; a resumed run must give the same)");
   AddTrainOptions(app, &c);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (c.rotation_scale < 0 || !std::isfinite(c.rotation_scale)) {
+    throw InputError("--rotation-scale: expected > 0, got " + std::to_string(c.rotation_scale));
+  }
   if (!c.weights.empty() && !c.run.resume) {
     // The configuration is the starting weights'.
     const DbarfOptions expected = DbarfOptions::Named(c.config);
@@ -398,6 +435,71 @@ int RunDbarfEval(int argc, char** argv) {
       std::printf("novel views        %zu rendered: PSNR %.2f dB  SSIM %.4f\n", psnrs.size(), mean(psnrs), mean(ssims));
       std::printf("time               %.1f s (poses %.1f s)\n", timer.Seconds(), seconds_poses);
     }
+  }
+  return 0;
+}
+
+int RunDbarfEvalNet(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "The pose network's relative poses against ground truth, per dataset: each usable view as target, "
+                  "its view-graph neighbours as sources, the network starting from the identity (--pose-init network, "
+                  "the original) or from the estimated cameras; rotation error and translation-direction error (scale-"
+                  "free) averaged over the pairs, next to the error of the start (identity: the true rotation angle).",
+                  "nerfreg dbarf eval-net data/dbarf/val_*/transforms.json --weights runs/dbarf/net.pt");
+  std::vector<std::string> datasets;
+  std::string weights = DefaultDbarfWeights(), pose_init = "network", json_out;
+  int num_sources = 5;
+  DbarfSceneOptions scene_options;
+  app.add_option("datasets", datasets, "Datasets with ground-truth poses")->required();
+  app.add_option("--weights", weights, "DBARF weights (default: the shipped ones)");
+  app.add_option("--pose-init", pose_init, "network (from the identity) or cameras")->check(CLI::IsMember({"network", "cameras"}));
+  app.add_option("--sources", num_sources, "Sources per target (view-graph neighbours, best first)");
+  app.add_option("--json-out", json_out, "Also write the rows and means to this JSON file");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
+  DbarfModel model = LoadDbarfWeights(weights);
+  Json rows = Json::array();
+  double sum_rot = 0, sum_dir = 0, sum_start_rot = 0, sum_start_dir = 0;
+  int n = 0;
+  if (!common.json) std::printf("%-40s %7s %12s %12s %12s %12s\n", "dataset", "pairs", "start rot", "net rot", "start dir", "net dir");
+  for (const std::string& dataset : datasets) {
+    const LoadedDbarfScene loaded = LoadDbarfScene(dataset, scene_options);
+    if (!loaded.ground_truth.defined()) ThrowInputError(dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
+    const RelativePoseError net = EvaluateRelativePoses(model, loaded.scene, loaded.ground_truth, num_sources, pose_init);
+    // The start: the identity (rotation error = the true angle; direction undefined, 90 deg) or the cameras.
+    const RelativePoseError start = pose_init == "cameras"
+                                        ? EvaluateCameraRelativePoses(loaded.scene, loaded.ground_truth, num_sources)
+                                        : EvaluateIdentityRelativePoses(loaded.scene, loaded.ground_truth, num_sources);
+    rows.push_back({{"dataset", dataset}, {"pairs", net.pairs}, {"start_rotation_deg", start.rotation_deg},
+                    {"rotation_deg", net.rotation_deg}, {"start_translation_direction_deg", start.translation_deg},
+                    {"translation_direction_deg", net.translation_deg}});
+    if (!common.json) {
+      std::printf("%-40s %7d %12.3f %12.3f %12.2f %12.2f\n", dataset.c_str(), net.pairs, start.rotation_deg,
+                  net.rotation_deg, start.translation_deg, net.translation_deg);
+      std::fflush(stdout);
+    }
+    sum_rot += net.rotation_deg, sum_dir += net.translation_deg;
+    sum_start_rot += start.rotation_deg, sum_start_dir += start.translation_deg;
+    ++n;
+  }
+  const Json result = {{"weights", weights},
+                       {"pose_init", pose_init},
+                       {"sources", num_sources},
+                       {"datasets", n},
+                       {"start_rotation_deg", sum_start_rot / n},
+                       {"rotation_deg", sum_rot / n},
+                       {"start_translation_direction_deg", sum_start_dir / n},
+                       {"translation_direction_deg", sum_dir / n},
+                       {"rows", rows}};
+  if (!json_out.empty()) WriteJsonFile(json_out, result);
+  if (common.json) {
+    std::printf("%s\n", result.dump().c_str());
+  } else {
+    std::printf("%-40s %7s %12.3f %12.3f %12.2f %12.2f\n", "mean", "", sum_start_rot / n, sum_rot / n,
+                sum_start_dir / n, sum_dir / n);
   }
   return 0;
 }
