@@ -53,6 +53,10 @@ bool SamePose(const Sim3d& a, const Sim3d& b, double cell) {
   return RotationErrorDeg(a.rotation, b.rotation) < 2 && TranslationError(a.translation, b.translation) < cell;
 }
 
+// Below this confidence (FieldAgreement) reg register warns (docs/registration.md: right pairs
+// scored above it, blocks of different objects below).
+constexpr double kLowConfidence = 0.65;
+
 }  // namespace
 
 std::string RegistrationMethodName(RegistrationMethod m) { return kMethodNames.Name(m); }
@@ -437,28 +441,37 @@ class BlockRegistration {
     }
   }
 
+  // Every candidate's final pose scored on the same samples (around both blocks' occupied points)
+  // with the same measure, so candidates of different methods compare and the kept one's
+  // confidence means the same whichever method found it.
+  void Score() {
+    auto& cs = result_.candidates;
+    const FieldAgreementSamples samples =
+        DrawFieldAgreementSamples(occupied_.Source(), occupied_.Target(), grid_cell_, o_.field.max_samples, o_.seed);
+    const DensityField src = BlockDensityField(source_), tgt = BlockDensityField(target_);
+    std::vector<Sim3d> poses;
+    for (const auto& c : cs) poses.push_back(c.target_from_source);
+    std::vector<FieldAgreement> scores;
+    const size_t best = ChooseCandidate(src, tgt, samples, poses, o_.field.occupancy_scale, &scores);
+    for (size_t k = 0; k < cs.size(); ++k) cs[k].agreement = scores[k];
+    // Only field-refined candidates are compared: without kField there is one (auto falls back
+    // instead of choosing).
+    result_.chosen = o_.refine == RegistrationRefinement::kField ? best : 0;
+  }
+
   void Choose() {
     auto& cs = result_.candidates;
-    // A candidate's agreement: its final field cost; unverifiable (not refined, or too few samples
-    // inside both boxes, where the cost is an empty mean) counts as the worst.
-    auto field_cost = [](const RegistrationCandidate& c) {
-      return c.field.is_object() && c.field["samples"].get<int>() >= 10 ? c.field["final_cost"].get<double>() : 1e9;
-    };
-    size_t best = 0;
-    if (o_.refine == RegistrationRefinement::kField) {
-      for (size_t k = 0; k < cs.size(); ++k)
-        if (field_cost(cs[k]) < field_cost(cs[best])) best = k;
-    }
-    result_.chosen = best;
+    Score();
+    const size_t best = result_.chosen;
     const RegistrationCandidate& c = cs[best];
     result_.target_from_source = c.target_from_source;
     result_.method = c.method;
-    result_.confidence = c.method_score;
-    // Warn when no method vouches for an overlap (dreg's score is low on real blocks, so with auto
-    // the RANSAC fitness speaks too).
-    double strongest = 0;
-    for (const auto& k : cs) strongest = std::max(strongest, k.method_score);
-    if (strongest < 0.3) Warn(fmt::format("low confidence {:.2f}: the blocks may not overlap; do not trust this pose", strongest));
+    result_.confidence = c.agreement.confidence;
+    if (c.agreement.confidence < kLowConfidence) {
+      Warn(fmt::format("low confidence {:.2f}: the two fields disagree at the kept pose; the blocks may not overlap or the "
+                       "pose is wrong",
+                       c.agreement.confidence));
+    }
     // How many other refined candidates ended at the kept pose. On real blocks this is the signal
     // that tells: in 49 auto runs on held-out pairs (README) every pose another candidate shared
     // was right; of those none shared, 5 of 11 were wrong.
@@ -491,19 +504,30 @@ RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const Bl
   return BlockRegistration(source, target, options, net).Run();
 }
 
+namespace {
+
+Json AgreementJson(const FieldAgreement& g) {
+  return {{"confidence", g.confidence}, {"cost", g.cost}, {"inside_fraction", g.inside_fraction}, {"samples", g.samples}};
+}
+
+}  // namespace
+
 Json RegistrationResult::ToJson() const {
   const RegistrationCandidate& c = Chosen();
   Json others = Json::array();
   for (size_t k = 0; k < candidates.size(); ++k) {
     if (k == chosen) continue;
     const RegistrationCandidate& o = candidates[k];
-    others.push_back({{"method", o.method}, {"confidence", o.method_score}, {"field", o.field},
+    others.push_back({{"method", o.method}, {"confidence", o.agreement.confidence}, {"method_score", o.method_score},
+                      {"agreement", AgreementJson(o.agreement)}, {"field", o.field},
                       {"target_from_source", MatrixToJson(o.target_from_source.ToMatrix())}});
   }
   Json j = {{"target_from_source", MatrixToJson(target_from_source.ToMatrix())},
             {"scale", target_from_source.scale},
             {"field", c.field},
             {"confidence", confidence},
+            {"method_score", c.method_score},
+            {"agreement", AgreementJson(c.agreement)},
             {"seconds", seconds},
             {"method", method},
             {"fallback_from", fallback.is_null() ? Json() : fallback},
