@@ -8,6 +8,7 @@
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/reg/field_alignment.h"
@@ -476,105 +477,22 @@ int RunRegRegisterMany(int argc, char** argv) {
                   "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
                   "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
   std::vector<std::string> paths;
-  std::string out;
-  double min_density = BlockRegistrationOptions{}.min_density, voxel = 0.05, min_confidence = 0.3;
-  int max_points = 5000;
-  unsigned seed = 0;
+  std::string out, refine = "field";
+  ManyBlockRegistrationOptions o;
   app.add_option("blocks", paths, "Block checkpoints (the first defines the world frame)")->required()->expected(2, 1000);
   app.add_option("--out", out, "Output JSON")->required();
-  app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
-  app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
-  AddMaxPointsOption(app, &max_points);
-  app.add_option("--min-confidence", min_confidence, "Pairs below this fitness are not used (default 0.3)");
-  app.add_option("--seed", seed, "Random seed");
-  std::string refine = "field";
+  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
+  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
+  AddMaxPointsOption(app, &o.max_points);
+  app.add_option("--min-confidence", o.min_confidence, "Pairs below this fitness are not used (default 0.3)");
+  app.add_option("--seed", o.seed, "Random seed");
   app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
       ->check(CLI::IsMember({"icp", "field"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, paths);
-  Timer timer;
-  const int n = static_cast<int>(paths.size());
-  std::vector<Eigen::Matrix3Xd> clouds;
-  std::vector<NerfBlock> blocks;  // kept for --refine field only
-  for (const auto& p : paths) {
-    NerfBlock b = LoadNerfBlock(p);
-    clouds.push_back(PointsToEigen(ExtractOccupiedPoints(b, min_density, seed).xyz));
-    if (clouds.back().cols() < 100) LOG_WARN("{}: only {} occupied points", p, clouds.back().cols());
-    if (refine == "field") blocks.push_back(std::move(b));
-  }
-  const GridExtractionOptions grid_defaults;
-  ClassicalRegistrationOptions options;
-  options.voxel_size = voxel;
-  options.normal_radius = 2 * voxel;
-  options.feature_radius = 5 * voxel;
-  options.seed = seed;
-  options.max_points = max_points;
-  std::vector<PoseGraphEdge> edges;
-  Json edges_json = Json::array();
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
-      ClassicalRegistrationResult r = RegisterPointClouds(clouds[i], clouds[j], options);
-      const bool used = r.fitness >= min_confidence;
-      Json field = nullptr;
-      if (used && refine == "field") {
-        r.target_from_source = RefineOnFields(blocks[i], blocks[j], clouds[i], clouds[j], Sim3d(r.target_from_source),
-                                              FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
-                                   .ToRigid();
-      }
-      edges_json.push_back({{"source", i}, {"target", j}, {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
-                            {"confidence", r.fitness}, {"used", used}, {"field", field}});
-      if (!used) continue;
-      PoseGraphEdge e;
-      e.i = i;
-      e.j = j;
-      e.j_from_i = r.target_from_source;
-      e.weight = r.fitness;
-      edges.push_back(e);
-    }
-  }
-  // Pairs that disagree with their loops are dropped (a block of another object, a wrong
-  // registration), and named: the graph never silently fuses them.
-  std::vector<bool> dropped;
-  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
-  Json world_from_block = Json::array(), connected = Json::array();
-  for (int k = 0; k < n; ++k) {
-    // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
-    world_from_block.push_back(MatrixToJson(g.world_from_node[k].ToMatrix()));
-    connected.push_back(static_cast<bool>(g.connected[k]));
-    if (!g.connected[k]) LOG_WARN("{}: no confident registration links it to block 0; left at identity", paths[k]);
-  }
-  size_t used = 0;
-  std::vector<int> dropped_edges_of(n, 0), kept_edges_of(n, 0);
-  for (size_t e = 0, k = 0; e < edges_json.size(); ++e) {
-    if (!edges_json[e]["used"].get<bool>()) continue;
-    edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
-    edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
-    edges_json[e]["translation_residual"] = g.edge_translation_error[k];
-    const int i = edges[k].i, j = edges[k].j;
-    if (dropped[k]) {
-      edges_json[e]["used"] = false;
-      edges_json[e]["dropped"] = "disagrees with the other registrations of its loops";
-      ++dropped_edges_of[i];
-      ++dropped_edges_of[j];
-      LOG_WARN("{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
-               "belong to the scene)", paths[i], paths[j], g.edge_rotation_error_deg[k]);
-    } else {
-      ++kept_edges_of[i];
-      ++kept_edges_of[j];
-      ++used;
-    }
-    ++k;
-  }
-  for (int b = 0; b < n; ++b) {
-    if (dropped_edges_of[b] > 0 && dropped_edges_of[b] >= kept_edges_of[b]) {
-      LOG_WARN("{}: {} of its {} registrations disagree with the others: it may not belong to this scene", paths[b],
-               dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
-    }
-  }
-  const Json result = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
-                       {"seconds", timer.Seconds()}, {"blocks", paths}};
-  WriteJsonFile(out, result);
-  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", n, used, edges_json.size(), timer.Seconds());
+  o.refine = RegistrationRefinementFromName(refine);
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  WriteJsonFile(out, r.json);
+  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs, r.json["seconds"].get<double>());
   return 0;
 }
