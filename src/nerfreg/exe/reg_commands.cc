@@ -7,6 +7,7 @@
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/pipeline/evaluate_pairs.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/posegraph/pose_graph.h"
@@ -197,11 +198,6 @@ int RunRegRegister(int argc, char** argv) {
 
 namespace {
 
-struct EvalRow {
-  std::string pair, method;
-  double rotation_deg = 0, translation = 0, seconds = 0, confidence = 0, overlap = 0;
-};
-
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -226,86 +222,19 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
       net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
     }
   }
-  std::vector<EvalRow> rows;
-  bool warned_field = false;
+  PairEvaluationOptions eo;
+  eo.methods = methods;
+  eo.refines = refines;
+  eo.dreg_solvers = dreg_solvers;
+  eo.dreg_passes = dreg_passes;
+  eo.base = base;
+  eo.field = eval_field_options;
   std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
-  for (const auto& p : pairs) {
-    const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
-    // --refine field needs the blocks themselves: real pairs keep block_K.ckpt beside block_K.grid.
-    std::unique_ptr<NerfBlock> src_block, tgt_block;
-    std::unique_ptr<OccupiedPoints> occupied;  // block ICP's points, extracted once per pair
-    for (const auto& rf : refines) {
-      if ((rf != "field" && rf != "block-icp") || src_block) continue;
-      if (p.kind != "nerf") {
-        if (!warned_field) LOG_WARN("--refine {}: skipped on synthesised pairs (no NeRF blocks), e.g. {}", rf, p.name);
-        warned_field = true;
-        continue;
-      }
-      auto ckpt = [](const std::string& grid) { return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt"; };
-      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source)));
-      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target)));
-      occupied = std::make_unique<OccupiedPoints>(*src_block, *tgt_block, BlockRegistrationOptions{}.min_density, 0);
-    }
-    for (const auto& m : methods) {
-      for (const auto& solver : m == "dreg" ? dreg_solvers : std::vector<std::string>{"ransac"})
-      for (const int passes : m == "dreg" ? dreg_passes : std::vector<int>{1})
-      for (const auto& rf : refines) {
-        if ((rf == "field" || rf == "block-icp") && !src_block) continue;
-        GridRegistrationOptions o = base;  // the ICP's points, distance, half-turns and the voxel
-        o.method = m;
-        o.dreg_solver = solver;
-        o.dreg_passes = passes;
-        o.icp = rf != "none";
-        GridRegistrationResult r;
-        if (m == "truth") {
-          // The refinement floor: each refinement started at the ground truth; where it ends is
-          // what the two blocks' own disagreement costs, whatever found the coarse pose.
-          Timer timer;
-          r.method = "truth";
-          r.target_from_source = p.target_from_source;
-          r.confidence = 1;
-          if (o.icp) {
-            o.method = base.method;  // the coarse method's name is all RefineGridPose checks; none runs
-            const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
-            o.flips = false;                    // no half-turns of the truth
-            r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
-            r.method = "truth" + name.substr(name.find("+icp"));
-          }
-          r.seconds = timer.Seconds();
-        } else {
-          r = RegisterGrids(src, tgt, o, net.get());
-        }
-        if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
-          Json block_icp;
-          r.target_from_source = RefineOnBlockPoints(occupied->Source(), occupied->Target(),
-                                                     Sim3d::FromMatrix(r.target_from_source, 1e-3), base.voxel, &block_icp)
-                                     .ToMatrix();
-          r.seconds += block_icp["seconds"].get<double>();
-          r.method += "+block";
-        }
-        if (rf == "field") {
-          Json field;
-          r.target_from_source = RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
-                                                Sim3d::FromMatrix(r.target_from_source, 1e-3), eval_field_options, src.CellSize(),
-                                                &field, &src, &tgt)
-                                     .ToMatrix();
-          r.seconds += field["seconds"].get<double>();
-          r.method += "+field";
-        }
-        EvalRow row;
-        row.pair = p.name;
-        row.method = r.method;
-        row.seconds = r.seconds;
-        row.confidence = r.confidence;
-        row.overlap = p.overlap;
-        Errors(r.target_from_source, p.target_from_source, &row.rotation_deg, &row.translation);
-        rows.push_back(row);
-        std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
-                    row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
-        std::fflush(stdout);
-      }
-    }
-  }
+  const std::vector<PairEvaluation> rows = EvaluatePairs(pairs, eo, net.get(), [](const PairEvaluation& row) {
+    std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
+                row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
+    std::fflush(stdout);
+  });
   // Summary per method: mean, median, success at (5 deg, 0.05 extent) and (10 deg, 0.1 extent).
   Json summary = Json::object();
   std::printf("\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
@@ -313,7 +242,7 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   std::vector<std::string> names;
   for (const auto& r : rows)
     if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
-  auto success = [](const EvalRow& r, double deg, double fraction) {
+  auto success = [](const PairEvaluation& r, double deg, double fraction) {
     return r.rotation_deg <= deg && r.translation / 2.5 <= fraction;
   };
   for (const auto& name : names) {
@@ -338,8 +267,8 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   }
   // Success by overlap: a set that mixes pair overlaps (the 4-block splits: 0.49-0.96) hides in one
   // rate whether a method fails only the low-overlap pairs, the case a learned registrar must win.
-  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const EvalRow& r) { return r.overlap < overlap_threshold; }) &&
-                     std::any_of(rows.begin(), rows.end(), [&](const EvalRow& r) { return r.overlap >= overlap_threshold; });
+  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap < overlap_threshold; }) &&
+                     std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap >= overlap_threshold; });
   if (mixed) {
     char below[32], above[32];
     std::snprintf(below, sizeof below, "overlap < %.2f", overlap_threshold);
