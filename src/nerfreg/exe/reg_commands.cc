@@ -204,38 +204,9 @@ double Median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
-// `reg eval --pairs`: every method on every pair's grids, one table.
-int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
-              const std::vector<std::string>& dreg_solvers, const std::vector<int>& dreg_passes, const std::string& split,
-              const std::string& weights, const GridRegistrationOptions& base, int max_pairs, double overlap_threshold,
-              const FieldAlignmentOptions& eval_field_options, const std::string& out) {
-  std::vector<PairRecord> pairs;
-  for (const auto& p : ReadPairs(pairs_path))
-    if (split == "all" || p.split == split) pairs.push_back(p);
-  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
-  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
-  std::unique_ptr<DregNet> net;
-  for (const auto& m : methods) {
-    if (m == "dreg" && !net) {
-      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
-      DregModelOptions mo;
-      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
-    }
-  }
-  PairEvaluationOptions eo;
-  eo.methods = methods;
-  eo.refines = refines;
-  eo.dreg_solvers = dreg_solvers;
-  eo.dreg_passes = dreg_passes;
-  eo.base = base;
-  eo.field = eval_field_options;
-  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
-  const std::vector<PairEvaluation> rows = EvaluatePairs(pairs, eo, net.get(), [](const PairEvaluation& row) {
-    std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
-                row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
-    std::fflush(stdout);
-  });
-  // Summary per method: mean, median, success at (5 deg, 0.05 extent) and (10 deg, 0.1 extent).
+// Prints the summary per method (mean, median, success at 5 deg / 0.05 and 10 deg / 0.1 of the
+// extent, and by overlap when the pairs mix overlaps) and returns it.
+Json SummariseRows(const std::vector<PairEvaluation>& rows, double overlap_threshold) {
   Json summary = Json::object();
   std::printf("\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
               "succ 5/.05", "succ 10/.1", "med time");
@@ -290,6 +261,32 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
       std::printf("%-20s %16s %16s\n", name.c_str(), (std::to_string(ok_low) + " of " + std::to_string(n_low)).c_str(),
                   (std::to_string(ok_high) + " of " + std::to_string(n_high)).c_str());
   }
+  return summary;
+}
+
+// `reg eval --pairs`: every method on every pair's grids, one table.
+int EvalPairs(const std::string& pairs_path, const PairEvaluationOptions& eo, const std::string& split, const std::string& weights,
+              int max_pairs, double overlap_threshold, const std::string& out) {
+  std::vector<PairRecord> pairs;
+  for (const auto& p : ReadPairs(pairs_path))
+    if (split == "all" || p.split == split) pairs.push_back(p);
+  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
+  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
+  std::unique_ptr<DregNet> net;
+  for (const auto& m : eo.methods) {
+    if (m == "dreg" && !net) {
+      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
+      DregModelOptions mo;
+      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
+    }
+  }
+  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+  const std::vector<PairEvaluation> rows = EvaluatePairs(pairs, eo, net.get(), [](const PairEvaluation& row) {
+    std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
+                row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
+    std::fflush(stdout);
+  });
+  const Json summary = SummariseRows(rows, overlap_threshold);
   if (!out.empty()) {
     Json table = Json::array();
     for (const auto& r : rows) {
@@ -357,18 +354,11 @@ int RunRegEval(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
   if (!pairs_path.empty()) {
-    for (const auto& m : methods)
-      if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth") {
-        ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
-      }
-    for (const auto& r : refines)
-      if (r != "none" && r != "icp" && r != "block-icp" && r != "field") ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
-    for (const auto& s : dreg_solvers)
-      if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
     base.voxel = voxel;
     base.flips = !no_flips;
-    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, base, max_pairs, overlap_threshold,
-                     eval_field_options, out);
+    const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options};
+    eo.Check();
+    return EvalPairs(pairs_path, eo, split, weights, max_pairs, overlap_threshold, out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);
