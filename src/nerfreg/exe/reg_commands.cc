@@ -7,6 +7,9 @@
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/pipeline/evaluate_pairs.h"
+#include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/reg/field_alignment.h"
@@ -88,85 +91,74 @@ std::string DefaultDregWeights() {
 // else FPFH + RANSAC.
 std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()) ? "auto" : "ransac"; }
 
-// --refine field: the pose (after ICP) refined on the blocks' density fields; `json` records it.
-// `src_grid`, `tgt_grid` (optional): the blocks' registration grids, which tell where each block's
-// cameras saw a surface (FieldAlignmentOptions::overlap_only).
-Eigen::Matrix4d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
-                               const Eigen::Matrix3Xd& tgt_points, const Eigen::Matrix4d& target_from_source,
-                               FieldAlignmentOptions options, double spread, Json* json, const RegGrid* src_grid = nullptr,
-                               const RegGrid* tgt_grid = nullptr) {
-  const Sim3d start = Sim3d::FromMatrix(target_from_source, 1e-3);
-  options.sample_spread = spread;
-  DensityField src_field = BlockDensityField(source), tgt_field = BlockDensityField(target);
-  if (src_grid && tgt_grid) {
-    src_field.seen = SeenFromGrid(*src_grid);
-    tgt_field.seen = SeenFromGrid(*tgt_grid);
-  }
-  const FieldAlignmentResult f =
-      AlignFields(src_field, tgt_field, src_points, tgt_points, start.ToRigid(), options, start.scale);
-  if (f.iterations == 0) LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
-  *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
-           {"samples", f.samples}, {"seconds", f.seconds}, {"before", MatrixToJson(target_from_source)}};
-  if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
-  return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation).ToMatrix();
-}
+namespace {
 
-// ICP again on the blocks' occupied points (`src`, `tgt`: [3, N], ExtractOccupiedPoints: one
-// jittered point per occupied cell of each block's own density grid, the classical pipeline's
-// cloud), after ICP on the registration grids. ICP on the D = 32 grids, started at the true pose,
-// drifts to a median 1 deg on 2-block pairs and 4.4 deg on 4-block ones (README); on the finer
-// points, point-to-plane at `voxel` with correspondences within 2 voxels, it lands closer
-// (held-out 4-block pairs: successes 39 -> 69 %). It only polishes a pose already in its basin.
-// `json` records the ICP's fitness (the share of source points with a target point within reach);
-// it is no overlap check: three pairs of blocks of different objects reached 0.33, 0.79 and 0.97.
-Eigen::Matrix4d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                                    const Eigen::Matrix4d& target_from_source, double voxel, Json* json) {
-  if (src.cols() < 3 || tgt.cols() < 3) {
-    LOG_WARN("block ICP: fewer than 3 occupied points in a block; pose left as it was");
-    *json = {{"fitness", 0.0}, {"seconds", 0.0}, {"source_points", src.cols()}, {"target_points", tgt.cols()}};
-    return target_from_source;
-  }
-  ClassicalRegistrationOptions o;
-  o.voxel_size = voxel;
-  o.normal_radius = 2 * voxel;
-  const Sim3d start = Sim3d::FromMatrix(target_from_source, 1e-3);
-  // A Sim(3) start (the paper config's scale solve): the rigid ICP aligns the scaled source.
-  const ClassicalRegistrationResult r = RefineWithIcp(start.scale * src, tgt, start.ToRigid(), o);
-  *json = {{"fitness", r.fitness}, {"inlier_rmse", r.inlier_rmse}, {"seconds", r.seconds},
-           {"before", MatrixToJson(target_from_source)}};
-  return Sim3d(start.scale, r.target_from_source.rotation, r.target_from_source.translation).ToMatrix();
-}
-
-// Density above which a block's cell gives an occupied point (reg register's --min-density).
-constexpr double kOccupiedMinDensity = 5.0;
-
-// A pair of blocks' occupied points, extracted on first use (block ICP and the classical
-// methods share them: 0.2-0.5 s for the two blocks of a held-out pair).
-class OccupiedPoints {
- public:
-  OccupiedPoints(NerfBlock& source, NerfBlock& target, double min_density, unsigned seed)
-      : source_(source), target_(target), min_density_(min_density), seed_(seed) {}
-  const Eigen::Matrix3Xd& Source() { Extract(); return src_; }  // [3, N]
-  const Eigen::Matrix3Xd& Target() { Extract(); return tgt_; }  // [3, M]
-  double Seconds() const { return seconds_; }
-
- private:
-  void Extract() {
-    if (done_) return;
-    Timer timer;
-    src_ = PointsToEigen(ExtractOccupiedPoints(source_, min_density_, seed_).xyz);
-    tgt_ = PointsToEigen(ExtractOccupiedPoints(target_, min_density_, seed_).xyz);
-    seconds_ = timer.Seconds();
-    done_ = true;
-  }
-  NerfBlock& source_;
-  NerfBlock& target_;
-  double min_density_;
-  unsigned seed_;
-  bool done_ = false;
-  double seconds_ = 0;
-  Eigen::Matrix3Xd src_, tgt_;
+// reg register's flags, as typed: the enums are parsed after CLI11 has checked the names.
+struct RegisterFlags {
+  std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes";
+  bool no_flips = false, no_block_icp = false;
+  BlockRegistrationOptions options;
 };
+
+void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
+  BlockRegistrationOptions& o = f->options;
+  o.weights = DefaultDregWeights();
+  app.add_option("source", f->source, "Source block checkpoint")->required();
+  app.add_option("target", f->target, "Target block checkpoint")->required();
+  app.add_option("--out", f->out, "Output JSON")->required();
+  app.add_option("--method", f->method,
+                 "auto (default with weights: dreg and ransac, each refined, the one whose fields agree best on common "
+                 "samples kept; without --refine field: dreg, then ransac when dreg's confidence < --min-confidence), "
+                 "dreg, ransac or fgr")
+      ->check(CLI::IsMember({"auto", "ransac", "fgr", "dreg"}));
+  app.add_option("--min-confidence", o.min_confidence,
+                 "auto without --refine field: dreg answers below this confidence fall back to ransac (0.3)");
+  app.add_option("--refine", f->refine,
+                 "none, icp (point-to-plane ICP; on the grids see --icp-points, --no-flips, then again on the blocks' "
+                 "occupied points, see --no-block-icp) or field (ICP, then the two density fields aligned: finer than "
+                 "the grid)")
+      ->check(CLI::IsMember({"none", "icp", "field"}));
+  app.add_option("--field-iterations", o.field.iterations, "field: Levenberg-Marquardt iterations at most (default 30)");
+  app.add_option("--field-occupancy-scale", o.field.occupancy_scale,
+                 "field: occupancy = 1 - exp(-scale * density) (default 0.05)");
+  app.add_option("--field-samples", o.field.max_samples, "field: samples per block at most (default 6000)");
+  app.add_option("--weights", o.weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
+  app.add_option("--grid-resolution", o.grid.resolution,
+                 "dreg: grid voxels per side (default 32, as the shipped weights were trained)");
+  app.add_option("--config", o.config, "dreg: require weights of this network config (cpu or paper)")
+      ->check(CLI::IsMember({"cpu", "paper"}));
+  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
+  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
+  AddMaxPointsOption(app, &o.max_points);
+  AddIcpOptions(app, &o.icp_points, &f->no_flips, &o.icp_distance);
+  app.add_option("--seed", o.seed, "Random seed");
+  app.add_option("--dreg-solver", f->dreg_solver,
+                 "dreg: pose from the network's correspondences by procrustes (default: the paper's weighted Kabsch "
+                 "over all of them) or ransac (RANSAC over them, then Kabsch on its inliers)")
+      ->check(CLI::IsMember({"ransac", "procrustes"}));
+  app.add_option("--dreg-passes", o.dreg_passes,
+                 "dreg: network passes; each after the first re-runs the network on the source moved by the pose so "
+                 "far (default 1, as the paper)")
+      ->check(CLI::Range(1, 10));
+  app.add_flag("--no-block-icp", f->no_block_icp,
+               "Grids (dreg, auto): ICP on the grids only, not again on the blocks' occupied points (by default it "
+               "runs after ICP on the grids, before --refine field)");
+}
+
+// The network for dreg / auto: the weights must exist and, with --config, be of that config.
+DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
+  if (o.weights.empty() || !FileExists(o.weights)) {
+    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
+  }
+  DregModelOptions model_options;
+  DregNet net = LoadDregWeights(o.weights, &model_options);
+  if (!o.config.empty()) {
+    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), o.weights);
+  }
+  return net;
+}
+
+}  // namespace
 
 int RunRegRegister(int argc, char** argv) {
   CLI::App app;
@@ -177,266 +169,34 @@ int RunRegRegister(int argc, char** argv) {
                   "block's frame into the target's. Methods: ransac (FPFH + RANSAC), fgr (FPFH + fast global "
                   "registration), dreg (the learned DReg-NeRF network; needs trained weights), auto (dreg and "
                   "ransac, the best on the fields kept). Refinement: icp (on the grids, then on the blocks' occupied "
-                  "points), then by default field (the two density fields aligned). Writes T.json and before/after "
-                  "overlay pictures beside it.",
+                  "points), then by default field (the two density fields aligned). Writes T.json (with the options "
+                  "used) and before/after overlay pictures beside it.",
                   "nerfreg reg register runs/block_0.ckpt runs/block_1.ckpt --out runs/target_from_source.json");
-  std::string source_path, target_path, out, method = DefaultRegistrationMethod(), refine = "field", weights = DefaultDregWeights();
-  GridExtractionOptions grid_options;
-  double min_density = kOccupiedMinDensity, voxel = 0.05;
-  int max_points = 5000;
-  unsigned seed = 0;
-  app.add_option("source", source_path, "Source block checkpoint")->required();
-  app.add_option("target", target_path, "Target block checkpoint")->required();
-  app.add_option("--out", out, "Output JSON")->required();
-  app.add_option("--method", method,
-                 "auto (default with weights: dreg and ransac, each refined, the one whose fields agree best kept; "
-                 "without --refine field: dreg, then ransac when dreg's confidence < --min-confidence), dreg, ransac or "
-                 "fgr")
-      ->check(CLI::IsMember({"auto", "ransac", "fgr", "dreg"}));
-  double min_confidence = 0.3;
-  app.add_option("--min-confidence", min_confidence,
-                 "auto without --refine field: dreg answers below this confidence fall back to ransac (0.3)");
-  app.add_option("--refine", refine,
-                 "none, icp (point-to-plane ICP; on the grids see --icp-points, --no-flips, then again on the blocks' "
-                 "occupied points, see --no-block-icp) or field (ICP, then the two density fields aligned: finer than "
-                 "the grid)")
-      ->check(CLI::IsMember({"none", "icp", "field"}));
-  FieldAlignmentOptions field_options;
-  app.add_option("--field-iterations", field_options.iterations, "field: Levenberg-Marquardt iterations at most (default 30)");
-  app.add_option("--field-occupancy-scale", field_options.occupancy_scale,
-                 "field: occupancy = 1 - exp(-scale * density) (default 0.05)");
-  app.add_option("--field-samples", field_options.max_samples, "field: samples per block at most (default 6000)");
-  app.add_option("--weights", weights, "DReg-NeRF weights (method dreg; default: the shipped models/dreg_cpu.pt)");
-  app.add_option("--grid-resolution", grid_options.resolution, "dreg: grid voxels per side (default 32, as the shipped weights were trained)");
-  std::string config;
-  app.add_option("--config", config, "dreg: require weights of this network config (cpu or paper)")->check(CLI::IsMember({"cpu", "paper"}));
-  app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
-  app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
-  AddMaxPointsOption(app, &max_points);
-  std::string icp_points = GridRegistrationOptions{}.icp_points;
-  bool no_flips = false;
-  double icp_distance = GridRegistrationOptions::kDefaultIcpDistance;
-  AddIcpOptions(app, &icp_points, &no_flips, &icp_distance);
-  app.add_option("--seed", seed, "Random seed");
-  std::string dreg_solver = "procrustes";
-  app.add_option("--dreg-solver", dreg_solver,
-                 "dreg: pose from the network's correspondences by procrustes (default: the paper's weighted Kabsch "
-                 "over all of them) or ransac (RANSAC over them, then Kabsch on its inliers)")
-      ->check(CLI::IsMember({"ransac", "procrustes"}));
-  int dreg_passes = 1;
-  app.add_option("--dreg-passes", dreg_passes,
-                 "dreg: network passes; each after the first re-runs the network on the source moved by the pose so "
-                 "far (default 1, as the paper)")
-      ->check(CLI::Range(1, 10));
-  bool no_block_icp = false;
-  app.add_flag("--no-block-icp", no_block_icp,
-               "Grids (dreg, auto): ICP on the grids only, not again on the blocks' occupied points (by default it "
-               "runs after ICP on the grids, before --refine field)");
+  RegisterFlags f;
+  AddRegisterFlags(app, &f);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force, {source_path, target_path, weights});
-  field_options.Check();
-  grid_options.Check();
-  // The network's 3D backbone halves the grid four times (reg/backbone.h).
-  if ((method == "dreg" || method == "auto") && grid_options.resolution % 16 != 0) {
-    ThrowInputError("--grid-resolution", "", "a multiple of 16 for the network (--method dreg or auto), got " +
-                                                 std::to_string(grid_options.resolution));
-  }
+  BlockRegistrationOptions& o = f.options;
+  CheckCanWriteOutput(f.out, common.force, {f.source, f.target, o.weights});
+  o.method = RegistrationMethodFromName(f.method);
+  o.refine = RegistrationRefinementFromName(f.refine);
+  o.dreg_solver = DregSolverFromName(f.dreg_solver);
+  o.flips = !f.no_flips;
+  o.block_icp = !f.no_block_icp;
+  o.Check();
   Timer timer;
-  NerfBlock source = LoadNerfBlock(source_path), target = LoadNerfBlock(target_path);
-  OccupiedPoints occupied(source, target, min_density, seed);
-  // Each method run gives a candidate; with --refine field each is refined on the fields, and
-  // when there are several (auto) the one whose fields agree best (lowest final occupancy cost)
-  // is kept: the fields are the strongest check available (README: on the 4-block split a wrong
-  // pose ends at cost 0.17-0.19, a right one at 0.08-0.12).
-  struct Candidate {
-    std::string method;
-    Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
-    double scale = 1, confidence = 0;
-    Json field = nullptr, extra = Json::object();
-    Eigen::Matrix3Xd src, tgt;  // the points it registered (for the overlays)
-  };
-  std::vector<Candidate> candidates;
-  Json fallback;
-  const double grid_cell = grid_options.side / grid_options.resolution;
-  bool run_classical = method == "ransac" || method == "fgr";
-  if (method == "dreg" || method == "auto") {
-    if (weights.empty() || !FileExists(weights)) {
-      ThrowInputError(weights.empty() ? "--weights" : weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
-    }
-    DregModelOptions model_options;
-    DregNet net = LoadDregWeights(weights, &model_options);
-    if (!config.empty()) {
-      CheckDregOptionsMatch(model_options, config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), weights);
-    }
-    Timer t_grid;
-    grid_options.seed = seed;
-    const RegGrid gs = ExtractRegGrid(source, grid_options), gt = ExtractRegGrid(target, grid_options);
-    const double grid_seconds = t_grid.Seconds();
-    GridRegistrationOptions ro;
-    ro.method = "dreg";
-    ro.dreg_solver = dreg_solver;
-    ro.dreg_passes = dreg_passes;
-    ro.icp = refine != "none";
-    ro.icp_points = icp_points;
-    ro.flips = !no_flips;
-    ro.icp_distance = icp_distance;
-    ro.voxel = voxel;
-    ro.seed = seed;
-    const GridRegistrationResult r = RegisterGrids(gs, gt, ro, &net);
-    if (r.source_points < 100 || r.target_points < 100) {
-      LOG_WARN("{}: few surface voxels (source {}, target {}): is a block empty?", out, r.source_points, r.target_points);
-    }
-    Candidate c;
-    c.method = r.method;
-    c.target_from_source = r.target_from_source;
-    c.scale = r.scale;
-    c.confidence = r.confidence;
-    c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds}, {"weights", weights}, {"half_turn", r.flip},
-               {"source_points", r.source_points}, {"target_points", r.target_points}};
-    c.src = PointsToEigen(gs.MaskedXyz());
-    c.tgt = PointsToEigen(gt.MaskedXyz());
-    // auto without --refine field drops a low-confidence dreg answer for RANSAC: no block ICP then.
-    const bool falls_back = method == "auto" && refine != "field" && r.confidence < min_confidence;
-    const bool block_icp = ro.icp && !no_block_icp;
-    if (block_icp && !falls_back) {
-      c.target_from_source =
-          RefineOnBlockPoints(occupied.Source(), occupied.Target(), c.target_from_source, voxel, &c.extra["block_icp"]);
-      c.method += "+block";
-    }
-    candidates.push_back(c);
-    if (method == "auto") {
-      if (refine == "field") {
-        // FPFH + RANSAC on the same grids too: on the surface points of a grid it registers pairs
-        // it fails on the blocks' occupied points, and the other way round (README).
-        GridRegistrationOptions rg = ro;
-        rg.method = "ransac";
-        const GridRegistrationResult g = RegisterGrids(gs, gt, rg, nullptr);
-        Candidate cg = c;
-        cg.method = "ransac-grid" + std::string(rg.icp ? "+icp" : "");
-        cg.target_from_source = g.target_from_source;
-        cg.scale = 1;
-        cg.confidence = g.confidence;
-        cg.extra = {{"grid_seconds", grid_seconds}, {"register_seconds", g.seconds}, {"source_points", g.source_points},
-                    {"target_points", g.target_points}};
-        if (block_icp) {
-          cg.target_from_source =
-              RefineOnBlockPoints(occupied.Source(), occupied.Target(), cg.target_from_source, voxel, &cg.extra["block_icp"]);
-          cg.method += "+block";
-        }
-        candidates.push_back(cg);
-        run_classical = true;  // and on the occupied points; the fields choose below
-      } else if (falls_back) {
-        LOG_WARN("{}: DReg-NeRF confidence {:.2f} < {:.2f}: falling back to FPFH + RANSAC", out, r.confidence, min_confidence);
-        fallback = {{"method", r.method}, {"confidence", r.confidence}, {"target_from_source", MatrixToJson(r.target_from_source)}};
-        candidates.clear();
-        run_classical = true;
-      }
-    }
-  }
-  if (run_classical) {
-    Candidate c;
-    c.src = occupied.Source();
-    c.tgt = occupied.Target();
-    const double points_seconds = occupied.Seconds();
-    if (c.src.cols() < 100 || c.tgt.cols() < 100) {
-      LOG_WARN("{}: too few occupied points (source {}, target {}); registration is unreliable", out, c.src.cols(), c.tgt.cols());
-    }
-    ClassicalRegistrationOptions options;
-    options.method = method == "fgr" ? "fgr" : "ransac";
-    options.icp = refine != "none";
-    options.voxel_size = voxel;
-    options.normal_radius = 2 * voxel;
-    options.feature_radius = 5 * voxel;
-    options.seed = seed;
-    options.max_points = max_points;
-    ClassicalRegistrationResult r;
-    if (c.src.cols() >= 3 && c.tgt.cols() >= 3) r = RegisterPointClouds(c.src, c.tgt, options);
-    c.method = options.method + (options.icp ? "+icp" : "");
-    c.target_from_source = r.target_from_source.ToMatrix();
-    c.confidence = r.fitness;
-    c.extra = {{"inlier_rmse", r.inlier_rmse}, {"points_seconds", points_seconds}, {"register_seconds", r.seconds},
-               {"source_points", c.src.cols()}, {"target_points", c.tgt.cols()}, {"feature_voxel", r.feature_voxel},
-               {"feature_points", {r.source_points, r.target_points}}};
-    candidates.push_back(c);
-  }
-  // A candidate's agreement: its final field cost; unverifiable (not refined, or too few samples
-  // inside both boxes, where the cost is an empty mean) counts as the worst.
-  auto field_cost = [](const Candidate& c) {
-    return c.field.is_object() && c.field["samples"].get<int>() >= 10 ? c.field["final_cost"].get<double>() : 1e9;
-  };
-  size_t best = 0;
-  if (refine == "field") {
-    std::vector<Eigen::Matrix4d> starts;
-    for (const Candidate& c : candidates) starts.push_back(c.target_from_source);
-    for (size_t k = 0; k < candidates.size(); ++k) {
-      Candidate& c = candidates[k];
-      if (c.src.cols() < 3 || c.tgt.cols() < 3) continue;
-      // A start within 2 deg and one grid cell of an earlier candidate's converges where that one
-      // did (the refinement recovers 4 deg): it is refined once (0.06-0.9 s each on the held-out
-      // pairs). With auto the candidates agree on most pairs.
-      size_t same = k;
-      for (size_t j = 0; j < k && same == k; ++j) {
-        double rot_deg, trans;
-        Errors(starts[k], starts[j], &rot_deg, &trans);
-        if (candidates[j].field.is_object() && rot_deg < 2 && trans < grid_cell) same = j;
-      }
-      if (same < k) {
-        c.target_from_source = candidates[same].target_from_source;
-        c.field = candidates[same].field;
-        c.field["refined_with"] = candidates[same].method;
-      } else {
-        c.target_from_source = RefineOnFields(source, target, c.src, c.tgt, c.target_from_source, field_options, grid_cell, &c.field);
-      }
-      c.method += "+field";
-      if (field_cost(c) < field_cost(candidates[best])) best = k;
-    }
-  }
-  const Candidate& c = candidates[best];
-  // Warn when no method vouches for an overlap (dreg's score is low on real blocks, so with auto
-  // the RANSAC fitness speaks too).
-  double strongest = 0;
-  for (const Candidate& k : candidates) strongest = std::max(strongest, k.confidence);
-  if (strongest < 0.3) LOG_WARN("{}: low confidence {:.2f}: the blocks may not overlap; do not trust this pose", out, strongest);
-  // With several refined candidates, how many others ended at the kept pose (within 2 deg and a
-  // grid cell). On real blocks this is the signal that tells: in 49 `auto` runs on held-out pairs
-  // (README) every pose that another candidate shared was right (38 of 38); of the 11 that none
-  // shared, 5 were wrong. Neither the network's confidence, the ICP fitness nor the field cost
-  // separates right from wrong there.
-  int agreeing = 0;
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    if (k == best || !candidates[k].field.is_object()) continue;
-    double rot_deg, trans;
-    Errors(candidates[k].target_from_source, c.target_from_source, &rot_deg, &trans);
-    agreeing += rot_deg < 2 && trans < grid_cell;
-  }
-  const bool checked = refine == "field" && candidates.size() > 1;
-  if (checked && agreeing == 0) {
-    LOG_WARN("{}: no other candidate ({} tried) ended at the kept pose: it may be wrong; check the overlays", out,
-             candidates.size());
-  }
-  Json others = Json::array();
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    if (k == best) continue;
-    others.push_back({{"method", candidates[k].method}, {"confidence", candidates[k].confidence},
-                      {"field", candidates[k].field}, {"target_from_source", MatrixToJson(candidates[k].target_from_source)}});
-  }
-  Json result = {{"target_from_source", MatrixToJson(c.target_from_source)}, {"scale", c.scale}, {"field", c.field},
-                 {"confidence", c.confidence}, {"seconds", timer.Seconds()}, {"method", c.method},
-                 {"fallback_from", fallback.is_null() ? Json() : fallback}, {"not_chosen", others},
-                 {"agreeing_candidates", checked ? Json(agreeing) : Json()}};
-  result.update(c.extra);
-  WriteJsonFile(out, result);
-  WriteOverlays(out, c.src, c.tgt, Sim3d::FromMatrix(c.target_from_source, 1e-3));
-  std::printf("%s\n", result.dump().c_str());
+  NerfBlock source = LoadNerfBlock(f.source), target = LoadNerfBlock(f.target);
+  std::unique_ptr<DregNet> net;
+  if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
+  RegistrationResult r = RegisterBlocks(source, target, o, net.get());
+  r.seconds = timer.Seconds();  // T.json's seconds: the whole command, loading included
+  const Json json = r.ToJson();
+  WriteJsonFile(f.out, json);
+  WriteOverlays(f.out, r.Chosen().source_points, r.Chosen().target_points, r.target_from_source);
+  std::printf("%s\n", json.dump().c_str());
   return 0;
 }
 
 namespace {
-
-struct EvalRow {
-  std::string pair, method;
-  double rotation_deg = 0, translation = 0, seconds = 0, confidence = 0, overlap = 0;
-};
 
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -444,109 +204,16 @@ double Median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
-// `reg eval --pairs`: every method on every pair's grids, one table.
-int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& methods, const std::vector<std::string>& refines,
-              const std::vector<std::string>& dreg_solvers, const std::vector<int>& dreg_passes, const std::string& split,
-              const std::string& weights, const GridRegistrationOptions& base, int max_pairs, double overlap_threshold,
-              const FieldAlignmentOptions& eval_field_options, const std::string& out) {
-  std::vector<PairRecord> pairs;
-  for (const auto& p : ReadPairs(pairs_path))
-    if (split == "all" || p.split == split) pairs.push_back(p);
-  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
-  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
-  std::unique_ptr<DregNet> net;
-  for (const auto& m : methods) {
-    if (m == "dreg" && !net) {
-      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
-      DregModelOptions mo;
-      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
-    }
-  }
-  std::vector<EvalRow> rows;
-  bool warned_field = false;
-  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
-  for (const auto& p : pairs) {
-    const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
-    // --refine field needs the blocks themselves: real pairs keep block_K.ckpt beside block_K.grid.
-    std::unique_ptr<NerfBlock> src_block, tgt_block;
-    std::unique_ptr<OccupiedPoints> occupied;  // block ICP's points, extracted once per pair
-    for (const auto& rf : refines) {
-      if ((rf != "field" && rf != "block-icp") || src_block) continue;
-      if (p.kind != "nerf") {
-        if (!warned_field) LOG_WARN("--refine {}: skipped on synthesised pairs (no NeRF blocks), e.g. {}", rf, p.name);
-        warned_field = true;
-        continue;
-      }
-      auto ckpt = [](const std::string& grid) { return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt"; };
-      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source)));
-      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target)));
-      occupied = std::make_unique<OccupiedPoints>(*src_block, *tgt_block, kOccupiedMinDensity, 0);
-    }
-    for (const auto& m : methods) {
-      for (const auto& solver : m == "dreg" ? dreg_solvers : std::vector<std::string>{"ransac"})
-      for (const int passes : m == "dreg" ? dreg_passes : std::vector<int>{1})
-      for (const auto& rf : refines) {
-        if ((rf == "field" || rf == "block-icp") && !src_block) continue;
-        GridRegistrationOptions o = base;  // the ICP's points, distance, half-turns and the voxel
-        o.method = m;
-        o.dreg_solver = solver;
-        o.dreg_passes = passes;
-        o.icp = rf != "none";
-        GridRegistrationResult r;
-        if (m == "truth") {
-          // The refinement floor: each refinement started at the ground truth; where it ends is
-          // what the two blocks' own disagreement costs, whatever found the coarse pose.
-          Timer timer;
-          r.method = "truth";
-          r.target_from_source = p.target_from_source;
-          r.confidence = 1;
-          if (o.icp) {
-            o.method = base.method;  // the coarse method's name is all RefineGridPose checks; none runs
-            const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
-            o.flips = false;                    // no half-turns of the truth
-            r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
-            r.method = "truth" + name.substr(name.find("+icp"));
-          }
-          r.seconds = timer.Seconds();
-        } else {
-          r = RegisterGrids(src, tgt, o, net.get());
-        }
-        if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
-          Json block_icp;
-          r.target_from_source =
-              RefineOnBlockPoints(occupied->Source(), occupied->Target(), r.target_from_source, base.voxel, &block_icp);
-          r.seconds += block_icp["seconds"].get<double>();
-          r.method += "+block";
-        }
-        if (rf == "field") {
-          Json field;
-          r.target_from_source = RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
-                                                r.target_from_source, eval_field_options, src.CellSize(), &field, &src, &tgt);
-          r.seconds += field["seconds"].get<double>();
-          r.method += "+field";
-        }
-        EvalRow row;
-        row.pair = p.name;
-        row.method = r.method;
-        row.seconds = r.seconds;
-        row.confidence = r.confidence;
-        row.overlap = p.overlap;
-        Errors(r.target_from_source, p.target_from_source, &row.rotation_deg, &row.translation);
-        rows.push_back(row);
-        std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
-                    row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
-        std::fflush(stdout);
-      }
-    }
-  }
-  // Summary per method: mean, median, success at (5 deg, 0.05 extent) and (10 deg, 0.1 extent).
+// Prints the summary per method (mean, median, success at 5 deg / 0.05 and 10 deg / 0.1 of the
+// extent, and by overlap when the pairs mix overlaps) and returns it.
+Json SummariseRows(const std::vector<PairEvaluation>& rows, double overlap_threshold) {
   Json summary = Json::object();
   std::printf("\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
               "succ 5/.05", "succ 10/.1", "med time");
   std::vector<std::string> names;
   for (const auto& r : rows)
     if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
-  auto success = [](const EvalRow& r, double deg, double fraction) {
+  auto success = [](const PairEvaluation& r, double deg, double fraction) {
     return r.rotation_deg <= deg && r.translation / 2.5 <= fraction;
   };
   for (const auto& name : names) {
@@ -571,8 +238,8 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
   }
   // Success by overlap: a set that mixes pair overlaps (the 4-block splits: 0.49-0.96) hides in one
   // rate whether a method fails only the low-overlap pairs, the case a learned registrar must win.
-  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const EvalRow& r) { return r.overlap < overlap_threshold; }) &&
-                     std::any_of(rows.begin(), rows.end(), [&](const EvalRow& r) { return r.overlap >= overlap_threshold; });
+  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap < overlap_threshold; }) &&
+                     std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap >= overlap_threshold; });
   if (mixed) {
     char below[32], above[32];
     std::snprintf(below, sizeof below, "overlap < %.2f", overlap_threshold);
@@ -594,6 +261,32 @@ int EvalPairs(const std::string& pairs_path, const std::vector<std::string>& met
       std::printf("%-20s %16s %16s\n", name.c_str(), (std::to_string(ok_low) + " of " + std::to_string(n_low)).c_str(),
                   (std::to_string(ok_high) + " of " + std::to_string(n_high)).c_str());
   }
+  return summary;
+}
+
+// `reg eval --pairs`: every method on every pair's grids, one table.
+int EvalPairs(const std::string& pairs_path, const PairEvaluationOptions& eo, const std::string& split, const std::string& weights,
+              int max_pairs, double overlap_threshold, const std::string& out) {
+  std::vector<PairRecord> pairs;
+  for (const auto& p : ReadPairs(pairs_path))
+    if (split == "all" || p.split == split) pairs.push_back(p);
+  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
+  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
+  std::unique_ptr<DregNet> net;
+  for (const auto& m : eo.methods) {
+    if (m == "dreg" && !net) {
+      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
+      DregModelOptions mo;
+      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
+    }
+  }
+  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+  const std::vector<PairEvaluation> rows = EvaluatePairs(pairs, eo, net.get(), [](const PairEvaluation& row) {
+    std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
+                row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
+    std::fflush(stdout);
+  });
+  const Json summary = SummariseRows(rows, overlap_threshold);
   if (!out.empty()) {
     Json table = Json::array();
     for (const auto& r : rows) {
@@ -661,18 +354,11 @@ int RunRegEval(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
   if (!pairs_path.empty()) {
-    for (const auto& m : methods)
-      if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth") {
-        ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
-      }
-    for (const auto& r : refines)
-      if (r != "none" && r != "icp" && r != "block-icp" && r != "field") ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
-    for (const auto& s : dreg_solvers)
-      if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
     base.voxel = voxel;
     base.flips = !no_flips;
-    return EvalPairs(pairs_path, methods, refines, dreg_solvers, dreg_passes, split, weights, base, max_pairs, overlap_threshold,
-                     eval_field_options, out);
+    const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options};
+    eo.Check();
+    return EvalPairs(pairs_path, eo, split, weights, max_pairs, overlap_threshold, out);
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);
@@ -710,106 +396,22 @@ int RunRegRegisterMany(int argc, char** argv) {
                   "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
                   "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
   std::vector<std::string> paths;
-  std::string out;
-  double min_density = kOccupiedMinDensity, voxel = 0.05, min_confidence = 0.3;
-  int max_points = 5000;
-  unsigned seed = 0;
+  std::string out, refine = "field";
+  ManyBlockRegistrationOptions o;
   app.add_option("blocks", paths, "Block checkpoints (the first defines the world frame)")->required()->expected(2, 1000);
   app.add_option("--out", out, "Output JSON")->required();
-  app.add_option("--min-density", min_density, "Density above which a cell's point is used (default 5)");
-  app.add_option("--voxel", voxel, "Downsampling voxel, scene units (default 0.05)");
-  AddMaxPointsOption(app, &max_points);
-  app.add_option("--min-confidence", min_confidence, "Pairs below this fitness are not used (default 0.3)");
-  app.add_option("--seed", seed, "Random seed");
-  std::string refine = "field";
+  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
+  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
+  AddMaxPointsOption(app, &o.max_points);
+  app.add_option("--min-confidence", o.min_confidence, "Pairs below this fitness are not used (default 0.3)");
+  app.add_option("--seed", o.seed, "Random seed");
   app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
       ->check(CLI::IsMember({"icp", "field"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, paths);
-  Timer timer;
-  const int n = static_cast<int>(paths.size());
-  std::vector<Eigen::Matrix3Xd> clouds;
-  std::vector<NerfBlock> blocks;  // kept for --refine field only
-  for (const auto& p : paths) {
-    NerfBlock b = LoadNerfBlock(p);
-    clouds.push_back(PointsToEigen(ExtractOccupiedPoints(b, min_density, seed).xyz));
-    if (clouds.back().cols() < 100) LOG_WARN("{}: only {} occupied points", p, clouds.back().cols());
-    if (refine == "field") blocks.push_back(std::move(b));
-  }
-  const GridExtractionOptions grid_defaults;
-  ClassicalRegistrationOptions options;
-  options.voxel_size = voxel;
-  options.normal_radius = 2 * voxel;
-  options.feature_radius = 5 * voxel;
-  options.seed = seed;
-  options.max_points = max_points;
-  std::vector<PoseGraphEdge> edges;
-  Json edges_json = Json::array();
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
-      ClassicalRegistrationResult r = RegisterPointClouds(clouds[i], clouds[j], options);
-      const bool used = r.fitness >= min_confidence;
-      Json field = nullptr;
-      if (used && refine == "field") {
-        r.target_from_source = Rigid3d::FromMatrix(
-            RefineOnFields(blocks[i], blocks[j], clouds[i], clouds[j], r.target_from_source.ToMatrix(), FieldAlignmentOptions{},
-                           grid_defaults.side / grid_defaults.resolution, &field),
-            1e-3);
-      }
-      edges_json.push_back({{"source", i}, {"target", j}, {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
-                            {"confidence", r.fitness}, {"used", used}, {"field", field}});
-      if (!used) continue;
-      PoseGraphEdge e;
-      e.i = i;
-      e.j = j;
-      e.j_from_i = r.target_from_source;
-      e.weight = r.fitness;
-      edges.push_back(e);
-    }
-  }
-  // Pairs that disagree with their loops are dropped (a block of another object, a wrong
-  // registration), and named: the graph never silently fuses them.
-  std::vector<bool> dropped;
-  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
-  Json world_from_block = Json::array(), connected = Json::array();
-  for (int k = 0; k < n; ++k) {
-    // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
-    world_from_block.push_back(MatrixToJson(g.world_from_node[k].ToMatrix()));
-    connected.push_back(static_cast<bool>(g.connected[k]));
-    if (!g.connected[k]) LOG_WARN("{}: no confident registration links it to block 0; left at identity", paths[k]);
-  }
-  size_t used = 0;
-  std::vector<int> dropped_edges_of(n, 0), kept_edges_of(n, 0);
-  for (size_t e = 0, k = 0; e < edges_json.size(); ++e) {
-    if (!edges_json[e]["used"].get<bool>()) continue;
-    edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
-    edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
-    edges_json[e]["translation_residual"] = g.edge_translation_error[k];
-    const int i = edges[k].i, j = edges[k].j;
-    if (dropped[k]) {
-      edges_json[e]["used"] = false;
-      edges_json[e]["dropped"] = "disagrees with the other registrations of its loops";
-      ++dropped_edges_of[i];
-      ++dropped_edges_of[j];
-      LOG_WARN("{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
-               "belong to the scene)", paths[i], paths[j], g.edge_rotation_error_deg[k]);
-    } else {
-      ++kept_edges_of[i];
-      ++kept_edges_of[j];
-      ++used;
-    }
-    ++k;
-  }
-  for (int b = 0; b < n; ++b) {
-    if (dropped_edges_of[b] > 0 && dropped_edges_of[b] >= kept_edges_of[b]) {
-      LOG_WARN("{}: {} of its {} registrations disagree with the others: it may not belong to this scene", paths[b],
-               dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
-    }
-  }
-  const Json result = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
-                       {"seconds", timer.Seconds()}, {"blocks", paths}};
-  WriteJsonFile(out, result);
-  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", n, used, edges_json.size(), timer.Seconds());
+  o.refine = RegistrationRefinementFromName(refine);
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  WriteJsonFile(out, r.json);
+  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs, r.json["seconds"].get<double>());
   return 0;
 }

@@ -1,0 +1,192 @@
+#include "nerfreg/pipeline/register_blocks.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "nerfreg/geometry/alignment.h"
+#include "nerfreg/util/error.h"
+
+namespace nerfreg {
+namespace {
+
+// An asymmetric object as a smooth density (as reg/field_alignment_test.cc): two ellipsoids and a
+// box, sigma = 60 * sigmoid(-d / 0.02), a surface ~0.05 thick like a trained block's.
+double ShapeDistance(const Eigen::Vector3d& x) {
+  const double e1 = ((x - Eigen::Vector3d(0.3, 0.0, 0.1)).cwiseQuotient(Eigen::Vector3d(0.5, 0.3, 0.25))).norm() - 1;
+  const double e2 = ((x - Eigen::Vector3d(-0.4, 0.35, -0.1)).cwiseQuotient(Eigen::Vector3d(0.2, 0.45, 0.2))).norm() - 1;
+  const Eigen::Vector3d q = (x - Eigen::Vector3d(-0.1, -0.4, 0.3)).cwiseAbs() - Eigen::Vector3d(0.3, 0.12, 0.2);
+  const double box = q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+  return std::min({e1 * 0.25, e2 * 0.2, box});
+}
+
+// A ball of radius 0.4 beside where the shape is (another object).
+double BallDistance(const Eigen::Vector3d& x) { return (x - Eigen::Vector3d(0.9, 0.9, 0.0)).norm() - 0.4; }
+
+// The object seen in a frame where x_frame = frame_from_shape * x_shape.
+DensityField Field(double (*distance)(const Eigen::Vector3d&), const Sim3d& frame_from_shape) {
+  DensityField f;
+  const Sim3d shape_from_frame = frame_from_shape.Inverse();
+  f.density = [shape_from_frame, distance](const torch::Tensor& x) {
+    const torch::Tensor c = x.to(torch::kDouble).contiguous();
+    torch::Tensor out = torch::empty({c.size(0)}, torch::kFloat);
+    const double* p = c.data_ptr<double>();
+    float* o = out.data_ptr<float>();
+    for (int64_t i = 0; i < c.size(0); ++i) {
+      const double d = distance(shape_from_frame * Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
+      o[i] = static_cast<float>(60.0 / (1.0 + std::exp(d / 0.02)));
+    }
+    return out;
+  };
+  f.box = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-4), Eigen::Vector3d::Constant(4));
+  return f;
+}
+
+// Points within half a cell of the surface (what a block's occupied points give), in the frame.
+Eigen::Matrix3Xd SurfacePoints(double (*distance)(const Eigen::Vector3d&), const Sim3d& frame_from_shape, double cell) {
+  std::vector<Eigen::Vector3d> pts;
+  for (double x = -1.5; x <= 1.5; x += cell)
+    for (double y = -1.5; y <= 1.5; y += cell)
+      for (double z = -1.5; z <= 1.5; z += cell) {
+        const Eigen::Vector3d p(x, y, z);
+        if (std::abs(distance(p)) < 0.5 * cell) pts.push_back(frame_from_shape * p);
+      }
+  Eigen::Matrix3Xd m(3, pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) m.col(i) = pts[i];
+  return m;
+}
+
+Sim3d Pose(double deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  return Sim3d(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(deg * M_PI / 180, axis.normalized())), t);
+}
+
+// auto's choice: a candidate at the truth and one a half-turn off (the network's typical failure
+// on near-symmetric objects), scored on the same samples: the truth is kept, whatever the order,
+// and its confidence is that of one field with itself (~1).
+TEST(RegisterBlocks, ChooseCandidateKeepsTheTruthOverItsHalfTurn) {
+  const Sim3d source_from_shape = Pose(40, {1, 2, 0.5}, {0.2, -0.1, 0.3});
+  const Sim3d target_from_shape = Pose(-70, {0.3, -1, 1}, {-0.1, 0.2, 0.05});
+  const Sim3d truth = target_from_shape * source_from_shape.Inverse();
+  const DensityField source = Field(ShapeDistance, source_from_shape), target = Field(ShapeDistance, target_from_shape);
+  const FieldAgreementSamples samples = DrawFieldAgreementSamples(
+      SurfacePoints(ShapeDistance, source_from_shape, 0.06), SurfacePoints(ShapeDistance, target_from_shape, 0.06), 0.11, 3000, 0);
+  // The half-turn about the object's long axis through its centre, as a flipped dreg answer is.
+  const Eigen::Vector3d centre = target_from_shape * Eigen::Vector3d(0.1, 0, 0.1);
+  const Sim3d half_turn = Pose(180, target_from_shape.rotation * Eigen::Vector3d::UnitX(), Eigen::Vector3d::Zero());
+  const Sim3d about_centre = Sim3d(1.0, Eigen::Quaterniond::Identity(), centre) * half_turn *
+                             Sim3d(1.0, Eigen::Quaterniond::Identity(), -centre);
+  const Sim3d wrong = about_centre * truth;
+  std::vector<FieldAgreement> scores;
+  EXPECT_EQ(ChooseCandidate(source, target, samples, {wrong, truth}, 0.05, &scores), 1u);
+  ASSERT_EQ(scores.size(), 2u);
+  EXPECT_GT(scores[1].confidence, 0.95);
+  EXPECT_LT(scores[0].confidence, scores[1].confidence - 0.2) << scores[0].confidence;
+  EXPECT_LT(scores[1].cost, scores[0].cost);
+  EXPECT_EQ(ChooseCandidate(source, target, samples, {truth, wrong}, 0.05), 0u);
+  EXPECT_THROW(ChooseCandidate(source, target, samples, {}, 0.05), std::invalid_argument);
+}
+
+// The confidence is comparable across pairs: a field with itself scores ~1, two different objects
+// (the shape against a ball) score low at poses that do not lay one inside the other.
+TEST(RegisterBlocks, ConfidenceIsHighForOneObjectAndLowForTwo) {
+  const Sim3d id;
+  const DensityField shape = Field(ShapeDistance, id), ball = Field(BallDistance, id);
+  const Eigen::Matrix3Xd shape_points = SurfacePoints(ShapeDistance, id, 0.06);
+  const FieldAgreementSamples self = DrawFieldAgreementSamples(shape_points, shape_points, 0.11, 3000, 1);
+  EXPECT_GT(ScoreFieldAgreement(shape, shape, self, id, 0.05).confidence, 0.99);
+  const FieldAgreementSamples other =
+      DrawFieldAgreementSamples(shape_points, SurfacePoints(BallDistance, id, 0.06), 0.11, 3000, 1);
+  for (const Sim3d& pose : {id, Pose(90, {0, 0, 1}, {0.5, 0.5, 0}), Pose(30, {1, 0, 0}, {-0.5, 0.2, 0.4})}) {
+    const FieldAgreement g = ScoreFieldAgreement(shape, ball, other, pose, 0.05);
+    EXPECT_LT(g.confidence, 0.5) << pose.ToMatrix();
+    EXPECT_EQ(g.samples, other.source.cols() + other.target.cols());
+  }
+}
+
+TEST(RegisterBlocks, NamesRoundTripAndBadNamesAreInputErrors) {
+  for (auto m : {RegistrationMethod::kAuto, RegistrationMethod::kDreg, RegistrationMethod::kRansac, RegistrationMethod::kFgr})
+    EXPECT_EQ(RegistrationMethodFromName(RegistrationMethodName(m)), m);
+  for (auto r : {RegistrationRefinement::kNone, RegistrationRefinement::kIcp, RegistrationRefinement::kField})
+    EXPECT_EQ(RegistrationRefinementFromName(RegistrationRefinementName(r)), r);
+  for (auto s : {DregSolver::kProcrustes, DregSolver::kRansac}) EXPECT_EQ(DregSolverFromName(DregSolverName(s)), s);
+  EXPECT_EQ(RegistrationMethodName(RegistrationMethod::kAuto), "auto");
+  try {
+    RegistrationMethodFromName("icp");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--method: expected auto, dreg, ransac or fgr, got icp");
+  }
+}
+
+TEST(RegisterBlocks, OptionsCheckNamesTheFlag) {
+  auto message = [](const BlockRegistrationOptions& o) {
+    try {
+      o.Check();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  BlockRegistrationOptions o;
+  EXPECT_EQ(message(o), "no error");
+  o.field.iterations = -1;
+  EXPECT_EQ(message(o), "--field-iterations: expected >= 0");
+  o = BlockRegistrationOptions();
+  o.method = RegistrationMethod::kDreg;
+  o.grid.resolution = 24;
+  EXPECT_NE(message(o).find("--grid-resolution"), std::string::npos);
+  o.method = RegistrationMethod::kRansac;  // no network: any resolution the grid allows
+  EXPECT_EQ(message(o), "no error");
+  o = BlockRegistrationOptions();
+  o.dreg_passes = 0;
+  EXPECT_NE(message(o).find("--dreg-passes"), std::string::npos);
+  o = BlockRegistrationOptions();
+  o.voxel = 0;
+  EXPECT_NE(message(o).find("--voxel"), std::string::npos);
+}
+
+// The options T.json records read back as the same options.
+TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
+  BlockRegistrationOptions o;
+  o.method = RegistrationMethod::kAuto;
+  o.refine = RegistrationRefinement::kIcp;
+  o.min_confidence = 0.45;
+  o.field.iterations = 7;
+  o.field.occupancy_scale = 0.08;
+  o.field.max_samples = 1234;
+  o.grid.resolution = 48;
+  o.weights = "models/x.pt";
+  o.config = "cpu";
+  o.min_density = 3.5;
+  o.voxel = 0.04;
+  o.max_points = 0;
+  o.icp_points = "mask";
+  o.flips = false;
+  o.icp_distance = 1.5;
+  o.seed = 4000000000u;
+  o.dreg_solver = DregSolver::kRansac;
+  o.dreg_passes = 3;
+  o.block_icp = false;
+  const Json j = Json::parse(o.ToJson().dump());  // through text, as T.json is read
+  const BlockRegistrationOptions r = BlockRegistrationOptions::FromJson(j, "T.json");
+  EXPECT_EQ(r.ToJson(), o.ToJson());
+  EXPECT_EQ(r.method, o.method);
+  EXPECT_EQ(r.refine, o.refine);
+  EXPECT_EQ(r.field.iterations, 7);
+  EXPECT_DOUBLE_EQ(r.field.occupancy_scale, 0.08);
+  EXPECT_EQ(r.seed, 4000000000u);
+  EXPECT_EQ(r.dreg_solver, DregSolver::kRansac);
+  EXPECT_FALSE(r.flips);
+  EXPECT_FALSE(r.block_icp);
+  Json bad = j;
+  bad["refine"] = "sometimes";
+  EXPECT_THROW(BlockRegistrationOptions::FromJson(bad, "T.json"), InputError);
+  bad = j;
+  bad.erase("voxel");
+  EXPECT_THROW(BlockRegistrationOptions::FromJson(bad, "T.json"), InputError);
+}
+
+}  // namespace
+}  // namespace nerfreg

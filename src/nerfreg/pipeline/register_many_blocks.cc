@@ -1,0 +1,129 @@
+#include "nerfreg/pipeline/register_many_blocks.h"
+
+#include <fmt/format.h>
+
+#include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/posegraph/pose_graph.h"
+#include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg/grid_extraction.h"
+#include "nerfreg/reg/reg_grid.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+void ManyBlockRegistrationOptions::Check() const {
+  if (!(min_density >= 0)) ThrowInputError("--min-density", "", ">= 0");
+  if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
+  if (max_points < 0) ThrowInputError("--max-points", "", ">= 0");
+  if (refine != RegistrationRefinement::kIcp && refine != RegistrationRefinement::kField) {
+    ThrowInputError("--refine", "", "icp or field");
+  }
+}
+
+Json ManyBlockRegistrationOptions::ToJson() const {
+  return {{"min_density", min_density}, {"voxel", voxel}, {"max_points", max_points}, {"min_confidence", min_confidence},
+          {"seed", seed}, {"refine", RegistrationRefinementName(refine)}};
+}
+
+ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
+                                               const ManyBlockRegistrationOptions& options) {
+  options.Check();
+  Timer timer;
+  ManyBlockRegistrationResult result;
+  // Each warning is logged and kept in the result.
+  auto warn = [&result](const char* format, const auto&... args) {
+    std::string message = fmt::format(fmt::runtime(format), args...);
+    LOG_WARN("{}", message);
+    result.warnings.push_back(std::move(message));
+  };
+  const int n = static_cast<int>(paths.size());
+  std::vector<Eigen::Matrix3Xd> clouds;
+  std::vector<NerfBlock> blocks;  // kept for --refine field only
+  for (const auto& p : paths) {
+    NerfBlock b = LoadNerfBlock(p);
+    clouds.push_back(PointsToEigen(ExtractOccupiedPoints(b, options.min_density, options.seed).xyz));
+    if (clouds.back().cols() < 100) warn("{}: only {} occupied points", p, clouds.back().cols());
+    if (options.refine == RegistrationRefinement::kField) blocks.push_back(std::move(b));
+  }
+  const GridExtractionOptions grid_defaults;
+  ClassicalRegistrationOptions co;
+  co.voxel_size = options.voxel;
+  co.normal_radius = 2 * options.voxel;
+  co.feature_radius = 5 * options.voxel;
+  co.seed = options.seed;
+  co.max_points = options.max_points;
+  std::vector<PoseGraphEdge> edges;
+  Json edges_json = Json::array();
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
+      ClassicalRegistrationResult r = RegisterPointClouds(clouds[i], clouds[j], co);
+      const bool used = r.fitness >= options.min_confidence;
+      Json field = nullptr;
+      if (used && options.refine == RegistrationRefinement::kField) {
+        r.target_from_source = RefineOnFields(blocks[i], blocks[j], clouds[i], clouds[j], Sim3d(r.target_from_source),
+                                              FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
+                                   .ToRigid();
+      }
+      edges_json.push_back({{"source", i}, {"target", j}, {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+                            {"confidence", r.fitness}, {"used", used}, {"field", field}});
+      if (!used) continue;
+      PoseGraphEdge e;
+      e.i = i;
+      e.j = j;
+      e.j_from_i = r.target_from_source;
+      e.weight = r.fitness;
+      edges.push_back(e);
+    }
+  }
+  // Pairs that disagree with their loops are dropped (a block of another object, a wrong
+  // registration), and named: the graph never silently fuses them.
+  std::vector<bool> dropped;
+  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
+  Json world_from_block = Json::array(), connected = Json::array();
+  for (int k = 0; k < n; ++k) {
+    // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
+    world_from_block.push_back(MatrixToJson(g.world_from_node[k].ToMatrix()));
+    connected.push_back(static_cast<bool>(g.connected[k]));
+    if (!g.connected[k]) warn("{}: no confident registration links it to block 0; left at identity", paths[k]);
+  }
+  size_t used = 0;
+  std::vector<int> dropped_edges_of(n, 0), kept_edges_of(n, 0);
+  for (size_t e = 0, k = 0; e < edges_json.size(); ++e) {
+    if (!edges_json[e]["used"].get<bool>()) continue;
+    edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
+    edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
+    edges_json[e]["translation_residual"] = g.edge_translation_error[k];
+    const int i = edges[k].i, j = edges[k].j;
+    if (dropped[k]) {
+      edges_json[e]["used"] = false;
+      edges_json[e]["dropped"] = "disagrees with the other registrations of its loops";
+      ++dropped_edges_of[i];
+      ++dropped_edges_of[j];
+      warn("{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
+               "belong to the scene)", paths[i], paths[j], g.edge_rotation_error_deg[k]);
+    } else {
+      ++kept_edges_of[i];
+      ++kept_edges_of[j];
+      ++used;
+    }
+    ++k;
+  }
+  for (int b = 0; b < n; ++b) {
+    if (dropped_edges_of[b] > 0 && dropped_edges_of[b] >= kept_edges_of[b]) {
+      warn("{}: {} of its {} registrations disagree with the others: it may not belong to this scene", paths[b],
+               dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
+    }
+  }
+  result.json = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
+                       {"seconds", timer.Seconds()}, {"blocks", paths}};
+  result.json["options"] = options.ToJson();
+  result.used_edges = static_cast<int>(used);
+  result.pairs = static_cast<int>(edges_json.size());
+  return result;
+}
+
+}  // namespace nerfreg

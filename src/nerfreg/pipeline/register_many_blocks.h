@@ -1,0 +1,40 @@
+#pragma once
+// Many NeRF blocks into one frame (block 0's), `reg register-many`'s job: every pair registered
+// by FPFH + RANSAC + ICP on the blocks' occupied points (then, with kField, refined on the two
+// fields); pairs whose fitness reaches min_confidence become edges of a pose graph, solved with a
+// robust loss from a cycle-consistent spanning tree; edges that disagree with their loops are
+// dropped and named (a block of another object, a wrong registration).
+#include <string>
+#include <vector>
+
+#include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct ManyBlockRegistrationOptions {
+  double min_density = BlockRegistrationOptions{}.min_density;  // --min-density
+  double voxel = 0.05;                                           // --voxel
+  int max_points = 5000;                                         // --max-points
+  double min_confidence = 0.3;  // --min-confidence: pairs below this RANSAC fitness are not edges
+  unsigned seed = 0;            // --seed
+  RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine: kIcp or kField
+  void Check() const;  // throws InputError naming the flag
+  Json ToJson() const;
+};
+
+struct ManyBlockRegistrationResult {
+  // {world_from_block: [4x4...], connected, edges: [{source, target, target_from_source,
+  // confidence, used, field, inlier, rotation_residual_deg, translation_residual, dropped}],
+  // seconds, blocks}, as reg register-many writes it.
+  Json json;
+  int used_edges = 0;   // pairs kept in the graph
+  int pairs = 0;        // pairs tried
+  std::vector<std::string> warnings;
+};
+
+// `paths`: block checkpoints (the first defines the world frame), loaded here.
+ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
+                                               const ManyBlockRegistrationOptions& options);
+
+}  // namespace nerfreg
