@@ -17,7 +17,7 @@ namespace {
 
 TEST(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundTrip) {
   ScopedTempDir dir;
-  ASSERT_EQ(RunNerfreg("render --procedural 3 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 --quiet --out " +
+  ASSERT_EQ(RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 --quiet --out " +
                        dir.File("data")).exit_code, 0);
   for (int k = 0; k < 2; ++k) {
     const std::string b = std::to_string(k);
