@@ -41,6 +41,9 @@ int RunDbarfEval(int argc, char** argv);
 int RunDbarfEvalNet(int argc, char** argv);
 // The shipped DBARF weights (NERFREG_DBARF_WEIGHTS overrides).
 std::string DefaultDbarfWeights();
+// The shipped pose network trained to pose from the identity, what `dbarf poses` runs
+// (NERFREG_DBARF_POSE_WEIGHTS overrides).
+std::string DefaultDbarfPoseWeights();
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
 

@@ -143,14 +143,15 @@ int RunDbarfPoses(int argc, char** argv) {
   std::string images_dir, intrinsics, out, neighbours = "graph";
   double focal = 0;
   ImagePosesOptions options;
-  options.weights = DefaultDbarfWeights();
+  // The network here starts from the identity: the weights trained for that (models/dbarf_pose_cpu.md).
+  options.weights = DefaultDbarfPoseWeights();
   app.add_option("images", images_dir, "Folder of PNG / JPEG images (sorted by name)")->required();
   auto* t_opt = app.add_option("--intrinsics", intrinsics, "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
   auto* f_opt = app.add_option("--focal", focal, "Focal length in pixels (principal point at the image centre)");
   t_opt->excludes(f_opt);
   app.add_option("--out", out, "Output folder")->required();
   app.add_option("--method", options.method, "classical, network or auto (default auto)");
-  app.add_option("--weights", options.weights, "DBARF weights for the network (default: the shipped ones)");
+  app.add_option("--weights", options.weights, "DBARF weights for the network (default: models/dbarf_pose_cpu.pt, trained to pose from the identity)");
   app.add_option("--sources", options.network.num_sources, "Network: neighbours per target image (default 5)");
   app.add_option("--neighbours", neighbours,
                  "Network method: graph (SIFT view-graph neighbours, appearance where an image has too few) or "

@@ -32,6 +32,11 @@ std::string DefaultDbarfWeights() {
   return std::string(NERFREG_MODELS_DIR) + "/dbarf_cpu.pt";
 }
 
+std::string DefaultDbarfPoseWeights() {
+  if (const char* env = std::getenv("NERFREG_DBARF_POSE_WEIGHTS")) return env;
+  return std::string(NERFREG_MODELS_DIR) + "/dbarf_pose_cpu.pt";
+}
+
 namespace {
 
 struct TrainCli {
