@@ -252,20 +252,7 @@ void WriteAtomically(const std::string& path,
 }
 
 void WriteFileAtomic(const std::string& path, const std::string& contents) {
-  const std::string parent = ParentDir(path);
-  if (!parent.empty()) CreateDirectories(parent);
-  RemoveStaleTempFiles(path);
-  const std::string tmp = TempPathFor(path);
-  const int slot = RegisterTemp(tmp, false);
-  try {
-    WriteAllOrThrow(path, tmp, contents);
-    MoveIntoPlace(tmp, path, TakeNewOutput(path));
-  } catch (...) {
-    ::unlink(tmp.c_str());
-    ReleaseTemp(slot);
-    throw;
-  }
-  ReleaseTemp(slot);
+  WriteAtomically(path, [&](const std::string& tmp) { WriteAllOrThrow(path, tmp, contents); });
 }
 
 void CheckCanWriteOutput(const std::string& path, bool force, const std::vector<std::string>& inputs) {
