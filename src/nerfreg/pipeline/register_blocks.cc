@@ -200,26 +200,9 @@ Sim3d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3X
 FieldAgreementSamples DrawFieldAgreementSamples(const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
                                                 double spread, int max_samples, unsigned seed) {
   std::mt19937 rng(seed);
-  auto band = [&](const Eigen::Matrix3Xd& points) {
-    std::vector<Eigen::Index> order(points.cols());
-    for (Eigen::Index i = 0; i < points.cols(); ++i) order[i] = i;
-    const Eigen::Index keep = std::min<Eigen::Index>(points.cols(), std::max(1, max_samples / 2));
-    if (keep < points.cols()) {
-      std::shuffle(order.begin(), order.end(), rng);
-      order.resize(keep);
-    }
-    std::normal_distribution<double> n(0, 1);
-    Eigen::Matrix3Xd out(3, 2 * keep);
-    for (Eigen::Index k = 0; k < keep; ++k) {
-      const Eigen::Vector3d p = points.col(order[k]);
-      out.col(2 * k) = p + 0.25 * spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
-      out.col(2 * k + 1) = p + 0.5 * spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
-    }
-    return out;
-  };
   FieldAgreementSamples s;
-  s.source = band(source_points);
-  s.target = band(target_points);
+  s.source = SurfaceBandSamples(source_points, spread, max_samples, rng);
+  s.target = SurfaceBandSamples(target_points, spread, max_samples, rng);
   return s;
 }
 

@@ -57,25 +57,6 @@ namespace {
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
-// Two samples per surface point (a band across the surface), at most max_samples in all.
-Eigen::Matrix3Xd BandSamples(const Eigen::Matrix3Xd& points, const FieldAlignmentOptions& o, std::mt19937& rng) {
-  std::vector<Eigen::Index> order(points.cols());
-  for (Eigen::Index i = 0; i < points.cols(); ++i) order[i] = i;
-  const Eigen::Index keep = std::min<Eigen::Index>(points.cols(), o.max_samples / 2);
-  if (keep < points.cols()) {
-    std::shuffle(order.begin(), order.end(), rng);
-    order.resize(keep);
-  }
-  std::normal_distribution<double> n(0, 1);
-  Eigen::Matrix3Xd out(3, 2 * keep);
-  for (Eigen::Index k = 0; k < keep; ++k) {
-    const Eigen::Vector3d p = points.col(order[k]);
-    out.col(2 * k) = p + 0.25 * o.sample_spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
-    out.col(2 * k + 1) = p + 0.5 * o.sample_spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
-  }
-  return out;
-}
-
 Eigen::VectorXd Occupancy(const DensityField& f, const Eigen::Matrix3Xd& p, double scale) {
   if (p.cols() == 0) return Eigen::VectorXd();
   const torch::Tensor x =
@@ -139,6 +120,24 @@ struct Linearisation {
 
 }  // namespace
 
+Eigen::Matrix3Xd SurfaceBandSamples(const Eigen::Matrix3Xd& points, double spread, int max_samples, std::mt19937& rng) {
+  std::vector<Eigen::Index> order(points.cols());
+  for (Eigen::Index i = 0; i < points.cols(); ++i) order[i] = i;
+  const Eigen::Index keep = std::min<Eigen::Index>(points.cols(), std::max(1, max_samples / 2));
+  if (keep < points.cols()) {
+    std::shuffle(order.begin(), order.end(), rng);
+    order.resize(keep);
+  }
+  std::normal_distribution<double> n(0, 1);
+  Eigen::Matrix3Xd out(3, 2 * keep);
+  for (Eigen::Index k = 0; k < keep; ++k) {
+    const Eigen::Vector3d p = points.col(order[k]);
+    out.col(2 * k) = p + 0.25 * spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
+    out.col(2 * k + 1) = p + 0.5 * spread * Eigen::Vector3d(n(rng), n(rng), n(rng));
+  }
+  return out;
+}
+
 FieldAlignmentResult AlignFields(const DensityField& source, const DensityField& target,
                                  const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
                                  const Rigid3d& initial, const FieldAlignmentOptions& o, double scale) {
@@ -148,8 +147,8 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
   FieldAlignmentResult result;
   result.target_from_source = initial;
   std::mt19937 rng(o.seed);
-  Eigen::Matrix3Xd ys = BandSamples(source_points, o, rng);  // source frame
-  Eigen::Matrix3Xd xt = BandSamples(target_points, o, rng);  // target frame
+  Eigen::Matrix3Xd ys = SurfaceBandSamples(source_points, o.sample_spread, o.max_samples, rng);  // source frame
+  Eigen::Matrix3Xd xt = SurfaceBandSamples(target_points, o.sample_spread, o.max_samples, rng);  // target frame
   if (o.overlap_only && source.seen && target.seen) {
     const Eigen::Matrix3d r0 = initial.RotationMatrix();
     const Eigen::Vector3d t0 = initial.translation;

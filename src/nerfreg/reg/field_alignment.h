@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <functional>
+#include <random>
 
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/reg/reg_grid.h"
@@ -82,6 +83,11 @@ struct FieldAlignmentResult {
   double overlap_fraction = -1;
   double seconds = 0;
 };
+
+// Samples in a band across a surface: two per point of `points` [3, N] (a random subset when
+// there are more than max_samples / 2), offset by Gaussian noise of 0.25 and 0.5 x spread. What
+// AlignFields samples, and what registration candidates are scored on (pipeline/register_blocks.h).
+Eigen::Matrix3Xd SurfaceBandSamples(const Eigen::Matrix3Xd& points, double spread, int max_samples, std::mt19937& rng);
 
 // source_points [3, Ns], target_points [3, Nt]: surface points in each block's frame (a grid's
 // MaskedXyz). `scale` (a Sim(3) solve's) is held fixed: T y = scale * R y + t. Returns the
