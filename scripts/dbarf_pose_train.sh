@@ -20,6 +20,7 @@ LR_POSE=${LR_POSE:-2e-4}
 LR_DECAY_STEPS=${LR_DECAY_STEPS:-20000}
 SCENES=${SCENES:-0}                       # use the first SCENES training scenes (0: all)
 CHECKPOINT_EVERY=${CHECKPOINT_EVERY:-200}
+SFM_CACHE=${SFM_CACHE:-$(dirname "$OUT")/sfm_cache}   # cameras estimated per scene, reused on --resume
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 [ -f "$DATA/train.txt" ] || { echo "error: $DATA/train.txt: expected the scene list of scripts/dbarf_data.sh" >&2; exit 2; }
 mkdir -p "$(dirname "$OUT")"
@@ -28,7 +29,7 @@ mapfile -t scenes < "$DATA/train.txt"
 # One stage block longer than the run: the pose stage throughout.
 flags=(--pose-init network --stage-steps 1000000000 --steps "$STEPS" --supervise-poses "$SUPERVISE" --supervise-rotation-weight "${ROTATION_WEIGHT:-5}" --supervise-depth "${SUPERVISE_DEPTH:-0}"
        --rotation-scale "$ROTATION_SCALE" --lr-pose "$LR_POSE" --lr-decay-steps "$LR_DECAY_STEPS"
-       --checkpoint-every "$CHECKPOINT_EVERY" --out "$OUT")
+       --checkpoint-every "$CHECKPOINT_EVERY" --sfm-cache "$SFM_CACHE" --out "$OUT")
 if [ "${RESUME:-0}" = 1 ]; then
   flags+=(--resume)
 else
