@@ -1,6 +1,9 @@
-// Registration timings on 2 CPU threads: the DReg-NeRF network (Cpu() configuration, D = 64 and
-// 32 grid pairs) and the field refinement (a block of `nerf train`'s fast preset). Untrained
-// weights and fields: the cost does not depend on them.
+// Registration timings on 2 CPU threads, through the code the pipeline runs: the DReg-NeRF network
+// on a grid pair as `reg eval --pairs --methods dreg --refine none` runs it (RegisterGrids, what
+// EvaluatePairs calls per row; Cpu() configuration, D = 64 and 32), one training step, and the
+// field refinement as `reg register --refine field` runs it (RefineOnFields of RegisterBlocks; two
+// blocks of `nerf train`'s fast preset). Untrained weights and fields: the cost does not depend on
+// them.
 //   build/bench/nerfreg_reg_bench --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
@@ -9,9 +12,11 @@
 
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/nerf/trainer.h"
+#include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/reg/field_alignment.h"
+#include "nerfreg/reg/register_grids.h"
 #include "nerfreg/reg/test_grids.h"
 
 namespace nerfreg {
@@ -34,10 +39,13 @@ void BM_DregRegisterCpu(benchmark::State& state) {
   torch::manual_seed(1);
   const Pair pair = MakePair(static_cast<int>(state.range(0)));
   DregNet net(DregModelOptions::Cpu());
+  GridRegistrationOptions o;
+  o.method = "dreg";
+  o.icp = false;
   int points = 0;
   for (auto _ : state) {
-    const DregRegistration reg = Register(net, pair.src, pair.tgt, DregSolveOptions{});
-    points = reg.src_points + reg.tgt_points;
+    const GridRegistrationResult reg = RegisterGrids(pair.src, pair.tgt, o, &net);
+    points = reg.source_points + reg.target_points;
   }
   state.counters["keypoints"] = points;
 }
@@ -60,9 +68,10 @@ void BM_DregTrainStepCpu(benchmark::State& state) {
 }
 BENCHMARK(BM_DregTrainStepCpu)->Arg(64)->Arg(32)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// One field refinement (AlignFields) between two fast-preset blocks, state.range(0) samples per
-// block (the default is 6000): every LM iteration queries 7 densities per sample. Reports the
-// time per iteration (a refinement takes 5-33 on real pairs).
+// One field refinement (RefineOnFields: AlignFields on the blocks' density fields) between two
+// fast-preset blocks, state.range(0) samples per block (the default is 6000): every LM iteration
+// queries 7 densities per sample. Reports the time per iteration (a refinement takes 5-33 on real
+// pairs).
 void BM_FieldAlignment(benchmark::State& state) {
   torch::set_num_threads(2);
   const NerfTrainOptions t = NerfTrainOptions::Preset("fast");
@@ -74,13 +83,14 @@ void BM_FieldAlignment(benchmark::State& state) {
   o.max_samples = static_cast<int>(state.range(0));
   o.iterations = 10;
   o.tolerance_deg = 0;
-  const Rigid3d start(Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero());
+  const Sim3d start(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero());
   int iterations = 0;
   double seconds = 0;
   for (auto _ : state) {
-    const FieldAlignmentResult r = AlignFields(BlockDensityField(a), BlockDensityField(b), points, points, start, o);
-    iterations += r.iterations + 1;  // + the first linearisation
-    seconds += r.seconds;
+    Json record;
+    RefineOnFields(a, b, points, points, start, o, o.sample_spread, &record);
+    iterations += record["iterations"].get<int>() + 1;  // + the first linearisation
+    seconds += record["seconds"].get<double>();
   }
   state.counters["ms_per_iteration"] = 1e3 * seconds / std::max(iterations, 1);
 }

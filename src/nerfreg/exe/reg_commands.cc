@@ -11,6 +11,7 @@
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg/registration_success.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -159,7 +160,7 @@ int EvalPairs(const PairsFileEvaluationOptions& o) {
   };
   const PairsFileEvaluation r = EvaluatePairsFile(o, header, [](const PairEvaluation& row) {
     std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
-                row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
+                row.rotation_deg, row.translation / kObjectExtent, row.confidence, row.seconds);
     std::fflush(stdout);
   });
   std::printf("%s", r.summary.table.c_str());

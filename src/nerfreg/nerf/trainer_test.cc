@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/nerf/test_train_options.h"
 #include "nerfreg/render/procedural.h"
 #include "nerfreg/render/render_dataset.h"
 #include "nerfreg/util/error.h"
@@ -24,26 +25,14 @@ Dataset TinyDataset(const std::string& dir) {
   return ReadTransformsJson(dir + "/data/transforms.json");
 }
 
-NerfTrainOptions TinyOptions(int iterations) {
-  NerfTrainOptions o = NerfTrainOptions::Preset("fast");
-  o.iterations = iterations;
-  o.field.encoding.log2_table_size = 14;
-  o.field.encoding.levels = 8;
-  o.field.encoding.per_level_scale = 1.5;
-  o.grid.resolution = 32;
-  o.target_samples = 1 << 13;
-  o.eval_every = 0;
-  o.checkpoint_every = 0;
-  return o;
-}
-
 TEST(NerfTrainer, TrainingRaisesHeldOutPsnr) {
   torch::set_num_threads(2);
   ScopedTempDir dir;
   const Dataset d = TinyDataset(dir.path());
-  NerfBlock untrained = NerfBlock::Create(TinyOptions(1).field, TinyOptions(1).grid, TinyOptions(1).march, 0);
+  const NerfTrainOptions tiny = TinyNerfTrainOptions(1);
+  NerfBlock untrained = NerfBlock::Create(tiny.field, tiny.grid, tiny.march, 0);
   const double before = EvaluateNerfBlock(untrained, d).psnr;
-  const NerfTrainResult r = TrainNerfBlock(d, TinyOptions(300), dir.File("b.ckpt"), false);
+  const NerfTrainResult r = TrainNerfBlock(d, TinyNerfTrainOptions(300), dir.File("b.ckpt"), false);
   EXPECT_EQ(r.iterations, 300);
   EXPECT_GT(r.psnr_test, before + 6.0) << "before " << before;
   EXPECT_GT(r.psnr_test, 20.0);
@@ -105,12 +94,12 @@ TEST(NerfTrainer, CheckpointRoundTripAndExactResume) {
   ScopedTempDir dir;
   const Dataset d = TinyDataset(dir.path());
   // 60 steps straight vs 30 steps, then resumed to 60 from the checkpoint.
-  TrainNerfBlock(d, TinyOptions(60), dir.File("straight.ckpt"), false);
-  NerfTrainOptions first_half = TinyOptions(60);
+  TrainNerfBlock(d, TinyNerfTrainOptions(60), dir.File("straight.ckpt"), false);
+  NerfTrainOptions first_half = TinyNerfTrainOptions(60);
   first_half.stop_after = 30;
   TrainNerfBlock(d, first_half, dir.File("resumed.ckpt"), false);
   EXPECT_EQ(LoadNerfBlock(dir.File("resumed.ckpt")).step, 30);
-  TrainNerfBlock(d, TinyOptions(60), dir.File("resumed.ckpt"), true);
+  TrainNerfBlock(d, TinyNerfTrainOptions(60), dir.File("resumed.ckpt"), true);
   NerfBlock a = LoadNerfBlock(dir.File("straight.ckpt")), b = LoadNerfBlock(dir.File("resumed.ckpt"));
   EXPECT_EQ(a.step, 60);
   EXPECT_EQ(b.step, 60);
@@ -130,7 +119,8 @@ TEST(NerfTrainer, BadCheckpointsAndDatasetsAreNamedErrors) {
   WriteFileAtomic(dir.File("junk.ckpt"), "not a checkpoint");
   EXPECT_THROW(LoadNerfBlock(dir.File("junk.ckpt")), InputError);
   EXPECT_THROW(LoadNerfBlock(dir.File("missing.ckpt")), InputError);
-  NerfBlock b = NerfBlock::Create(TinyOptions(1).field, TinyOptions(1).grid, TinyOptions(1).march, 0);
+  const NerfTrainOptions tiny = TinyNerfTrainOptions(1);
+  NerfBlock b = NerfBlock::Create(tiny.field, tiny.grid, tiny.march, 0);
   SaveNerfBlock(b, dir.File("ok.ckpt"));
   const std::string bytes = ReadFileToString(dir.File("ok.ckpt"));
   WriteFileAtomic(dir.File("truncated.ckpt"), bytes.substr(0, bytes.size() / 2));
@@ -145,20 +135,20 @@ TEST(NerfTrainer, BadCheckpointsAndDatasetsAreNamedErrors) {
   f.name = "a.png";
   f.split = "test";
   no_train.frames.push_back(f);
-  EXPECT_THROW(TrainNerfBlock(no_train, TinyOptions(1), dir.File("x.ckpt"), false), InputError);
+  EXPECT_THROW(TrainNerfBlock(no_train, TinyNerfTrainOptions(1), dir.File("x.ckpt"), false), InputError);
 }
 
 TEST(NerfTrainer, SparseTableAdamResumesExactly) {
   torch::set_num_threads(2);
   ScopedTempDir dir;
   const Dataset d = TinyDataset(dir.path());
-  NerfTrainOptions o = TinyOptions(24);
+  NerfTrainOptions o = TinyNerfTrainOptions(24);
   o.sparse_table_adam = true;
   TrainNerfBlock(d, o, dir.File("straight.ckpt"), false);
   NerfTrainOptions half = o;
   half.stop_after = 12;
   TrainNerfBlock(d, half, dir.File("resumed.ckpt"), false);
-  TrainNerfBlock(d, TinyOptions(24), dir.File("resumed.ckpt"), true);  // the checkpoint's optimizer is kept
+  TrainNerfBlock(d, TinyNerfTrainOptions(24), dir.File("resumed.ckpt"), true);  // the checkpoint's optimizer is kept
   NerfBlock a = LoadNerfBlock(dir.File("straight.ckpt")), b = LoadNerfBlock(dir.File("resumed.ckpt"));
   EXPECT_EQ(b.step, 24);
   EXPECT_TRUE(b.train_options.value("sparse_table_adam", false));

@@ -6,11 +6,14 @@
 #include <memory>
 #include <stdexcept>
 
+#include "nerfreg/data/ground_truth.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/reg/registration_success.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
+#include "nerfreg/util/stats.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
 
@@ -112,12 +115,6 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
 
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-
 // printf into a string.
 void Appendf(std::string* out, const char* format, ...) {
   va_list args, copy;
@@ -146,7 +143,7 @@ PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, do
   for (const auto& r : rows)
     if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
   auto success = [](const PairEvaluation& r, double deg, double fraction) {
-    return r.rotation_deg <= deg && r.translation / 2.5 <= fraction;
+    return RegistrationSucceeded(r.rotation_deg, r.translation, deg, fraction);
   };
   for (const auto& name : names) {
     std::vector<double> rot, trans, secs;
@@ -154,7 +151,7 @@ PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, do
     for (const auto& r : rows) {
       if (r.method != name) continue;
       rot.push_back(r.rotation_deg);
-      trans.push_back(r.translation / 2.5);
+      trans.push_back(r.translation / kObjectExtent);
       secs.push_back(r.seconds);
       s5 += success(r, 5, 0.05);
       s10 += success(r, 10, 0.1);
@@ -219,7 +216,7 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
     Json table = Json::array();
     for (const auto& r : result.rows) {
       table.push_back({{"pair", r.pair}, {"method", r.method}, {"rotation_error_deg", r.rotation_deg},
-                       {"translation_error", r.translation}, {"translation_error_fraction", r.translation / 2.5},
+                       {"translation_error", r.translation}, {"translation_error_fraction", r.translation / kObjectExtent},
                        {"confidence", r.confidence}, {"overlap", r.overlap}, {"seconds", r.seconds}});
     }
     WriteJsonFile(o.out, {{"pairs_file", o.pairs_path}, {"split", o.split}, {"rows", table}, {"summary", result.summary.json}});
@@ -229,23 +226,21 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
 
 RegistrationError EvaluateRegistrationFile(const std::string& pair, const std::string& gt_path, int source, int target,
                                            const std::string& out) {
-  const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);
-  const JsonField p(pj, pair), g(gj, gt_path);
-  Sim3d est, src_from_world, tgt_from_world;
+  const Json pj = ReadJsonFile(pair);
+  const GroundTruthFile truth(gt_path);
+  const JsonField p(pj, pair);
+  Sim3d est, gt;
   try {
     est = Sim3d::FromMatrix(p["target_from_source"].Matrix(4, 4));
-    src_from_world = Sim3d::FromMatrix(g["blocks"][source]["block_from_world"].Matrix(4, 4));
-    tgt_from_world = Sim3d::FromMatrix(g["blocks"][target]["block_from_world"].Matrix(4, 4));
+    gt = truth.TargetFromSource(source, target);
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("reg eval: a transform is not a similarity: ") + e.what());
   }
-  const Sim3d gt = tgt_from_world * src_from_world.Inverse();
   RegistrationError r;
   r.rotation_deg = RotationErrorDeg(est.rotation, gt.rotation);
   r.translation = TranslationError(est.translation, gt.translation);
-  const double extent = 2.5;
-  r.translation_fraction = r.translation / extent;
-  r.success = r.rotation_deg <= 5.0 && r.translation_fraction <= 0.05;
+  r.translation_fraction = r.translation / kObjectExtent;
+  r.success = RegistrationSucceeded(r.rotation_deg, r.translation);
   r.method = p.StringOr("method", "?");
   r.json = {{"rotation_error_deg", r.rotation_deg}, {"translation_error", r.translation},
             {"translation_error_fraction", r.translation_fraction}, {"success", r.success}, {"method", r.method},

@@ -1,4 +1,5 @@
 #include "nerfreg/posegraph/pose_graph.h"
+#include "nerfreg/posegraph/ceres_solve.h"
 
 #include <ceres/ceres.h>
 
@@ -160,12 +161,7 @@ PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge
       problem.SetParameterBlockConstant(q[0].coeffs().data());
       problem.SetParameterBlockConstant(t[0].data());
     }
-    ceres::Solver::Options solver;
-    solver.max_num_iterations = options.max_iterations;
-    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver.num_threads = 1;
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    const ceres::Solver::Summary summary = SolveCeresProblem(&problem, options.max_iterations);
     result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
     result.converged = summary.termination_type == ceres::CONVERGENCE;

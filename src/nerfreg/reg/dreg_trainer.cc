@@ -8,6 +8,7 @@
 #include <random>
 
 #include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/reg/registration_success.h"
 #include "nerfreg/reg/training_data.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -71,7 +72,7 @@ DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double 
     const Sim3d gt = Sim3d::FromMatrix(p.target_from_source, 1e-3);
     rot.push_back(RotationErrorDeg(est.rotation, gt.rotation));
     trans.push_back(TranslationError(est.translation, gt.translation));
-    success += rot.back() <= 5 && trans.back() / 2.5 <= 0.05;
+    success += RegistrationSucceeded(rot.back(), trans.back());
   }
   if (rot.empty()) return r;
   r.pairs = static_cast<int>(rot.size());

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 
 #include "nerfreg/data/transforms_json.h"
+#include "nerfreg/nerf/test_train_options.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/synthetic_grids.h"
@@ -26,16 +27,7 @@ NerfBlock TrainSmallBlock(const ScopedTempDir& dir, TriangleMesh* mesh_out) {
   r.render.supersample = 1;
   RenderDataset(mesh, r, dir.File("data"));
   const Dataset d = ReadTransformsJson(dir.File("data/transforms.json"));
-  NerfTrainOptions o = NerfTrainOptions::Preset("fast");
-  o.iterations = 250;
-  o.field.encoding.log2_table_size = 14;
-  o.field.encoding.levels = 8;
-  o.field.encoding.per_level_scale = 1.5;
-  o.grid.resolution = 32;
-  o.target_samples = 1 << 13;
-  o.eval_every = 0;
-  o.checkpoint_every = 0;
-  TrainNerfBlock(d, o, dir.File("b.ckpt"), false);
+  TrainNerfBlock(d, TinyNerfTrainOptions(250), dir.File("b.ckpt"), false);
   NerfBlock block = LoadNerfBlock(dir.File("b.ckpt"));
   *mesh_out = mesh;
   return block;

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <set>
 
+#include "nerfreg/data/ground_truth.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/render/mesh.h"
 #include "nerfreg/render/procedural.h"
@@ -143,8 +144,7 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
     RenderDataset(mesh, r, data);
   }
   (*cost)["render_seconds"] = timer.Seconds();
-  const Json gt = ReadJsonFile(JoinPaths(data, "ground_truth.json"));
-  const JsonField g(gt, JoinPaths(data, "ground_truth.json"));
+  const GroundTruthFile truth(JoinPaths(data, "ground_truth.json"));
   std::vector<RegGrid> grids;
   std::vector<Sim3d> from_world;
   Json psnr = Json::array();
@@ -153,7 +153,7 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
     const std::string block_dir = JoinPaths(data, "block_" + std::to_string(k));
     const std::string ckpt = JoinPaths(dir, "block_" + std::to_string(k) + ".ckpt");
     const std::string grid_path = JoinPaths(dir, "block_" + std::to_string(k) + ".grid");
-    from_world.push_back(Sim3d::FromMatrix(g["blocks"][k]["block_from_world"].Matrix(4, 4)));
+    from_world.push_back(truth.BlockFromWorld(k));
     if (!FileExists(grid_path)) {
       Timer t;
       const Dataset d = ReadTransformsJson(JoinPaths(block_dir, "transforms.json"));

@@ -1,4 +1,5 @@
 #include "nerfreg/sfm/bundle_adjustment.h"
+#include "nerfreg/posegraph/ceres_solve.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -89,12 +90,8 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
     t.cwiseAbs().maxCoeff(&axis);
     problem.SetManifold(params[far].data(), new ceres::SubsetManifold(6, {3 + axis}));
   }
-  ceres::Solver::Options solver;
-  solver.max_num_iterations = options.max_iterations;
-  solver.linear_solver_type = ceres::SPARSE_SCHUR;
-  solver.num_threads = options.num_threads;
-  ceres::Solver::Summary ceres_summary;
-  ceres::Solve(solver, &problem, &ceres_summary);
+  const ceres::Solver::Summary ceres_summary =
+      SolveCeresProblem(&problem, options.max_iterations, ceres::SPARSE_SCHUR, options.num_threads);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
   for (int k = 0; k < n; ++k) {
     if (!posed[k]) continue;

@@ -5,16 +5,9 @@
 #include <stdexcept>
 
 #include "nerfreg/geometry/alignment.h"
+#include "nerfreg/util/stats.h"
 
 namespace nerfreg {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  if (values.size() % 2 == 1) return values[mid];
-  return 0.5 * (values[mid] + *std::max_element(values.begin(), values.begin() + mid));
-}
 
 namespace {
 

@@ -1,4 +1,5 @@
 #include "nerfreg/sfm/rotation_averaging.h"
+#include "nerfreg/posegraph/ceres_solve.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -154,12 +155,7 @@ RotationAveragingResult AverageRotations(const ViewGraph& graph, const RotationA
       problem.SetManifold(result.cam_from_world[k].coeffs().data(), new ceres::EigenQuaternionManifold);
     }
   problem.SetParameterBlockConstant(result.cam_from_world[result.root].coeffs().data());
-  ceres::Solver::Options solver;
-  solver.max_num_iterations = options.max_iterations;
-  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  solver.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver, &problem, &summary);
+  SolveCeresProblem(&problem, options.max_iterations);
 
   for (size_t k = 0; k < graph.edges.size(); ++k) {
     const ViewGraphEdge& e = graph.edges[k];

@@ -5,16 +5,10 @@
 #include <sstream>
 
 #include "nerfreg/util/error.h"
+#include "nerfreg/util/stats.h"
 
 namespace nerfreg {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
 
 std::string Fmt(double v) {
   std::ostringstream s;
@@ -69,9 +63,9 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
     q.min_points_per_image = q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
   }
   q.min_points_per_image = std::max(q.min_points_per_image, 0);
-  q.median_points_per_image = Median(per_image);
-  q.median_track_length = Median(track_lengths);
-  q.median_triangulation_angle_deg = Median(angles);
+  q.median_points_per_image = UpperMedian(per_image);
+  q.median_track_length = UpperMedian(track_lengths);
+  q.median_triangulation_angle_deg = UpperMedian(angles);
 
   if (q.min_image_side_px < options.min_image_side_px) {
     q.problems.push_back("images of " + std::to_string(q.min_image_side_px) + " px on their short side (at least " +

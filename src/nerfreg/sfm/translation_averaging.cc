@@ -1,4 +1,5 @@
 #include "nerfreg/sfm/translation_averaging.h"
+#include "nerfreg/posegraph/ceres_solve.h"
 
 #include <ceres/ceres.h>
 
@@ -123,12 +124,7 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
       result.centers[far].cwiseAbs().maxCoeff(&axis);
       problem.SetManifold(result.centers[far].data(), new ceres::SubsetManifold(3, {axis}));
     }
-    ceres::Solver::Options solver;
-    solver.max_num_iterations = options.max_iterations;
-    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver.num_threads = 1;
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    SolveCeresProblem(&problem, options.max_iterations);
   }
   double mean_distance = 0;
   int count = 0;
