@@ -57,6 +57,9 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c) {
   app.add_option("--smoothness", c->train.sfm.smoothness_weight, "SfM loss: depth smoothness weight (original 0.01)");
   app.add_option("--auto-mask", c->train.sfm.auto_mask, "SfM loss: auto-masking, true or false (original true)");
   app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
+  app.add_option("--sfm-cache", c->scene.sfm_cache_dir,
+                 "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
+                 "changing the SfM)");
   app.add_option("--seed", c->train.seed, "Seed");
 }
 
