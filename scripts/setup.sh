@@ -8,6 +8,8 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config
   # learned core
   libtorch-dev libopenblas0-pthread libeigen3-dev
+  # torch c10d's ProcessGroupGloo headers include Gloo's (data-parallel training, dist/)
+  libgloo-dev
   # edges: ray casting, point-cloud baselines, pose graphs, image features
   libembree-dev libopen3d-dev libceres-dev libopencv-dev
   # header-only and small utilities

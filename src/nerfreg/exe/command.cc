@@ -1,6 +1,9 @@
 #include "nerfreg/exe/command.h"
 
+#include <sstream>
+
 #include "nerfreg/data/dataset.h"
+#include "nerfreg/dist/launch.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 
@@ -25,6 +28,30 @@ int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& comm
   log.verbose = common.verbose;
   InitLogging(log);
   return -1;
+}
+
+void AddDistOptions(CLI::App& app, DistOptions* options) {
+  app.add_option("--nproc", options->nproc,
+                 "Data-parallel processes on this machine, each with its share of the cores and of each batch "
+                 "(c10d Gloo; default 1)");
+  app.add_option("--nnodes", options->nnodes, "Machines in the job (default 1); run the command on each");
+  app.add_option("--node-rank", options->node_rank, "This machine's index in [0, --nnodes)");
+  app.add_option("--master-addr", options->master_addr, "Address of rank 0's machine (default 127.0.0.1)");
+  app.add_option("--master-port", options->master_port, "Rendezvous port (default 0: a free one; needed with --nnodes > 1)");
+  app.add_option("--dist-timeout", options->timeout_s, "Seconds a rank waits for the others before failing (default 120)");
+}
+
+int LaunchIfAsked(const DistOptions& options, int argc, char** argv) {
+  options.Check();
+  if (!ShouldLaunch(options)) return -1;
+  // argv[0] is the full command name ("nerfreg reg train"): the workers get its words back.
+  std::vector<std::string> args;
+  std::istringstream words(argv[0]);
+  for (std::string w; words >> w;) {
+    if (w != "nerfreg") args.push_back(w);
+  }
+  for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+  return LaunchWorkers(options, args);
 }
 
 std::vector<std::string> DatasetInputs(const std::string& given_path, const Dataset& dataset) {

@@ -26,6 +26,15 @@ void AddCommonOptions(CLI::App& app, CommonOptions* options);
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common);
 
 struct Dataset;
+struct DistOptions;
+
+// Adds --nproc, --nnodes, --node-rank, --master-addr, --master-port and --dist-timeout (data-parallel
+// training, docs/distributed.md).
+void AddDistOptions(CLI::App& app, DistOptions* options);
+
+// The command as typed asks for workers (--nproc > 1, and this is not one): starts them running
+// the same command, waits, and returns the exit code. Otherwise -1: run here.
+int LaunchIfAsked(const DistOptions& options, int argc, char** argv);
 
 // The files a dataset was read from, for CheckCanWriteOutput: the path given, its camera file
 // (transforms.json, poses_bounds.npy) and every image. An output may not replace any of them.

@@ -1,5 +1,6 @@
 // nerfreg: one binary, a table of subcommands. Errors from user input are caught here once and
-// printed as one line; the exit code tells their kind (2 bad input or usage, 3 internal error).
+// printed as one line; the exit code tells their kind (2 bad input or usage, 3 internal error, 4 a lost process of a
+// distributed job).
 #include <unistd.h>
 
 #include <cerrno>
@@ -11,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/util/error.h"
@@ -101,6 +103,9 @@ int main(int argc, char** argv) {
   } catch (const nerfreg::InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const nerfreg::DistError& e) {
+    std::fprintf(stderr, "error: distributed: %s\n", e.what());
+    return 4;
   } catch (const std::filesystem::filesystem_error& e) {
     // A failed copy or folder operation outside our checked writers: a full disk or a folder the
     // user cannot write is still the user's to fix, so it is reported as such.

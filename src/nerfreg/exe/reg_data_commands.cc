@@ -2,6 +2,7 @@
 // reg train | reg average.
 #include <thread>
 
+#include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/reg/dreg_trainer.h"
@@ -114,11 +115,13 @@ int RunRegTrain(int argc, char** argv) {
   std::vector<std::string> data;
   std::string out;
   DregTrainOptions o;
+  DistOptions dist;
   bool resume = false;
   app.add_option("data", data, "pairs.json files")->required()->expected(1, 100);
   app.add_option("--out", out, "Output weights")->required();
   app.add_option("--config", o.config, "Network size: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
   app.add_option("--iters", o.iterations, "Iterations (default 20000)");
+  app.add_option("--batch", o.batch, "Pairs per step over all processes; their gradients averaged (default: 1 per process)");
   app.add_option("--lr", o.lr, "AdamW learning rate (default 1e-4)");
   app.add_option("--lr-step", o.lr_step, "StepLR period (default 8000)");
   app.add_option("--val-every", o.val_every, "Validate every n steps (default 500)");
@@ -139,9 +142,13 @@ int RunRegTrain(int argc, char** argv) {
                "Confidence and correspondence labels S * O: the surface field times the other block's seen "
                "surface at the true match (the overlap; ours), not S alone (the paper)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
+  AddDistOptions(app, &dist);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (!resume) CheckCanWriteOutput(out, common.force, data);
-  const DregTrainResult r = TrainDreg(data, o, out, resume);
+  if (int rc = LaunchIfAsked(dist, argc, argv); rc >= 0) return rc;
+  const auto group = DistGroup::FromEnvironment(dist.timeout_s);
+  const DregTrainResult r = TrainDreg(data, o, out, resume, group.get());
+  if (!group->is_main()) return 0;
   std::printf("%s\n", Json({{"weights", out}, {"iterations", r.iterations}, {"seconds", r.seconds}, {"final_loss", r.final_loss},
                             {"val_median_rotation_deg", r.val.median_rotation_deg}, {"val_success_rate", r.val.success_rate},
                             {"val_pairs", r.val.pairs}})

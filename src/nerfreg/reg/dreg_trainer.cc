@@ -22,6 +22,7 @@ namespace nerfreg {
 void DregTrainOptions::Check() const {
   if (config != "cpu" && config != "paper") ThrowInputError("--config", "", "cpu or paper");
   if (iterations < 1) ThrowInputError("--iters", "", ">= 1");
+  if (batch < 0 || batch > 4096) ThrowInputError("--batch", "", "pairs per step in [1, 4096] (0: one per process)");
   if (!(lr > 0) || weight_decay < 0 || lr_step < 1 || !(lr_gamma > 0) || !(grad_clip > 0)) {
     ThrowInputError("reg train", "optimizer options", "lr > 0, weight decay >= 0, lr step >= 1, gamma > 0, clip > 0");
   }
@@ -37,7 +38,7 @@ void DregTrainOptions::Check() const {
 }
 
 Json DregTrainOptions::ToJson() const {
-  return {{"config", config}, {"iterations", iterations}, {"lr", lr}, {"weight_decay", weight_decay},
+  return {{"config", config}, {"iterations", iterations}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay},
           {"lr_step", lr_step}, {"lr_gamma", lr_gamma}, {"grad_clip", grad_clip}, {"jitter", jitter},
           {"move_probability", move_probability}, {"move_deg", move_deg}, {"move_translation", move_translation},
           {"swap", swap}, {"mirror_probability", mirror_probability}, {"colour_probability", colour_probability},
@@ -59,19 +60,28 @@ torch::Tensor ToTensor(const Eigen::Matrix4d& m) {
   return torch::from_blob(r.data(), {4, 4}, torch::kFloat64).to(torch::kFloat32).clone();
 }
 
-DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double inlier_radius) {
+// Every rank registers every world-th pair; the errors are summed into one table all ranks read.
+DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double inlier_radius, DistGroup& group) {
   DregValResult r;
-  std::vector<double> rot, trans;
-  int success = 0;
-  for (const auto& p : val) {
+  const std::int64_t n = static_cast<std::int64_t>(val.size());
+  std::vector<torch::Tensor> errors = {torch::zeros({2, n}, torch::kFloat64)};  // [2, V] rotation deg, translation
+  for (std::int64_t k = group.rank(); k < n; k += group.world_size()) {
+    const PairRecord& p = val[k];
     const LoadedPair lp = Load(p);
     DregSolveOptions solve;
     solve.inlier_radius = inlier_radius;
     const DregRegistration reg = Register(net, lp.source, lp.target, solve);
     const Sim3d est = Sim3d::FromMatrix(reg.target_from_source, 1e-3);
     const Sim3d gt = Sim3d::FromMatrix(p.target_from_source, 1e-3);
-    rot.push_back(RotationErrorDeg(est.rotation, gt.rotation));
-    trans.push_back(TranslationError(est.translation, gt.translation));
+    errors[0][0][k] = RotationErrorDeg(est.rotation, gt.rotation);
+    errors[0][1][k] = TranslationError(est.translation, gt.translation);
+  }
+  group.AllReduceSum(errors);
+  std::vector<double> rot, trans;
+  int success = 0;
+  for (std::int64_t k = 0; k < n; ++k) {
+    rot.push_back(errors[0][0][k].item<double>());
+    trans.push_back(errors[0][1][k].item<double>());
     success += RegistrationSucceeded(rot.back(), trans.back());
   }
   if (rot.empty()) return r;
@@ -92,11 +102,89 @@ Json ValJson(const DregValResult& v) {
           {"median_translation", v.median_translation}, {"success_rate", v.success_rate}, {"pairs", v.pairs}};
 }
 
+// One training pair's random choices, drawn by every rank for every pair of the global batch (so
+// the stream stays in step across ranks) and applied only by the rank that trains on the pair.
+struct PairDraw {
+  const PairRecord* record = nullptr;
+  bool swap = false;
+  bool move = false;
+  Eigen::Matrix3d move_rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d move_translation = Eigen::Vector3d::Zero();
+  bool mirror = false, recolour = false;
+  std::array<std::int64_t, 3> perm = {0, 1, 2};
+  std::array<double, 3> gain = {1, 1, 1};
+  std::uint64_t jitter_seed = 0;  // the pair's own torch generator: the noise does not depend on the rank
+};
+
+PairDraw DrawPair(const DregTrainOptions& options, const std::vector<PairRecord>& train,
+                  const std::vector<PairRecord>& train_nerf, const std::vector<PairRecord>& train_mesh,
+                  std::mt19937& rng, std::normal_distribution<double>& normal) {
+  std::uniform_real_distribution<double> uni(0, 1);
+  PairDraw d;
+  // A pair: real-NeRF pairs with probability nerf_fraction (when set and present), else any.
+  const bool pick_nerf = options.nerf_fraction > 0 && !train_nerf.empty() && uni(rng) < options.nerf_fraction;
+  const auto& pool = pick_nerf ? train_nerf : (options.nerf_fraction > 0 && !train_mesh.empty() ? train_mesh : train);
+  d.record = &pool[std::uniform_int_distribution<size_t>(0, pool.size() - 1)(rng)];
+  d.swap = options.swap && uni(rng) < 0.5;
+  d.move = uni(rng) < options.move_probability;
+  if (d.move) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    const double angle = options.move_deg * M_PI / 180 * uni(rng);
+    d.move_rotation = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+    d.move_translation = options.move_translation * Eigen::Vector3d(2 * uni(rng) - 1, 2 * uni(rng) - 1, 2 * uni(rng) - 1);
+  }
+  d.mirror = uni(rng) < options.mirror_probability;
+  d.recolour = uni(rng) < options.colour_probability;
+  if (d.recolour) {
+    std::shuffle(d.perm.begin(), d.perm.end(), rng);
+    d.gain = {0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng)};
+  }
+  d.jitter_seed = (static_cast<std::uint64_t>(rng()) << 32) | rng();
+  return d;
+}
+
+LoadedPair ApplyDraw(const PairDraw& d, double jitter) {
+  LoadedPair p = Load(*d.record);
+  if (d.swap) {
+    std::swap(p.source, p.target);
+    p.target_from_source = Eigen::Matrix4d(p.target_from_source.inverse());
+  }
+  if (d.move) {
+    // Rotate about the grid's centre so the object stays inside the box.
+    const Eigen::Matrix3d& R = d.move_rotation;
+    const Eigen::Vector3d c = 0.5 * (p.source.aabb_min + p.source.aabb_max);
+    const Eigen::Vector3d tt = c - R * c + d.move_translation;
+    p.source = TransformRegGrid(p.source, R, tt);
+    Eigen::Matrix4d moved_from_source = Eigen::Matrix4d::Identity();
+    moved_from_source.topLeftCorner<3, 3>() = R;
+    moved_from_source.topRightCorner<3, 1>() = tt;
+    p.target_from_source = p.target_from_source * moved_from_source.inverse();
+  }
+  if (d.mirror) MirrorRegGridPair(&p.source, &p.target, &p.target_from_source);
+  if (d.recolour) {
+    p.source = RecolourRegGrid(p.source, d.perm, d.gain);
+    p.target = RecolourRegGrid(p.target, d.perm, d.gain);
+  }
+  if (jitter > 0) {
+    torch::Generator gen = at::detail::createCPUGenerator(d.jitter_seed);
+    p.source.xyz = p.source.xyz + jitter * torch::randn(p.source.xyz.sizes(), gen);
+    p.target.xyz = p.target.xyz + jitter * torch::randn(p.target.xyz.sizes(), gen);
+  }
+  return p;
+}
+
 }  // namespace
 
 DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const DregTrainOptions& options,
-                          const std::string& out, bool resume) {
+                          const std::string& out, bool resume, DistGroup* group_in) {
   options.Check();
+  DistGroup single;
+  DistGroup& group = group_in != nullptr ? *group_in : single;
+  const int world = group.world_size(), rank = group.rank();
+  const int batch = options.batch > 0 ? options.batch : world;
+  if (batch < world) {
+    ThrowInputError("--batch", "", "at least one pair per process (>= " + std::to_string(world) + ")");
+  }
   std::vector<PairRecord> train, val, train_nerf, train_mesh;
   for (const auto& f : pairs_files) {
     for (const auto& p : ReadPairs(f)) (p.split == "val" ? val : train).push_back(p);
@@ -108,8 +196,8 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     for (int k = 0; k < options.max_val_pairs; ++k) pick.push_back(val[k * val.size() / options.max_val_pairs]);
     val = pick;
   }
-  LOG_INFO("reg train: {} training pairs ({} from real NeRF blocks), {} validation pairs", train.size(), train_nerf.size(),
-           val.size());
+  LOG_INFO("reg train: {} training pairs ({} from real NeRF blocks), {} validation pairs, {} per step{}", train.size(),
+           train_nerf.size(), val.size(), batch, world > 1 ? " over " + std::to_string(world) + " processes" : "");
 
   Timer timer;
   const std::string state_path = out + ".train";
@@ -158,7 +246,15 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     }
     LOG_INFO("resuming {} at step {}", state_path, step);
   }
+  // Every rank starts from rank 0's weights (the same seed made them equal already; this makes it
+  // so whatever the ranks read).
+  {
+    std::vector<torch::Tensor> state = net->parameters();
+    for (const auto& b : net->buffers()) state.push_back(b);
+    BroadcastParameters(group, state);
+  }
   auto save = [&] {
+    if (!group.is_main()) return;
     torch::serialize::OutputArchive ar, model_ar, opt_ar;
     net->save(model_ar);
     ar.write("model", model_ar);
@@ -174,68 +270,54 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     SaveDregWeights(net, model_options, out);
   };
 
-  std::ofstream log(out + ".log.jsonl", resume ? std::ios::app : std::ios::trunc);
+  std::ofstream log;
+  if (group.is_main()) log.open(out + ".log.jsonl", resume ? std::ios::app : std::ios::trunc);
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;
   ProgressBar bar("reg train", options.iterations, "it");
   bar.Tick(step);
-  std::uniform_real_distribution<double> uni(0, 1);
   std::normal_distribution<double> normal(0, 1);
   DregTrainResult result;
   double loss_ema = 0;
   net->train();
+  const std::vector<torch::Tensor> parameters = net->parameters();
   for (; step < end_step;) {
     const double lr = options.lr * std::pow(options.lr_gamma, step / options.lr_step);
     for (auto& g : optimizer->param_groups()) static_cast<torch::optim::AdamWOptions&>(g.options()).lr(lr);
-    // A pair: real-NeRF pairs with probability nerf_fraction (when set and present), else any.
-    const bool pick_nerf = options.nerf_fraction > 0 && !train_nerf.empty() && uni(rng) < options.nerf_fraction;
-    const auto& pool = pick_nerf ? train_nerf : (options.nerf_fraction > 0 && !train_mesh.empty() ? train_mesh : train);
-    const PairRecord& rec = pool[std::uniform_int_distribution<size_t>(0, pool.size() - 1)(rng)];
-    LoadedPair p = Load(rec);
-    // Augmentation.
-    if (options.swap && uni(rng) < 0.5) {
-      std::swap(p.source, p.target);
-      p.target_from_source = Eigen::Matrix4d(p.target_from_source.inverse());
+    std::vector<PairDraw> draws;
+    for (int b = 0; b < batch; ++b) draws.push_back(DrawPair(options, train, train_nerf, train_mesh, rng, normal));
+    // This rank's pairs: b = rank, rank + world, ... Their gradients accumulate; `stats` sums the
+    // loss terms and counts the pairs trained on (a pair with too few surface voxels is skipped).
+    optimizer->zero_grad();
+    torch::Tensor stats = torch::zeros({6}, torch::kFloat64);  // [6] loss, pairs, confidence, correspondence, surface, feature
+    for (int b = rank; b < batch; b += world) {
+      LoadedPair p = ApplyDraw(draws[b], options.jitter);
+      if (p.source.mask.sum().item<std::int64_t>() < 8 || p.target.mask.sum().item<std::int64_t>() < 8) continue;
+      const DregOutput o = net->forward(p.source, p.target);
+      const DregLossTerms terms = DregLoss(o, p.source, p.target, ToTensor(p.target_from_source), options.loss);
+      terms.total.backward();
+      const double values[6] = {terms.total.item<double>(), 1, terms.confidence.item<double>(),
+                                terms.correspondence.item<double>(), terms.surface.item<double>(),
+                                terms.feature.item<double>()};
+      for (int k = 0; k < 6; ++k) stats[k] += values[k];
     }
-    if (uni(rng) < options.move_probability) {
-      const Eigen::Vector3d axis = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
-      const double angle = options.move_deg * M_PI / 180 * uni(rng);
-      const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
-      const Eigen::Vector3d t = options.move_translation * Eigen::Vector3d(2 * uni(rng) - 1, 2 * uni(rng) - 1, 2 * uni(rng) - 1);
-      // Rotate about the grid's centre so the object stays inside the box.
-      const Eigen::Vector3d c = 0.5 * (p.source.aabb_min + p.source.aabb_max);
-      const Eigen::Vector3d tt = c - R * c + t;
-      p.source = TransformRegGrid(p.source, R, tt);
-      Eigen::Matrix4d moved_from_source = Eigen::Matrix4d::Identity();
-      moved_from_source.topLeftCorner<3, 3>() = R;
-      moved_from_source.topRightCorner<3, 1>() = tt;
-      p.target_from_source = p.target_from_source * moved_from_source.inverse();
-    }
-    if (uni(rng) < options.mirror_probability) MirrorRegGridPair(&p.source, &p.target, &p.target_from_source);
-    if (uni(rng) < options.colour_probability) {
-      std::array<std::int64_t, 3> perm = {0, 1, 2};
-      std::shuffle(perm.begin(), perm.end(), rng);
-      const std::array<double, 3> gain = {0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng), 0.7 + 0.6 * uni(rng)};
-      p.source = RecolourRegGrid(p.source, perm, gain);
-      p.target = RecolourRegGrid(p.target, perm, gain);
-    }
-    if (options.jitter > 0) {
-      p.source.xyz = p.source.xyz + options.jitter * torch::randn(p.source.xyz.sizes());
-      p.target.xyz = p.target.xyz + options.jitter * torch::randn(p.target.xyz.sizes());
-    }
-    if (p.source.mask.sum().item<std::int64_t>() < 8 || p.target.mask.sum().item<std::int64_t>() < 8) {
+    AllReduceGradients(group, parameters, &stats);
+    const double pairs = stats[1].item<double>();
+    std::string names = draws[0].record->name;
+    for (int b = 1; b < batch; ++b) names += "," + draws[b].record->name;
+    if (pairs == 0) {
       ++step;
       bar.Tick();
       continue;
     }
-    const DregOutput o = net->forward(p.source, p.target);
-    const DregLossTerms terms = DregLoss(o, p.source, p.target, ToTensor(p.target_from_source), options.loss);
-    const double loss = terms.total.item<double>();
+    const double loss = stats[0].item<double>() / pairs;
     if (!std::isfinite(loss)) {
       throw std::runtime_error("reg train diverged: loss is " + std::to_string(loss) + " at step " + std::to_string(step) +
-                               " (pair " + rec.name + "); the last good checkpoint " + state_path + " was kept");
+                               " (pairs " + names + "); the last good checkpoint " + state_path + " was kept");
     }
-    optimizer->zero_grad();
-    terms.total.backward();
+    // The mean over the batch's pairs, as one process with the whole batch computes it.
+    for (const auto& param : parameters) {
+      if (param.grad().defined()) param.mutable_grad().div_(pairs);
+    }
     torch::nn::utils::clip_grad_norm_(net->parameters(), options.grad_clip);
     optimizer->step();
     loss_ema = step == 0 || loss_ema == 0 ? loss : 0.98 * loss_ema + 0.02 * loss;
@@ -243,32 +325,34 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     ++step;
     bar.SetMetric("loss", loss_ema);
     bar.Tick();
-    Json line = {{"step", step}, {"loss", loss}, {"lr", lr}, {"pair", rec.name},
-                 {"confidence", terms.confidence.item<double>()}, {"correspondence", terms.correspondence.item<double>()},
-                 {"surface", terms.surface.item<double>()}, {"feature", terms.feature.item<double>()},
+    Json line = {{"step", step}, {"loss", loss}, {"lr", lr}, {"pair", names},
+                 {"confidence", stats[2].item<double>() / pairs}, {"correspondence", stats[3].item<double>() / pairs},
+                 {"surface", stats[4].item<double>() / pairs}, {"feature", stats[5].item<double>() / pairs},
                  {"seconds", seconds_before + timer.Seconds()}};
     const bool last = step == options.iterations;
     if (!val.empty() && ((options.val_every > 0 && step % options.val_every == 0) || last)) {
       net->eval();
-      result.val = Validate(net, val, options.inlier_radius);
+      result.val = Validate(net, val, options.inlier_radius, group);
       net->train();
       line["val"] = ValJson(result.val);
       bar.SetMetric("val_med_deg", result.val.median_rotation_deg);
       LOG_INFO("step {}: validation median rotation error {:.2f} deg, success {:.0f} % ({} pairs)", step,
                result.val.median_rotation_deg, 100 * result.val.success_rate, result.val.pairs);
     }
-    log << line.dump() << "\n";
-    log.flush();
+    if (group.is_main()) {
+      log << line.dump() << "\n";
+      log.flush();
+    }
     if ((options.checkpoint_every > 0 && step % options.checkpoint_every == 0) || last || step == end_step) save();
   }
   bar.Finish();
   if (step == end_step && options.checkpoint_every == 0) save();
   result.iterations = step;
   result.seconds = seconds_before + timer.Seconds();
-  Json summary = {{"options", options.ToJson()}, {"model", model_options.ToJson()}, {"data", pairs_files},
+  Json summary = {{"options", options.ToJson()}, {"processes", world}, {"model", model_options.ToJson()}, {"data", pairs_files},
                   {"train_pairs", train.size()}, {"train_pairs_nerf", train_nerf.size()}, {"val", ValJson(result.val)},
                   {"iterations", step}, {"seconds", result.seconds}, {"final_loss", result.final_loss}};
-  WriteJsonFile(out + ".json", summary);
+  if (group.is_main()) WriteJsonFile(out + ".json", summary);
   return result;
 }
 

@@ -1,10 +1,16 @@
 #pragma once
 // Training the DReg-NeRF network (`nerfreg reg train`, spec dreg-nerf.md 5): one pair per step
-// (batch 1, as the paper), AdamW, StepLR, gradient-norm clipping, augmentation (random source /
+// (batch 1, as the paper; --batch B averages B pairs' gradients), AdamW, StepLR, gradient-norm clipping, augmentation (random source /
 // target swap, keypoint jitter, a rigid move of one grid with the ground truth updated; and ours:
 // both grids mirrored or recoloured alike);
 // validation on the held-out ("val") pairs by registration error; checkpoints written
 // atomically with the optimizer and RNG state so `--resume` continues the same run.
+//
+// Data parallel (`--nproc N`, dist/): each of N processes takes every N-th pair of each global
+// batch; every pair's draw (which pair, its augmentation, its jitter noise) comes from the one
+// seeded stream all ranks advance alike, and gradients are summed over ranks and divided by the
+// batch's pair count, so N processes compute the step one process computes with the same batch.
+// Rank 0 alone writes the files below; every rank reads OUT.train on --resume.
 //
 // Files: OUT (the weights alone: small, what `reg register --weights` reads and what the repo
 // ships), OUT.train (weights + optimizer + step + RNG: what --resume reads), OUT.log.jsonl (the
@@ -12,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "nerfreg/dist/dist.h"
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/util/json_util.h"
@@ -21,6 +28,7 @@ namespace nerfreg {
 struct DregTrainOptions {
   std::string config = "cpu";       // "cpu" or "paper" (DregModelOptions)
   int iterations = 20000;
+  int batch = 0;                    // pairs per step over all processes; 0: one per process
   double lr = 1e-4;                 // AdamW (paper)
   double weight_decay = 1e-4;
   int lr_step = 8000;               // StepLR period (paper: 34k of 131k iterations)
@@ -67,9 +75,10 @@ struct DregTrainResult {
 };
 
 // pairs_files: one or more pairs.json of `reg make-data`; pairs of split "train" are trained on,
-// "val" ones validate. Throws InputError on bad data; std::runtime_error on a NaN loss (the last
+// "val" ones validate (split over the ranks). `group`: this process's place in a data-parallel
+// job (null: a single process). Throws InputError on bad data; std::runtime_error on a NaN loss (the last
 // good checkpoint is kept).
 DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const DregTrainOptions& options,
-                          const std::string& out, bool resume);
+                          const std::string& out, bool resume, DistGroup* group = nullptr);
 
 }  // namespace nerfreg
