@@ -158,6 +158,8 @@ int RunDbarfPoses(int argc, char** argv) {
                  "appearance (thumbnail similarity only, no SIFT) (default graph)");
   app.add_option("--near", options.network.near, "Network method: nearest depth the network predicts, in units of the mean camera distance to the first camera (default 7)");
   app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
+  app.add_option("--graph-edge-weight", options.network.graph_edge_weight,
+                 "Network method: weight of the essential-matrix edges averaged with the network's (default 0: none; auto uses 10 where the SfM poses too few)");
   app.add_option("--refine-passes", options.network.refine_passes,
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
@@ -234,6 +236,7 @@ int RunDbarfPoses(int argc, char** argv) {
                    {"direction_residual_deg", c.direction_residual_deg},
                    {"low", c.low}};
       if (c.observations >= 0) conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
+      if (!c.problem.empty()) conf["problem"] = c.problem;
       json["frames"][m]["posed_by"] = result.posed_by[posed_index[m]];
       json["frames"][m]["confidence"] = conf;
     }
@@ -247,7 +250,8 @@ int RunDbarfPoses(int argc, char** argv) {
         "none). network, method auto: the network's relative "
         "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "
         "edge, rotation residual above --low-confidence-deg, direction residual above 30 deg, or (sfm) fewer than "
-        "10 observations.";
+        "10 observations, or a problem of the pixels (\"problem\": textureless, identical to another image, or "
+        "unrelated to every other).";
     // The view graph, plus the pairs the network was run on that it lacks (0 inliers, so they rank
     // last): dbarf finetune / render take their neighbours from it, and images the matcher could
     // not relate have none otherwise.
@@ -295,9 +299,8 @@ int RunDbarfPoses(int argc, char** argv) {
   }
   for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
   if (!result.low_confidence.empty()) {
-    std::string list;
-    for (const auto& name : result.low_confidence) list += (list.empty() ? "" : ", ") + name;
-    LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(), list, out);
+    LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(),
+             DescribeLowConfidence(result, names), out);
   }
   LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
            num_posed, names.size(), num_by_network, quality.WellConstrained() ? "" : " (NOT well constrained: see the warnings)",
