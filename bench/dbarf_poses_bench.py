@@ -207,6 +207,8 @@ def main():
     records = []
     sets = make_sets()
     t_start = time.time()
+    if os.environ.get("REPORT_FROM_JSON"):  # rewrite the table from an earlier run's raw figures
+        records, sets = json.load(open(os.environ["REPORT_FROM_JSON"]))["sets"], []
     for k, (row, seed, views, size, material, spread) in enumerate(sets):
         data = os.path.join(WORK, "set_%d_%d_%s_%s_%g" % (seed, views, size, material, spread))
         render(seed, views, size, material, spread, data)
@@ -253,7 +255,7 @@ def main():
               "held-out test split). Per row and method, over its sets: images posed; sets with every image posed; of those, "
               "sets whose median rotation error is <= 2 deg; medians over sets of the per-set medians of the rotation error "
               "(deg, after aligning rotations then centres: `dbarf eval-poses --align rotations`), the translation-direction "
-              "error (deg, over image pairs, alignment-free) and the centre error (% of the widest baseline); median wall "
+              "error (deg, over image pairs, alignment-free) and the centre error (%% of the widest baseline); median wall "
               "time per set (s, the whole command; network+finetune: `dbarf poses --method network` plus `dbarf finetune "
               "--refine-cameras`, %d steps in stages of %d). COLMAP 3.8 (CPU) with SIFT's peak threshold lowered to "
               "0.00167 (its default finds 15-30 features on these renders)." % (FINETUNE_STEPS, FINETUNE_STAGE_STEPS), "",

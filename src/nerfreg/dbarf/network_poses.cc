@@ -19,6 +19,7 @@ void NetworkPosesOptions::Check() const {
   if (min_graph_neighbours < 0) throw InputError("min_graph_neighbours: expected >= 0");
   if (refine_passes < 0) throw InputError("--refine-passes: expected >= 0, got " + std::to_string(refine_passes));
   if (!(graph_edge_weight >= 0)) throw InputError("graph_edge_weight: expected >= 0");
+  if (max_width < 0) throw InputError("max_width: expected >= 0");
   if (!(near > 0) || !(far > near)) {
     throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " + std::to_string(far));
   }
@@ -278,6 +279,21 @@ torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
   return torch::stack(t);  // [V, 3, 3]
 }
 
+// The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
+std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                                                      int max_width) {
+  torch::Tensor stacked = StackImages(images), intrinsics = StackIntrinsics(cameras);
+  const int64_t w = stacked.size(3), h = stacked.size(2);
+  if (max_width <= 0 || w <= max_width) return {stacked, intrinsics};
+  const int64_t new_w = max_width, new_h = std::max<int64_t>(1, std::lround(double(h) * max_width / w));
+  namespace F = torch::nn::functional;
+  stacked = F::interpolate(stacked, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
+  intrinsics = intrinsics.clone();
+  intrinsics.select(1, 0) *= double(new_w) / w;  // fx, skew, cx
+  intrinsics.select(1, 1) *= double(new_h) / h;  // fy, cy
+  return {stacked, intrinsics};
+}
+
 // The SfM's depth range when it has enough triangulated depths (DepthRangeFromPoints' rule).
 bool SfmDepthRange(const SfmResult& sfm, const std::string& source, double* near, double* far) {
   try {
@@ -473,7 +489,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
       SetSfmConfidence(result.sfm, cameras, &result);
     } else if (num_posed >= 3 && have_range) {
       SetSfmConfidence(result.sfm, cameras, &result);
-      RegisterUnposedWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), options.network, &result);
+      const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, options.network.max_width);
+      RegisterUnposedWithNetwork(*model, net_images, net_intrinsics, options.network, &result);
     } else {
       LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
                num_posed, n);
@@ -502,7 +519,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     result.confidence.assign(n, ImagePoseConfidence());
     NetworkPosesOptions network = options.network;
     if (options.method == "auto") network.graph_edge_weight = options.auto_graph_edge_weight;
-    PoseAllWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), graph, network, &result);
+    const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, network.max_width);
+    PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
   }
 
   result.sfm.cam_from_world = result.cam_from_world;

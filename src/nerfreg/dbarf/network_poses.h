@@ -65,6 +65,10 @@ struct NetworkPosesOptions {
   // method network: more passes after the first, each starting the network from the relative poses
   // of the cameras averaged from the last (what weights trained to refine cameras expect).
   int refine_passes = 0;
+  // Images wider than this are shrunk to it (area average, intrinsics scaled alike) before the
+  // network sees them: the weights were trained on 128 x 96 renders, and at 320 x 240 their
+  // translations collapse to nothing. 0: as they are.
+  int max_width = 128;
   // Weight of the view graph's essential-matrix edges averaged together with the network's edges
   // (each network edge weighs 1; 0: the network's edges alone, as --method network). Method auto
   // uses them where the SfM poses too few images to register against: two images the matcher
