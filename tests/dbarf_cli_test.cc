@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 
 #include "cli_test_util.h"
 #include "nerfreg/data/colmap.h"
@@ -228,6 +229,54 @@ TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
   const Eigen::Vector3d c3 = pose_of(est, "r_003.png").Inverse().translation, c4 = pose_of(est, "r_004.png").Inverse().translation,
                         c5 = pose_of(est, "r_005.png").Inverse().translation;
   EXPECT_LT((c4 - 0.5 * (c3 + c5)).norm(), 0.5 * (c5 - c3).norm()) << c3.transpose() << " | " << c4.transpose() << " | " << c5.transpose();
+}
+
+// Images no method can pose with confidence (a flat grey one, two identical, one of another scene
+// drawn upside down): each is posed or not, but never a confident pose; the warning names each
+// with its confidence and the reason. A weights file of another kind is a named error.
+TEST(DbarfCli, TexturelessIdenticalAndUnrelatedImagesAreNamedInAWarningNeverConfident) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene"), other = dir.File("other");
+  ASSERT_EQ(RunNerfreg("render --procedural 5011 --trajectory forward --views 8 --quiet --out " + data).exit_code, 0);
+  ASSERT_EQ(RunNerfreg("render --procedural 5012 --trajectory forward --views 1 --material repetitive --quiet --out " + other).exit_code, 0);
+  Image grey = ReadImage(data + "/images/r_002.png", 3);
+  for (float& v : grey.data) v = 0.5f;
+  WriteImage(data + "/images/r_002.png", grey);
+  std::filesystem::copy_file(data + "/images/r_004.png", data + "/images/r_005.png", std::filesystem::copy_options::overwrite_existing);
+  const Image unrelated = ReadImage(other + "/images/r_000.png", 3);
+  Image flipped = unrelated;
+  for (int y = 0; y < unrelated.height; ++y)
+    for (int x = 0; x < unrelated.width; ++x)
+      for (int c = 0; c < 3; ++c) flipped.at(x, y, c) = unrelated.at(unrelated.width - 1 - x, unrelated.height - 1 - y, c);
+  WriteImage(data + "/images/r_007.png", flipped);
+
+  const CommandResult r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --out " + dir.File("o"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = ReadJsonFile(dir.File("o") + "/transforms.json");
+  const std::map<std::string, std::string> expected = {
+      {"r_002.png", "textureless"}, {"r_004.png", "identical to r_005.png"}, {"r_005.png", "identical to r_004.png"},
+      {"r_007.png", "unrelated"}};
+  for (const auto& [name, problem] : expected) {
+    const Json* f = FrameNamed(j, name);
+    if (f == nullptr) {  // not posed at all: listed as such
+      EXPECT_NE(j["not_posed"].dump().find(name), std::string::npos) << name;
+      continue;
+    }
+    EXPECT_TRUE((*f)["confidence"]["low"].get<bool>()) << f->dump();
+    EXPECT_EQ((*f)["confidence"].value("problem", ""), problem) << f->dump();
+    EXPECT_NE(j["low_confidence"].dump().find(name), std::string::npos) << name;
+    // The warning names it with its confidence and the reason.
+    EXPECT_NE(r.output.find(name + " ("), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(problem + ")"), std::string::npos) << r.output;
+  }
+  EXPECT_NE(r.output.find("low-confidence poses"), std::string::npos) << r.output;
+
+  // Weights that are not DBARF weights (here a transforms.json) are a one-line error naming the file.
+  const CommandResult w = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --method network --weights " +
+                                     data + "/transforms.json --out " + dir.File("w"));
+  EXPECT_EQ(w.exit_code, 2) << w.output;
+  EXPECT_NE(w.output.find("error: " + data + "/transforms.json"), std::string::npos) << w.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("w")));
 }
 
 }  // namespace

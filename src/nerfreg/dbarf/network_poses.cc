@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "nerfreg/dbarf/dbarf_model.h"
@@ -17,6 +18,8 @@ void NetworkPosesOptions::Check() const {
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
   if (min_graph_neighbours < 0) throw InputError("min_graph_neighbours: expected >= 0");
   if (refine_passes < 0) throw InputError("--refine-passes: expected >= 0, got " + std::to_string(refine_passes));
+  if (!(graph_edge_weight >= 0)) throw InputError("graph_edge_weight: expected >= 0");
+  if (max_width < 0) throw InputError("max_width: expected >= 0");
   if (!(near > 0) || !(far > near)) {
     throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " + std::to_string(far));
   }
@@ -33,6 +36,7 @@ void ImagePosesOptions::Check() const {
   }
   if (method != "classical" && weights.empty()) throw InputError("--weights: expected a DBARF weights file");
   if (!(low_confidence_deg > 0)) throw InputError("--low-confidence-deg: expected > 0");
+  if (!(auto_graph_edge_weight >= 0)) throw InputError("--graph-edge-weight: expected >= 0");
   try {
     sfm.Check();
   } catch (const std::invalid_argument& e) {
@@ -41,8 +45,11 @@ void ImagePosesOptions::Check() const {
   network.Check();
 }
 
-std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "AppearanceNeighbours: expected [V, 3, H, W], got ", images.sizes());
+namespace {
+
+// Zero-mean, unit-norm grey 16 x 12 thumbnails' dot products. images: [V, 3, H, W]; returns [V, V].
+torch::Tensor ThumbnailSimilarity(const torch::Tensor& images) {
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "ThumbnailSimilarity: expected [V, 3, H, W], got ", images.sizes());
   torch::NoGradGuard no_grad;
   const int64_t v = images.size(0);
   namespace F = torch::nn::functional;
@@ -50,8 +57,15 @@ std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images) 
   torch::Tensor thumbs =
       F::interpolate(grey, F::InterpolateFuncOptions().size(std::vector<int64_t>{12, 16}).mode(torch::kArea)).reshape({v, -1});
   thumbs = thumbs - thumbs.mean(1, true);
-  thumbs = thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);              // [V, 192]
-  const torch::Tensor similarity = torch::matmul(thumbs, thumbs.t()).contiguous();  // [V, V]
+  thumbs = thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);  // [V, 192]
+  return torch::matmul(thumbs, thumbs.t()).contiguous();      // [V, V]
+}
+
+}  // namespace
+
+std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images) {
+  const torch::Tensor similarity = ThumbnailSimilarity(images);  // [V, V]
+  const int64_t v = images.size(0);
   const auto sim = similarity.accessor<float, 2>();
   std::vector<std::vector<int>> out(v);
   for (int64_t i = 0; i < v; ++i) {
@@ -59,6 +73,35 @@ std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images) 
       if (j != i) out[i].push_back(static_cast<int>(j));
     // Ties (identical thumbnails) by index, so the order does not depend on the sort.
     std::stable_sort(out[i].begin(), out[i].end(), [&](int a, int b) { return sim[i][a] > sim[i][b]; });
+  }
+  return out;
+}
+
+std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const ViewGraph& graph, bool matched,
+                                            const std::vector<std::string>& names) {
+  torch::NoGradGuard no_grad;
+  const int64_t v = images.size(0);
+  TORCH_CHECK(static_cast<int64_t>(names.size()) == v, "ImageInputProblems: one name per image");
+  const torch::Tensor grey = images.to(torch::kFloat).mean(1).reshape({v, -1});  // [V, H * W]
+  const torch::Tensor grey_std = grey.std(1);                                       // [V]
+  const torch::Tensor similarity = ThumbnailSimilarity(images);                    // [V, V]
+  std::vector<std::string> out(v);
+  for (int64_t i = 0; i < v; ++i) {
+    if (grey_std[i].item<double>() < kTexturelessGreyStd) {
+      out[i] = "textureless";
+      continue;
+    }
+    double best = -1;
+    for (int64_t j = 0; j < v; ++j) {
+      if (j == i) continue;
+      const double sim = similarity[i][j].item<float>();
+      best = std::max(best, sim);
+      if (out[i].empty() && sim > 0.999 && (images[i] - images[j]).abs().max().item<double>() <= 2.0 / 255) out[i] = "identical to " + names[j];
+    }
+    if (!out[i].empty()) continue;
+    bool has_edge = false;
+    for (const ViewGraphEdge& e : graph.edges) has_edge = has_edge || e.i == i || e.j == i;
+    if (matched && !has_edge && best < kUnrelatedSimilarity) out[i] = "unrelated";
   }
   return out;
 }
@@ -165,12 +208,22 @@ NetworkRegistration RegisterFromRelativePoses(const std::vector<Rigid3d>& src_fr
 }
 
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
-                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options) {
+                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options,
+                                       double graph_edge_weight) {
   const int n = num_images;
   std::vector<RelativePose> edges;
   for (const NetworkRelativePose& p : poses) edges.push_back({p.target, p.source, p.src_from_tgt, 1.0});
+  std::vector<RelativePose> all_edges = edges;
+  if (graph_edge_weight > 0) {
+    for (const ViewGraphEdge& e : graph.edges)
+      if (e.i < n && e.j < n) all_edges.push_back({e.i, e.j, e.j_from_i, graph_edge_weight});
+  }
   NetworkEdgeAverage out;
-  out.averaged = GlobalPosesFromRelativePoses(n, edges, options);
+  out.averaged = GlobalPosesFromRelativePoses(n, all_edges, options);
+  // The per-edge figures below are the network's edges' (the first ones).
+  out.averaged.edge_rotation_error_deg.resize(edges.size());
+  out.averaged.edge_direction_error_deg.resize(edges.size());
+  out.averaged.edge_inlier.resize(edges.size());
   const RelativePoseAveragingResult& averaged = out.averaged;
   std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   std::vector<double> scales;  // output units per network unit, on the kept edges
@@ -224,6 +277,21 @@ torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
   std::vector<torch::Tensor> t;
   for (const Camera& c : cameras) t.push_back(IntrinsicsToTensor(c));
   return torch::stack(t);  // [V, 3, 3]
+}
+
+// The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
+std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                                                      int max_width) {
+  torch::Tensor stacked = StackImages(images), intrinsics = StackIntrinsics(cameras);
+  const int64_t w = stacked.size(3), h = stacked.size(2);
+  if (max_width <= 0 || w <= max_width) return {stacked, intrinsics};
+  const int64_t new_w = max_width, new_h = std::max<int64_t>(1, std::lround(double(h) * max_width / w));
+  namespace F = torch::nn::functional;
+  stacked = F::interpolate(stacked, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
+  intrinsics = intrinsics.clone();
+  intrinsics.select(1, 0) *= double(new_w) / w;  // fx, skew, cx
+  intrinsics.select(1, 1) *= double(new_h) / h;  // fy, cy
+  return {stacked, intrinsics};
 }
 
 // The SfM's depth range when it has enough triangulated depths (DepthRangeFromPoints' rule).
@@ -301,7 +369,7 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
       p98.push_back(run.depth_p98);
     }
     result->num_network_edges += static_cast<int>(poses.size());
-    average = AverageNetworkEdges(n, poses, graph, options.averaging);
+    average = AverageNetworkEdges(n, poses, graph, options.averaging, options.graph_edge_weight);
     // The depth range: the network's predicted depths, widened as DepthRangeFromPoints widens the
     // triangulated ones, brought into the output frame by the fitted scale.
     result->near = p02.empty() ? options.near : 0.7 * average.scale * Median(p02);
@@ -354,6 +422,22 @@ void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, 
 
 }  // namespace
 
+std::string DescribeLowConfidence(const ImagePosesResult& result, const std::vector<std::string>& names) {
+  std::string out;
+  for (size_t k = 0; k < names.size() && k < result.confidence.size(); ++k) {
+    const ImagePoseConfidence& c = result.confidence[k];
+    if (!result.posed[k] || !c.low) continue;
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s: rotation %.2f deg, direction %.1f deg over %d edges", result.posed_by[k].c_str(),
+                  c.rotation_residual_deg, c.direction_residual_deg, c.edges);
+    out += (out.empty() ? "" : ", ") + names[k] + " (" + buf;
+    if (c.observations >= 0) out += ", " + std::to_string(c.observations) + " points";
+    if (!c.problem.empty()) out += "; " + c.problem;
+    out += ")";
+  }
+  return out;
+}
+
 ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                                     const std::vector<std::string>& names, const ImagePosesOptions& options,
                                     const std::string& source) {
@@ -405,7 +489,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
       SetSfmConfidence(result.sfm, cameras, &result);
     } else if (num_posed >= 3 && have_range) {
       SetSfmConfidence(result.sfm, cameras, &result);
-      RegisterUnposedWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), options.network, &result);
+      const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, options.network.max_width);
+      RegisterUnposedWithNetwork(*model, net_images, net_intrinsics, options.network, &result);
     } else {
       LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
                num_posed, n);
@@ -432,19 +517,26 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     result.posed.assign(n, false);
     result.posed_by.assign(n, "");
     result.confidence.assign(n, ImagePoseConfidence());
-    PoseAllWithNetwork(*model, StackImages(images), StackIntrinsics(cameras), graph, options.network, &result);
+    NetworkPosesOptions network = options.network;
+    if (options.method == "auto") network.graph_edge_weight = options.auto_graph_edge_weight;
+    const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, network.max_width);
+    PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
   }
 
   result.sfm.cam_from_world = result.cam_from_world;
   result.sfm.posed = result.posed;
   result.sfm.not_posed.clear();
+  // Whatever a method made of them, images without the content to pose them are flagged.
+  const bool matched = options.method != "network" || options.network.match_images;
+  const std::vector<std::string> problems = ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
   for (int k = 0; k < n; ++k) {
     if (!result.posed[k]) {
       result.not_posed.push_back(names[k]);
       continue;
     }
     ImagePoseConfidence& c = result.confidence[k];
-    c.low = c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
+    c.problem = problems[k];
+    c.low = !c.problem.empty() || c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
             c.direction_residual_deg > options.low_confidence_direction_deg ||
             (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
     if (c.low) result.low_confidence.push_back(names[k]);

@@ -65,6 +65,16 @@ struct NetworkPosesOptions {
   // method network: more passes after the first, each starting the network from the relative poses
   // of the cameras averaged from the last (what weights trained to refine cameras expect).
   int refine_passes = 0;
+  // Images wider than this are shrunk to it (area average, intrinsics scaled alike) before the
+  // network sees them: the weights were trained on 128 x 96 renders, and at 320 x 240 their
+  // translations collapse to nothing. 0: as they are.
+  int max_width = 128;
+  // Weight of the view graph's essential-matrix edges averaged together with the network's edges
+  // (each network edge weighs 1; 0: the network's edges alone, as --method network). Method auto
+  // uses them where the SfM poses too few images to register against: two images the matcher
+  // relates then keep their accurate relative rotation and direction, and the network places the
+  // rest around them.
+  double graph_edge_weight = 0;
   RelativePoseAveragingOptions averaging;
   void Check() const;  // throws InputError naming the option
 };
@@ -74,6 +84,9 @@ struct ImagePosesOptions {
   std::string weights;          // DBARF weights (network, auto); loaded only when needed
   SfmOptions sfm;
   NetworkPosesOptions network;
+  // Method auto, where the SfM poses too few images to register against: the weight of the view
+  // graph's essential-matrix edges averaged with the network's (NetworkPosesOptions::graph_edge_weight).
+  double auto_graph_edge_weight = 10.0;
   double low_confidence_deg = 5.0;             // rotation residual
   double low_confidence_direction_deg = 30.0;  // direction residual
   int low_confidence_observations = 10;
@@ -88,6 +101,8 @@ struct ImagePoseConfidence {
   double direction_residual_deg = 180;
   int observations = -1;                // sfm: triangulated points seen; -1 for network
   double reprojection_error_px = -1;    // sfm: their mean reprojection error; -1 for network
+  // What the pixels alone say against any pose of the image (ImageInputProblems); empty: nothing.
+  std::string problem;
   bool low = false;
 };
 
@@ -117,7 +132,23 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                                     const std::vector<std::string>& names, const ImagePosesOptions& options,
                                     const std::string& source = "images");
 
+// One line naming every low-confidence image with its confidence, for the warning of dbarf poses:
+// "r_004.png (network: rotation 7.2 deg, direction 41 deg over 3 edges; textureless), ...". Empty
+// when none is low.
+std::string DescribeLowConfidence(const ImagePosesResult& result, const std::vector<std::string>& names);
+
 // ---- The parts, for tests and other callers ----
+
+// Per image, why no method can pose it with confidence, from the pixels (and the view graph when
+// images were matched, `matched`): "textureless" (the grey level's standard deviation below
+// kTexturelessGreyStd: nothing to match or regress from), "identical to NAME" (every pixel within
+// 2/255 of another image's: no baseline, so no direction to it), "unrelated" (no view-graph edge
+// and thumbnail similarity below kUnrelatedSimilarity to every other image: most likely another
+// scene). Empty where none applies. images: [V, 3, H, W] float32 in [0, 1].
+constexpr double kTexturelessGreyStd = 0.01;
+constexpr double kUnrelatedSimilarity = 0.3;
+std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const ViewGraph& graph, bool matched,
+                                            const std::vector<std::string>& names);
 
 // Per image, every other image ranked by the similarity of grey 16 x 12 thumbnails (zero-mean,
 // unit-norm, dot product), most similar first: neighbours for images the matcher cannot relate.
@@ -154,8 +185,11 @@ struct NetworkEdgeAverage {
   std::vector<ImagePoseConfidence> confidence;  // per image
   double scale = 1;  // output units per network unit: median over the kept edges
 };
+// graph_edge_weight > 0: the graph's essential-matrix edges are averaged too, at that weight each
+// (NetworkPosesOptions::graph_edge_weight); the confidence still checks against them.
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
-                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options);
+                                       const ViewGraph& graph, const RelativePoseAveragingOptions& options,
+                                       double graph_edge_weight = 0);
 
 // A target registered against posed sources from the network's src_from_tgt per source.
 struct NetworkRegistration {

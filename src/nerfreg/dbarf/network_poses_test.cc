@@ -192,5 +192,72 @@ TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
   EXPECT_NE(InputErrorOf([&] { EstimateImagePoses(images, cameras, names, o); }).find("missing.pt"), std::string::npos);
 }
 
+// Network edges a few degrees off, and exact essential matrices between neighbours: averaged
+// together at a weight (auto where the SfM poses too few images), the cameras follow the essential
+// matrices; the network's edges alone leave them off.
+TEST(NetworkPoses, EssentialMatrixEdgesAveragedWithTheNetworksAnchorTheCameras) {
+  std::vector<Rigid3d> truth;
+  for (int k = 0; k < 6; ++k) truth.push_back(LookAt({-1.0 + 0.4 * k, 0.3 * (k % 2), -4 + 0.2 * (k % 3)}, {0, 0, 0}));
+  std::vector<NetworkRelativePose> poses;
+  for (int t = 0; t < 6; ++t)
+    for (int s : {t - 2, t - 1, t + 1, t + 2}) {
+      if (s < 0 || s >= 6) continue;
+      Rigid3d rel = truth[s] * truth[t].Inverse();
+      // 3 deg about an axis that changes with the edge: errors that do not cancel around cycles.
+      const Eigen::Vector3d axis = Eigen::Vector3d(1 + t, 2 - s, 0.5 * (t + s)).normalized();
+      rel.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(3 * M_PI / 180, axis)) * rel.rotation;
+      poses.push_back({t, s, rel});
+    }
+  ViewGraph graph;
+  graph.names = {"0", "1", "2", "3", "4", "5"};
+  graph.keypoints.resize(6);
+  for (int i = 0; i + 1 < 6; ++i) {
+    ViewGraphEdge e;
+    e.i = i;
+    e.j = i + 1;
+    e.j_from_i = truth[i + 1] * truth[i].Inverse();
+    e.j_from_i.translation.normalize();
+    graph.edges.push_back(e);
+  }
+  const auto max_error = [&](const NetworkEdgeAverage& a) {
+    double worst = 0;
+    for (int k = 0; k < 6; ++k) {
+      EXPECT_TRUE(a.averaged.posed[k]);
+      worst = std::max(worst, RotationErrorDeg(a.averaged.cam_from_world[k].rotation, (truth[k] * truth[0].Inverse()).rotation));
+    }
+    return worst;
+  };
+  const double network_only = max_error(AverageNetworkEdges(6, poses, graph, {}));
+  const double anchored = max_error(AverageNetworkEdges(6, poses, graph, {}, 10.0));
+  EXPECT_GT(network_only, 1.0);
+  EXPECT_LT(anchored, 0.5 * network_only);
+  EXPECT_LT(anchored, 1.0);
+}
+
+// Images no pose can be trusted for, whatever the network says: flat grey, a copy of another, and
+// one of another place (no view-graph edge, unlike anything else).
+TEST(NetworkPoses, InputProblemsNameTexturelessIdenticalAndUnrelatedImages) {
+  const testing_scene::PlaneScene a = testing_scene::PlaneScene::Tilted(3.0);
+  const testing_scene::PlaneScene b = testing_scene::PlaneScene::Ridge(2.0);
+  std::vector<torch::Tensor> images;
+  for (int k = 0; k < 4; ++k) {
+    const torch::Tensor shift = Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
+    images.push_back(a.Render(shift)[0]);
+  }
+  images.push_back(1.0 - b.Render(Matrix4ToTensor(Eigen::Matrix4d::Identity()))[0]);  // 4: another place
+  images.push_back(torch::full_like(images[0], 0.5));                                  // 5: flat
+  images.push_back(images[1].clone());                                                  // 6: a copy of 1
+  const torch::Tensor stacked = torch::stack(images);                                   // [7, 3, 48, 64]
+  const std::vector<std::string> names = {"a0", "a1", "a2", "a3", "b", "grey", "copy"};
+  ViewGraph graph;
+  graph.names = names;
+  graph.keypoints.resize(7);
+  for (int i = 0; i < 3; ++i) graph.edges.push_back({i, i + 1, 50, 50, Rigid3d(), {}});
+  const std::vector<std::string> p = ImageInputProblems(stacked, graph, true, names);
+  EXPECT_EQ(p, (std::vector<std::string>{"", "identical to copy", "", "", "unrelated", "textureless", "identical to a1"}));
+  // Without matching there is no view graph to say an image is unrelated.
+  EXPECT_EQ(ImageInputProblems(stacked, graph, false, names)[4], "");
+}
+
 }  // namespace
 }  // namespace nerfreg

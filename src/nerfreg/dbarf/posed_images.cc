@@ -17,6 +17,7 @@ Json ConfidenceToJson(const ImagePoseConfidence& c) {
                {"direction_residual_deg", c.direction_residual_deg},
                {"low", c.low}};
   if (c.observations >= 0) conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
+  if (!c.problem.empty()) conf["problem"] = c.problem;
   return conf;
 }
 
@@ -39,7 +40,8 @@ void WritePosedImages(const std::string& path, const PosedImages& posed) {
         "none). network, method auto: the network's relative "
         "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "
         "edge, rotation residual above --low-confidence-deg, direction residual above 30 deg, or (sfm) fewer than "
-        "10 observations.";
+        "10 observations, or a problem of the pixels (\"problem\": textureless, identical to another image, or "
+        "unrelated to every other).";
   }
   json["view_graph"] = posed.view_graph;
   json["dbarf_poses"] = posed.info;

@@ -33,6 +33,9 @@ int RunRender(int argc, char** argv) {
   app.add_option("--block-rotation", options.block_frame.max_rotation_deg, "Cap on each block's random rotation, degrees (default: unbounded)");
   app.add_option("--block-translation", options.block_frame.max_translation, "Bound on each translation coordinate (default 0.2)");
   app.add_option("--block-scale-range", scale_range, "A,B: each block's Sim(3) scale drawn in [A, B] (default 1,1)");
+  std::string material = "textured";
+  app.add_option("--material", material, "Procedural forward scenes: textured, low-texture or repetitive (default textured)");
+  app.add_option("--spread", options.forward_spread, "Forward: half-extent of the camera spiral (default 0.35; wider baselines above)");
   app.add_option("--test-every", options.test_every, "Every n-th view of a block is a test view (default 20)");
   app.add_option("--supersample", options.render.supersample, "Rays per pixel side (default 2)");
   app.add_flag("--depth", options.write_depth, "Also write z-depth maps as depth/r_XXX.npy");
@@ -68,7 +71,8 @@ int RunRender(int argc, char** argv) {
     if (options.trajectory == "forward") mesh = WithBackdrop(mesh);
   } else {
     mesh = options.trajectory == "orbit" ? ProceduralObject(static_cast<unsigned>(procedural))
-                                         : ProceduralForwardScene(static_cast<unsigned>(procedural));
+                                         : ProceduralForwardScene(static_cast<unsigned>(procedural), 2.0f, ParseSceneMaterial(material));
+    options.render.texture_modulation = MaterialTextureModulation(ParseSceneMaterial(material));
   }
   const auto summary = RenderDataset(mesh, options, out);
   LOG_INFO("rendered {} views into {} block(s) at {} in {:.1f} s", summary.views, summary.blocks, out, summary.seconds);

@@ -52,6 +52,8 @@ int RunDbarfPoses(int argc, char** argv) {
                  "appearance (thumbnail similarity only, no SIFT) (default graph)");
   app.add_option("--near", options.network.near, "Network method: nearest depth the network predicts, in units of the mean camera distance to the first camera (default 7)");
   app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
+  app.add_option("--graph-edge-weight", options.network.graph_edge_weight,
+                 "Network method: weight of the essential-matrix edges averaged with the network's (default 0: none; auto uses 10 where the SfM poses too few)");
   app.add_option("--refine-passes", options.network.refine_passes,
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,

@@ -245,9 +245,8 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   }
   for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
   if (!result.low_confidence.empty()) {
-    std::string list;
-    for (const auto& name : result.low_confidence) list += (list.empty() ? "" : ", ") + name;
-    LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(), list, out);
+    LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(),
+             DescribeLowConfidence(result, names), out);
   }
   summary.well_constrained = quality.WellConstrained();
   summary.seconds = timer.Seconds();

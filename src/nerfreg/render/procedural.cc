@@ -6,6 +6,7 @@
 
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/render/renderer.h"
+#include "nerfreg/util/error.h"
 
 namespace nerfreg {
 namespace {
@@ -187,10 +188,39 @@ TriangleMesh WithBackdrop(const TriangleMesh& mesh, float backdrop_y) {
   return scene;
 }
 
-TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y) {
+SceneMaterial ParseSceneMaterial(const std::string& name) {
+  if (name == "textured") return SceneMaterial::kTextured;
+  if (name == "low-texture") return SceneMaterial::kLowTexture;
+  if (name == "repetitive") return SceneMaterial::kRepetitive;
+  ThrowInputError("--material", "", "textured, low-texture or repetitive, got \"" + name + "\"");
+}
+
+float MaterialTextureModulation(SceneMaterial material) {
+  switch (material) {
+    case SceneMaterial::kLowTexture: return 0.03f;
+    case SceneMaterial::kRepetitive: return 0.0f;
+    default: return RenderOptions().texture_modulation;
+  }
+}
+
+TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y, SceneMaterial material) {
   std::mt19937 rng(seed * 2654435761u + 91u);
   std::uniform_real_distribution<float> u(0, 1);
   TriangleMesh scene = MakeBackdrop(12.f, 9.f, 120, 90, 1.5f + u(rng));
+  if (material == SceneMaterial::kLowTexture) {
+    for (auto& c : scene.vertex_colors) c = Eigen::Vector3f(0.75f, 0.73f, 0.70f);
+  } else if (material == SceneMaterial::kRepetitive) {
+    // Tiles of 0.6 x 0.6 (6 x 6 backdrop cells) with 0.1-wide dark grout: a grid every tile of
+    // which looks the same.
+    for (size_t k = 0; k < scene.vertices.size(); ++k) {
+      const int i = static_cast<int>(std::lround((scene.vertices[k].x() + 6.f) * 10.f));
+      const int j = static_cast<int>(std::lround((scene.vertices[k].z() + 4.5f) * 10.f));
+      const bool grout = i % 6 == 0 || j % 6 == 0;
+      const bool dark = ((i / 6) + (j / 6)) % 2 == 1;
+      scene.vertex_colors[k] = grout ? Eigen::Vector3f(0.15f, 0.15f, 0.18f)
+                                     : dark ? Eigen::Vector3f(0.55f, 0.35f, 0.25f) : Eigen::Vector3f(0.85f, 0.8f, 0.7f);
+    }
+  }
   TransformMesh(&scene, Eigen::Matrix3f::Identity(), {0, backdrop_y, 0});
   const int count = std::uniform_int_distribution<int>(3, 6)(rng);
   for (int k = 0; k < count; ++k) {

@@ -4,6 +4,8 @@
 // forward-facing scenes put several objects at different depths in front of a textured backdrop.
 #include <Eigen/Core>
 
+#include <string>
+
 #include "nerfreg/render/mesh.h"
 
 namespace nerfreg {
@@ -29,7 +31,20 @@ TriangleMesh ProceduralObject(unsigned seed);
 // it has only one of them (one mesh holds one kind of albedo).
 TriangleMesh WithBackdrop(const TriangleMesh& mesh, float backdrop_y = 2.0f);
 
-// A backdrop at y = backdrop_y and 3 to 6 objects between y = -1.5 and y = 1.2.
-TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y = 2.0f);
+// The surfaces of a forward-facing scene: hard cases for feature matching (`render --material`).
+//  textured:    the noise-palette backdrop (the training scenes).
+//  low-texture: a uniform pale backdrop; objects keep their flat colours. Render it with
+//               MaterialTextureModulation's faint pattern: SIFT then finds little beyond silhouettes.
+//  repetitive:  a regular two-colour tile grid as backdrop (every tile alike), no noise pattern:
+//               descriptors match many tiles equally well.
+enum class SceneMaterial { kTextured, kLowTexture, kRepetitive };
+SceneMaterial ParseSceneMaterial(const std::string& name);  // throws InputError naming --material
+// The renderer's pattern strength over vertex colours for the material (RenderOptions::texture_modulation).
+float MaterialTextureModulation(SceneMaterial material);
+
+// A backdrop at y = backdrop_y and 3 to 6 objects between y = -1.5 and y = 1.2. The objects and
+// their placement depend on the seed only, not on the material.
+TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y = 2.0f,
+                                    SceneMaterial material = SceneMaterial::kTextured);
 
 }  // namespace nerfreg

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+#include <tuple>
+
+#include "nerfreg/util/error.h"
+
 namespace nerfreg {
 namespace {
 
@@ -34,6 +39,37 @@ TEST(Procedural, MeshesGetABackdropForForwardScenes) {
   Eigen::Vector3f mn, mx;
   scene.Bounds(&mn, &mx);
   EXPECT_NEAR(mx.y(), 2.0f, 1e-5);
+}
+
+// The materials change the backdrop's colours only: low-texture one colour, repetitive a tile grid
+// of three (light, dark, grout) whose every tile repeats; the objects are the seed's in each.
+TEST(Procedural, MaterialsChangeOnlyTheBackdropsColours) {
+  const TriangleMesh textured = ProceduralForwardScene(3);
+  const TriangleMesh low = ProceduralForwardScene(3, 2.0f, ParseSceneMaterial("low-texture"));
+  const TriangleMesh tiles = ProceduralForwardScene(3, 2.0f, SceneMaterial::kRepetitive);
+  ASSERT_EQ(low.vertices.size(), textured.vertices.size());
+  ASSERT_EQ(tiles.vertices.size(), textured.vertices.size());
+  const size_t backdrop = MakeBackdrop(12.f, 9.f, 120, 90, 2.f).vertices.size();
+  std::set<std::tuple<float, float, float>> low_colours, tile_colours, textured_colours;
+  for (size_t k = 0; k < textured.vertices.size(); ++k) {
+    EXPECT_EQ(low.vertices[k], textured.vertices[k]);
+    if (k >= backdrop) {
+      EXPECT_EQ(low.vertex_colors[k], textured.vertex_colors[k]);
+      EXPECT_EQ(tiles.vertex_colors[k], textured.vertex_colors[k]);
+      continue;
+    }
+    const auto key = [](const Eigen::Vector3f& c) { return std::make_tuple(c.x(), c.y(), c.z()); };
+    low_colours.insert(key(low.vertex_colors[k]));
+    tile_colours.insert(key(tiles.vertex_colors[k]));
+    textured_colours.insert(key(textured.vertex_colors[k]));
+  }
+  EXPECT_EQ(low_colours.size(), 1u);
+  EXPECT_EQ(tile_colours.size(), 3u);
+  EXPECT_GT(textured_colours.size(), 1000u);
+  // A tile 6 cells (0.6) along repeats the colours exactly.
+  for (size_t k = 0; k + 12 < 121; ++k) EXPECT_EQ(tiles.vertex_colors[k], tiles.vertex_colors[k + 12]) << k;
+  EXPECT_LT(MaterialTextureModulation(SceneMaterial::kLowTexture), MaterialTextureModulation(SceneMaterial::kTextured));
+  EXPECT_THROW(ParseSceneMaterial("marble"), InputError);
 }
 
 }  // namespace

@@ -26,6 +26,7 @@ void RenderDatasetOptions::Check() const {
   if (width < 0 || height < 0 || width > 8192 || height > 8192) ThrowInputError("--size", "", "W[xH] in 1..8192");
   if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
   if (test_every < 0) ThrowInputError("--test-every", "", ">= 0");
+  if (!(forward_spread >= 0 && forward_spread <= 3)) ThrowInputError("--spread", "", "0..3 (0: the default)");
   try {
     block_frame.Check();
     render.Check();
@@ -36,7 +37,7 @@ void RenderDatasetOptions::Check() const {
 
 Json RenderDatasetOptions::ToJson() const {
   return {{"trajectory", trajectory}, {"views", views}, {"width", width}, {"height", height}, {"blocks", blocks},
-          {"test_every", test_every}, {"seed", seed}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
+          {"test_every", test_every}, {"seed", seed}, {"forward_spread", forward_spread}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
           {"block_max_translation", block_frame.max_translation}, {"block_min_scale", block_frame.min_scale},
           {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth}};
 }
@@ -56,6 +57,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
   } else {
     ForwardOptions o;
     if (options.views) o.num_views = options.views;
+    if (options.forward_spread > 0) o.spread = options.forward_spread;
     if (options.width) o.width = options.width;
     if (options.height) o.height = options.height;
     else if (options.width) o.height = options.width * 3 / 4;

@@ -20,6 +20,7 @@ struct RenderDatasetOptions {
   std::string trajectory = "orbit";  // "orbit" (objects, RGBA) or "forward" (scenes, RGB)
   int views = 0;                     // 0: 120 for orbit, 20 for forward
   int width = 0, height = 0;         // 0: 100x100 for orbit, 128x96 for forward
+  double forward_spread = 0;         // forward: half-extent of the camera spiral (0: ForwardOptions' 0.35)
   int blocks = 1;                    // K >= 2 writes block_k folders and ground_truth.json
   int test_every = 20;               // every n-th view of a block (or of all views if K = 1) is a test view
   unsigned seed = 0;                 // block split and block frames
