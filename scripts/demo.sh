@@ -40,6 +40,8 @@ for m in $METHODS; do
 done
 for k in 0 1; do
   $BIN nerf render "$OUT/block_$k.ckpt" --transforms "$OUT/data/block_$k/transforms.json" --out "$OUT/renders_block_$k" --quiet
+  # The blocks' occupied points, named as the checkpoints: the report's 3D view of the registration.
+  $BIN nerf export "$OUT/block_$k.ckpt" --points "$OUT/block_$k.ply" --quiet
 done
 $BIN report "$OUT" --out "$OUT/report.html" --force
 echo "demo: open $OUT/report.html"

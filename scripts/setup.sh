@@ -16,8 +16,8 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
   # tests and benchmarks
   googletest libgtest-dev libgmock-dev libbenchmark-dev
-  # the HTML report is checked in a real browser
-  chromium
+  # the HTML report is checked in a real browser; its 3D views inline three.js
+  chromium libjs-three
   # fuzzing (libFuzzer) and the sanitizer build
   clang libclang-rt-14-dev
   # meshes used by tests and training data (the CGAL demo meshes are reserved for independent

@@ -15,7 +15,7 @@ struct ModelInfo {
   int num_params;
 };
 const ModelInfo kModels[] = {
-    {"SIMPLE_PINHOLE", 0, 3}, {"PINHOLE", 1, 4}, {"SIMPLE_RADIAL", 2, 4}, {"RADIAL", 3, 5}, {"OPENCV", 4, 8},
+    {"SIMPLE_PINHOLE", 0, 3}, {"PINHOLE", 1, 4}, {"SIMPLE_RADIAL", 2, 4}, {"RADIAL", 3, 5}, {"OPENCV", 4, 8}, {"OPENCV_FISHEYE", 5, 8},
 };
 
 const ModelInfo* FindModel(const std::string& name) {
@@ -113,7 +113,7 @@ Eigen::Quaterniond QuatFromWxyz(double w, double x, double y, double z, const st
 
 Camera ColmapCamera::ToCamera() const {
   const ModelInfo* m = FindModel(model);
-  if (!m) throw InputError("COLMAP camera " + std::to_string(camera_id) + ": model " + model + " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)");
+  if (!m) throw InputError("COLMAP camera " + std::to_string(camera_id) + ": model " + model + " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE)");
   const auto& p = params;
   Camera c;
   c.width = width;
@@ -134,6 +134,12 @@ Camera ColmapCamera::ToCamera() const {
       c.k2 = p[5];
       c.p1 = p[6];
       c.p2 = p[7];
+    } else if (model == "OPENCV_FISHEYE") {
+      c.model = CameraModel::kOpenCVFisheye;
+      c.k1 = p[4];
+      c.k2 = p[5];
+      c.k3 = p[6];
+      c.k4 = p[7];
     }
   }
   return c;
@@ -144,7 +150,14 @@ ColmapCamera ColmapCamera::FromCamera(std::uint32_t id, const Camera& c) {
   out.camera_id = id;
   out.width = c.width;
   out.height = c.height;
-  if (c.HasDistortion()) {
+  if (c.model == CameraModel::kOpenCVFisheye) {
+    out.model = "OPENCV_FISHEYE";
+    out.params = {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.k3, c.k4};
+  } else if (c.k3 != 0 || c.k4 != 0) {
+    // COLMAP's FULL_OPENCV reads k4 as a rational term, not nerfstudio's r^8 coefficient.
+    throw InputError("COLMAP camera " + std::to_string(id) + ": radial k3, k4 (nerfstudio OPENCV) have no COLMAP model; " +
+                     "write transforms.json instead");
+  } else if (c.HasDistortion()) {
     out.model = "OPENCV";
     out.params = {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2};
   } else {

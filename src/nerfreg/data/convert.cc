@@ -14,7 +14,9 @@ namespace fs = std::filesystem;
 namespace nerfreg {
 
 void ConvertOptions::Check() const {
-  if (to != "nerf" && to != "llff" && to != "colmap") ThrowInputError("--to", "", "nerf, llff or colmap, got '" + to + "'");
+  if (to != "nerf" && to != "nerfstudio" && to != "llff" && to != "colmap") {
+    ThrowInputError("--to", "", "nerf, nerfstudio, llff or colmap, got '" + to + "'");
+  }
 }
 
 CameraFormat DetectCameraFormat(const std::string& input) {
@@ -49,11 +51,23 @@ Dataset ReadCameras(const std::string& input) {
   throw std::logic_error("ReadCameras: unreachable");
 }
 
+void WriteNerfstudio(const Dataset& dataset, const std::string& path, bool force) {
+  if (dataset.trained_from_data) {
+    // Beside the file, where ReadTransformsJson looks for it; written first so a refused
+    // overwrite leaves no transforms.json without it.
+    const std::string dataparser = JoinPaths(ParentDir(path), "dataparser_transforms.json");
+    CheckCanWriteOutput(dataparser, force);
+    WriteDataparserTransforms(*dataset.trained_from_data, dataparser);
+  }
+  WriteTransformsJson(dataset, path, TransformsJsonFlavour::kNerfstudio);
+}
+
 void WriteCameras(const Dataset& dataset, const std::string& out, const ConvertOptions& options) {
   options.Check();
   Dataset d = dataset;
   std::string out_dir = out;
-  if (options.to == "nerf" && LowerExtension(out) == ".json") out_dir = fs::path(out).parent_path().string();
+  const bool json_out = options.to == "nerf" || options.to == "nerfstudio";
+  if (json_out && LowerExtension(out) == ".json") out_dir = fs::path(out).parent_path().string();
   if (out_dir.empty()) out_dir = ".";
   // Keep every image reachable from the new location.
   for (auto& f : d.frames) {
@@ -61,10 +75,14 @@ void WriteCameras(const Dataset& dataset, const std::string& out, const ConvertO
     f.file_path = fs::relative(abs, fs::absolute(out_dir)).string();
   }
   d.root = out_dir;
-  if (options.to == "nerf") {
+  if (json_out) {
     const std::string path = LowerExtension(out) == ".json" ? out : JoinPaths(out, "transforms.json");
     CheckCanWriteOutput(path, options.force);
-    WriteTransformsJson(d, path);
+    if (options.to == "nerf") {
+      WriteTransformsJson(d, path);
+    } else {
+      WriteNerfstudio(d, path, options.force);
+    }
   } else if (options.to == "llff") {
     CheckCanWriteOutput(JoinPaths(out, "poses_bounds.npy"), options.force);
     WriteLlffPoses(d, out);

@@ -15,14 +15,19 @@ CameraFormat DetectCameraFormat(const std::string& input);
 Dataset ReadCameras(const std::string& input);
 
 struct ConvertOptions {
-  std::string to;         // "nerf", "llff" or "colmap"
+  std::string to;         // "nerf", "nerfstudio", "llff" or "colmap"
   bool binary = false;    // COLMAP output as .bin (default .txt)
   bool force = false;     // overwrite existing outputs
   void Check() const;     // throws InputError naming the option
 };
 
-// Writes `dataset` as options.to at `out` (a transforms.json path or a folder for nerf; a folder
-// for llff and colmap). Image paths are rewritten relative to the output location.
+// nerfstudio's layout: transforms.json at `path` (camera_model, applied_transform, split lists) and,
+// when the dataset has one, dataparser_transforms.json beside it. Image paths are written as they
+// are. `force` overwrites an existing dataparser_transforms.json.
+void WriteNerfstudio(const Dataset& dataset, const std::string& path, bool force);
+
+// Writes `dataset` as options.to at `out` (a transforms.json path or a folder for nerf and
+// nerfstudio; a folder for llff and colmap). Image paths are rewritten relative to the output location.
 void WriteCameras(const Dataset& dataset, const std::string& out, const ConvertOptions& options);
 
 }  // namespace nerfreg

@@ -29,6 +29,13 @@ struct Dataset {
   std::optional<Eigen::Vector3d> ngp_offset;
   // Axis-aligned box containing the content, world frame (min, max); optional.
   std::optional<Eigen::Vector3d> aabb_min, aabb_max;
+  // nerfstudio fields, kept so files we read and write back keep them:
+  //  - applied_transform ([3, 4]): what ns-process-data applied to the source (COLMAP) poses to
+  //    get these; data_from_colmap, written back unchanged unless the poses are moved;
+  //  - dataparser_transforms.json (transform, then scale): maps this frame into the one the
+  //    nerfstudio model was trained in; trained_from_data.
+  std::optional<Eigen::Matrix<double, 3, 4>> applied_transform;
+  std::optional<Sim3d> trained_from_data;
 
   std::vector<int> IndicesOfSplit(const std::string& split) const;
   // Absolute (or root-relative) image path of a frame.

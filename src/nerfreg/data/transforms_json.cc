@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "nerfreg/geometry/conventions.h"
 #include "nerfreg/util/error.h"
@@ -17,7 +18,8 @@ namespace {
 struct IntrinsicFields {
   double fl_x = NAN, fl_y = NAN, cx = NAN, cy = NAN, w = NAN, h = NAN;
   double angle_x = NAN, angle_y = NAN;
-  double k1 = NAN, k2 = NAN, p1 = NAN, p2 = NAN;
+  double k1 = NAN, k2 = NAN, p1 = NAN, p2 = NAN, k3 = NAN, k4 = NAN;
+  std::string model;  // camera_model; "" = absent
 };
 
 IntrinsicFields ReadIntrinsicFields(const JsonField& j) {
@@ -34,6 +36,13 @@ IntrinsicFields ReadIntrinsicFields(const JsonField& j) {
   f.k2 = j.DoubleOr("k2", NAN);
   f.p1 = j.DoubleOr("p1", NAN);
   f.p2 = j.DoubleOr("p2", NAN);
+  f.k3 = j.DoubleOr("k3", NAN);
+  f.k4 = j.DoubleOr("k4", NAN);
+  f.model = j.StringOr("camera_model", "");
+  if (!f.model.empty() && f.model != "OPENCV" && f.model != "PINHOLE" && f.model != "SIMPLE_PINHOLE" &&
+      f.model != "OPENCV_FISHEYE") {
+    j["camera_model"].Fail("PINHOLE, OPENCV or OPENCV_FISHEYE, got " + f.model);
+  }
   return f;
 }
 
@@ -51,10 +60,16 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
   Dataset dataset;
   dataset.root = root_dir;
 
-  const std::string model = root.StringOr("camera_model", "OPENCV");
-  if (model != "OPENCV" && model != "PINHOLE" && model != "SIMPLE_PINHOLE") {
-    ThrowInputError(path, "camera_model", "OPENCV or PINHOLE (fisheye models are not supported), got " + model);
+  if (root.Has("applied_transform")) {
+    // ns-process-data writes [3, 4]; a homogeneous [4, 4] is accepted too.
+    const JsonField a = root["applied_transform"];
+    const bool rows4 = a.json().is_array() && a.json().size() == 4;
+    const Eigen::MatrixXd m = a.Matrix(rows4 ? 4 : 3, 4);
+    if (rows4 && !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1))) a.Fail("a [3, 4] matrix (or [4, 4] ending 0 0 0 1)");
+    dataset.applied_transform = m.topRows(3);
   }
+  const std::string dataparser = JoinPaths(root_dir.empty() ? "." : root_dir, "dataparser_transforms.json");
+  if (FileExists(dataparser)) dataset.trained_from_data = ReadDataparserTransforms(dataparser);
   if (root.Has("aabb_scale")) dataset.aabb_scale = static_cast<int>(root["aabb_scale"].Double());
   if (root.Has("scale")) dataset.ngp_scale = root["scale"].Double();
   if (root.Has("offset")) {
@@ -74,6 +89,14 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
   const std::string default_split = stem == "transforms_test" ? "test" : stem == "transforms_val" ? "val" : "train";
   const IntrinsicFields top = ReadIntrinsicFields(root);
 
+  // nerfstudio's split lists (train_filenames, ...) name frames by their file_path.
+  std::map<std::string, std::string> split_of;
+  for (const char* split : {"train", "val", "test"}) {
+    const std::string key = std::string(split) + "_filenames";
+    if (!root.Has(key)) continue;
+    const JsonField list = root[key];
+    for (size_t i = 0; i < list.ArraySize(); ++i) split_of[list[i].String()] = split;
+  }
   const JsonField frames = root["frames"];
   const size_t n = frames.ArraySize();
   if (n == 0) frames.Fail("at least one frame");
@@ -83,9 +106,10 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
     Frame frame;
     frame.file_path = jf["file_path"].String();
     if (frame.file_path.empty()) jf["file_path"].Fail("a non-empty path");
+    const auto listed = split_of.find(frame.file_path);
     if (fs::path(frame.file_path).extension().empty()) frame.file_path += ".png";
     frame.name = fs::path(frame.file_path).filename().string();
-    frame.split = jf.StringOr("split", default_split);
+    frame.split = jf.StringOr("split", listed == split_of.end() ? default_split : listed->second);
     frame.near = jf.DoubleOr("near", 0.0);
     frame.far = jf.DoubleOr("far", 0.0);
 
@@ -118,12 +142,23 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
     else cam.fy = cam.fx;
     cam.cx = Pick(Pick(own.cx, top.cx), 0.5 * w);
     cam.cy = Pick(Pick(own.cy, top.cy), 0.5 * h);
-    cam.k1 = Pick(own.k1, top.k1);
-    cam.k2 = Pick(own.k2, top.k2);
-    cam.p1 = Pick(own.p1, top.p1);
-    cam.p2 = Pick(own.p2, top.p2);
-    for (double* d : {&cam.k1, &cam.k2, &cam.p1, &cam.p2})
-      if (std::isnan(*d)) *d = 0;
+    const std::string model = own.model.empty() ? top.model : own.model;
+    if (model == "PINHOLE" || model == "SIMPLE_PINHOLE") {
+      // nerfstudio ignores distortion fields of a pinhole camera; so do we.
+    } else {
+      cam.k1 = Pick(own.k1, top.k1);
+      cam.k2 = Pick(own.k2, top.k2);
+      cam.k3 = Pick(own.k3, top.k3);
+      cam.k4 = Pick(own.k4, top.k4);
+      if (model == "OPENCV_FISHEYE") {
+        cam.model = CameraModel::kOpenCVFisheye;
+      } else {
+        cam.p1 = Pick(own.p1, top.p1);
+        cam.p2 = Pick(own.p2, top.p2);
+      }
+      for (double* d : {&cam.k1, &cam.k2, &cam.p1, &cam.p2, &cam.k3, &cam.k4})
+        if (std::isnan(*d)) *d = 0;
+    }
 
     const Eigen::Matrix4d c2w = jf["transform_matrix"].Matrix(4, 4);
     try {
@@ -137,18 +172,32 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
   return dataset;
 }
 
-Json TransformsJsonFromDataset(const Dataset& dataset) {
+namespace {
+
+bool SameCamera(const Camera& a, const Camera& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
+         a.k1 == b.k1 && a.k2 == b.k2 && a.p1 == b.p1 && a.p2 == b.p2 && a.k3 == b.k3 && a.k4 == b.k4 &&
+         a.model == b.model;
+}
+
+std::string NerfstudioModel(const Camera& c) {
+  return c.model == CameraModel::kOpenCVFisheye ? "OPENCV_FISHEYE" : c.HasDistortion() ? "OPENCV" : "PINHOLE";
+}
+
+}  // namespace
+
+Json TransformsJsonFromDataset(const Dataset& dataset, TransformsJsonFlavour flavour) {
+  const bool ns = flavour == TransformsJsonFlavour::kNerfstudio;
   Json j = Json::object();
   bool shared = !dataset.frames.empty();
   const Camera& c0 = dataset.frames.empty() ? Camera() : dataset.frames[0].camera;
-  for (const auto& f : dataset.frames) {
-    const Camera& c = f.camera;
-    shared = shared && c.width == c0.width && c.height == c0.height && c.fx == c0.fx && c.fy == c0.fy &&
-             c.cx == c0.cx && c.cy == c0.cy && c.k1 == c0.k1 && c.k2 == c0.k2 && c.p1 == c0.p1 && c.p2 == c0.p2;
-  }
-  auto put_camera = [](Json& out, const Camera& c) {
-    out["camera_angle_x"] = c.FovX();
-    out["camera_angle_y"] = c.FovY();
+  for (const auto& f : dataset.frames) shared = shared && SameCamera(f.camera, c0);
+  auto put_camera = [ns](Json& out, const Camera& c) {
+    out["camera_model"] = NerfstudioModel(c);
+    if (!ns) {  // NeRF-synthetic readers need the angles
+      out["camera_angle_x"] = c.FovX();
+      out["camera_angle_y"] = c.FovY();
+    }
     out["fl_x"] = c.fx;
     out["fl_y"] = c.fy;
     out["cx"] = c.cx;
@@ -157,8 +206,14 @@ Json TransformsJsonFromDataset(const Dataset& dataset) {
     out["h"] = c.height;
     out["k1"] = c.k1;
     out["k2"] = c.k2;
-    out["p1"] = c.p1;
-    out["p2"] = c.p2;
+    if (c.model != CameraModel::kOpenCVFisheye) {
+      out["p1"] = c.p1;
+      out["p2"] = c.p2;
+    }
+    if (c.k3 != 0 || c.k4 != 0 || c.model == CameraModel::kOpenCVFisheye) {
+      out["k3"] = c.k3;
+      out["k4"] = c.k4;
+    }
   };
   if (shared) put_camera(j, c0);
   if (dataset.aabb_scale) j["aabb_scale"] = *dataset.aabb_scale;
@@ -168,11 +223,13 @@ Json TransformsJsonFromDataset(const Dataset& dataset) {
     j["aabb"] = {{dataset.aabb_min->x(), dataset.aabb_min->y(), dataset.aabb_min->z()},
                  {dataset.aabb_max->x(), dataset.aabb_max->y(), dataset.aabb_max->z()}};
   }
+  if (dataset.applied_transform) j["applied_transform"] = MatrixToJson(*dataset.applied_transform);
   Json frames = Json::array();
+  Json split_names = Json::object();
   for (const auto& f : dataset.frames) {
     Json jf = Json::object();
     jf["file_path"] = f.file_path;
-    jf["split"] = f.split;
+    if (!ns) jf["split"] = f.split;
     jf["transform_matrix"] = MatrixToJson(OpenGLFromCamFromWorld(f.cam_from_world));
     if (!shared) put_camera(jf, f.camera);
     if (f.near > 0 || f.far > 0) {
@@ -180,13 +237,43 @@ Json TransformsJsonFromDataset(const Dataset& dataset) {
       jf["far"] = f.far;
     }
     frames.push_back(jf);
+    split_names[f.split + "_filenames"].push_back(f.file_path);
   }
   j["frames"] = frames;
+  // nerfstudio's own split lists, written only when the frames are not all for training.
+  if (ns && (split_names.size() > 1 || !split_names.contains("train_filenames"))) j.update(split_names);
   return j;
 }
 
-void WriteTransformsJson(const Dataset& dataset, const std::string& path) {
-  WriteJsonFile(path, TransformsJsonFromDataset(dataset));
+void WriteTransformsJson(const Dataset& dataset, const std::string& path, TransformsJsonFlavour flavour) {
+  WriteJsonFile(path, TransformsJsonFromDataset(dataset, flavour));
+}
+
+Sim3d ReadDataparserTransforms(const std::string& path) {
+  const Json json = ReadJsonFile(path);
+  const JsonField root(json, path);
+  if (!json.is_object()) root.Fail("an object with \"transform\" and \"scale\"");
+  const JsonField t = root["transform"];
+  const bool rows4 = t.json().is_array() && t.json().size() == 4;
+  const Eigen::MatrixXd m = t.Matrix(rows4 ? 4 : 3, 4);
+  const double scale = root["scale"].Double();
+  if (!(scale > 0) || !std::isfinite(scale)) root["scale"].Fail("a positive number");
+  Eigen::Matrix4d h = Eigen::Matrix4d::Identity();
+  h.topRows(3) = m.topRows(3);
+  Sim3d rigid;
+  try {
+    rigid = Sim3d::FromMatrix(h, 1e-4);
+  } catch (const std::invalid_argument& e) {
+    t.Fail(std::string("a rotation and a translation [3, 4] (") + e.what() + ")");
+  }
+  if (std::abs(rigid.scale - 1) > 1e-4) t.Fail("a rotation and a translation [3, 4] (the scale is \"scale\")");
+  // p_trained = scale * (R p + t).
+  return Sim3d(scale, rigid.rotation, scale * rigid.translation);
+}
+
+void WriteDataparserTransforms(const Sim3d& trained_from_data, const std::string& path) {
+  const Eigen::Matrix4d m = Sim3d(1.0, trained_from_data.rotation, trained_from_data.translation / trained_from_data.scale).ToMatrix();
+  WriteJsonFile(path, Json{{"transform", MatrixToJson(m.topRows(3))}, {"scale", trained_from_data.scale}});
 }
 
 void CheckImagesMatchCameras(const Dataset& dataset) {

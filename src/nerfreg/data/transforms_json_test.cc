@@ -100,6 +100,95 @@ TEST(TransformsJson, BadFilesNameTheFileAndField) {
                 .find("r_9.png"), std::string::npos);
 }
 
+TEST(TransformsJson, ReadsNerfstudioModelsDistortionAndPerFrameIntrinsics) {
+  // As ns-process-data writes it: OPENCV_FISHEYE with k1..k4 at the top level, one frame with its
+  // own intrinsics (per frame wins), applied_transform, and dataparser_transforms.json beside.
+  ScopedTempDir dir;
+  WriteFileAtomic(dir.File("transforms.json"), R"({
+    "camera_model": "OPENCV_FISHEYE", "fl_x": 300, "fl_y": 301, "cx": 320, "cy": 240, "w": 640, "h": 480,
+    "k1": 0.05, "k2": -0.01, "k3": 0.002, "k4": -0.0005,
+    "applied_transform": [[0,1,0,0],[1,0,0,0],[0,0,-1,0]],
+    "frames": [
+      {"file_path": "images/frame_00001.jpg", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,4],[0,0,0,1]]},
+      {"file_path": "images/frame_00002.jpg", "fl_x": 250, "camera_model": "OPENCV", "k1": -0.1, "p1": 0.001,
+       "transform_matrix": [[1,0,0,1],[0,1,0,0],[0,0,1,4],[0,0,0,1]]}
+    ]})");
+  WriteFileAtomic(dir.File("dataparser_transforms.json"),
+                  R"({"transform": [[0,-1,0,0.5],[1,0,0,0],[0,0,1,-1]], "scale": 0.25})");
+  const Dataset d = ReadTransformsJson(dir.File("transforms.json"));
+  const Camera& a = d.frames[0].camera;
+  EXPECT_EQ(a.model, CameraModel::kOpenCVFisheye);
+  EXPECT_DOUBLE_EQ(a.fy, 301);
+  EXPECT_DOUBLE_EQ(a.k3, 0.002);
+  EXPECT_DOUBLE_EQ(a.k4, -0.0005);
+  const Camera& b = d.frames[1].camera;
+  EXPECT_EQ(b.model, CameraModel::kOpenCV);
+  EXPECT_DOUBLE_EQ(b.fx, 250);
+  EXPECT_DOUBLE_EQ(b.fy, 301);
+  EXPECT_DOUBLE_EQ(b.k1, -0.1);   // its own
+  EXPECT_DOUBLE_EQ(b.k2, -0.01);  // the shared one
+  EXPECT_DOUBLE_EQ(b.p1, 0.001);
+  ASSERT_TRUE(d.applied_transform.has_value());
+  EXPECT_DOUBLE_EQ((*d.applied_transform)(2, 2), -1);
+  // dataparser: p_trained = 0.25 * (R p + t); the point (1, 0, 0) goes to 0.25 * ((0, 1, 0) + t).
+  ASSERT_TRUE(d.trained_from_data.has_value());
+  const Eigen::Vector3d p = *d.trained_from_data * Eigen::Vector3d(1, 0, 0);
+  EXPECT_TRUE(p.isApprox(0.25 * Eigen::Vector3d(0.5, 1, -1))) << p.transpose();
+}
+
+TEST(TransformsJson, NerfstudioWriteReadRoundTripKeepsItsFields) {
+  ScopedTempDir dir;
+  Dataset d = MakeRingDataset(dir.path(), 4, /*distortion=*/true);
+  for (auto& f : d.frames) {
+    f.camera.model = CameraModel::kOpenCVFisheye;
+    f.camera.p1 = f.camera.p2 = 0;  // fisheye has none
+    f.camera.k3 = 0.003;
+  }
+  Eigen::Matrix<double, 3, 4> applied;
+  applied << 0, 1, 0, 0.5, 1, 0, 0, 0, 0, 0, -1, 2;
+  d.applied_transform = applied;
+  d.trained_from_data = Sim3d(0.3, Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(0.1, 0, 0));
+  const std::string path = dir.File("out/transforms.json");
+  WriteTransformsJson(d, path, TransformsJsonFlavour::kNerfstudio);
+  WriteDataparserTransforms(*d.trained_from_data, dir.File("out/dataparser_transforms.json"));
+  const Json j = ReadJsonFile(path);
+  EXPECT_EQ(j["camera_model"], "OPENCV_FISHEYE");
+  EXPECT_FALSE(j.contains("camera_angle_x"));
+  EXPECT_FALSE(j["frames"][0].contains("split"));
+  EXPECT_EQ(j["test_filenames"].size(), 1u);  // frame 0 is the ring's test view
+  const Dataset back = ReadTransformsJson(path);
+  ExpectSamePoses(d, back);
+  EXPECT_EQ(back.frames[0].split, "test");
+  EXPECT_EQ(back.frames[1].split, "train");
+  EXPECT_EQ(back.frames[1].camera.model, CameraModel::kOpenCVFisheye);
+  EXPECT_DOUBLE_EQ(back.frames[1].camera.k3, 0.003);
+  EXPECT_TRUE(back.applied_transform->isApprox(applied));
+  EXPECT_TRUE(back.trained_from_data->ToMatrix().isApprox(d.trained_from_data->ToMatrix(), 1e-12));
+}
+
+TEST(TransformsJson, BadNerfstudioFieldsAreNamed) {
+  ScopedTempDir dir;
+  const std::string p = dir.File("transforms.json");
+  const std::string frames = R"("frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}])";
+  auto err = [&](const std::string& text) {
+    WriteFileAtomic(p, text);
+    return InputErrorOf([&] { ReadTransformsJson(p); });
+  };
+  EXPECT_NE(err(R"({"camera_model": "EQUIRECTANGULAR", "fl_x": 10, "w": 4, "h": 4, )" + frames + "}")
+                .find("transforms.json: camera_model: expected PINHOLE, OPENCV or OPENCV_FISHEYE, got EQUIRECTANGULAR"),
+            std::string::npos);
+  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "k3": "x", )" + frames + "}").find("transforms.json: k3: expected"),
+            std::string::npos);
+  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "applied_transform": [[1,0,0],[0,1,0]], )" + frames + "}")
+                .find("transforms.json: applied_transform: expected"),
+            std::string::npos);
+  const std::string good = R"({"fl_x": 10, "w": 4, "h": 4, )" + frames + "}";
+  WriteFileAtomic(dir.File("dataparser_transforms.json"), R"({"transform": [[1,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": -2})");
+  EXPECT_NE(err(good).find("dataparser_transforms.json: scale: expected a positive number"), std::string::npos);
+  WriteFileAtomic(dir.File("dataparser_transforms.json"), R"({"transform": [[2,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": 1})");
+  EXPECT_NE(err(good).find("dataparser_transforms.json: transform: expected a rotation"), std::string::npos);
+}
+
 TEST(TransformsJson, ImageSizeDifferentFromCamerasIsNamed) {
   ScopedTempDir dir;
   Dataset d = MakeRingDataset(dir.path(), 2);

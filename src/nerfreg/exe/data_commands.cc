@@ -84,14 +84,14 @@ int RunConvert(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Convert cameras between transforms.json (NeRF-synthetic / instant-ngp), LLFF poses_bounds.npy and "
+                  "Convert cameras between transforms.json (NeRF-synthetic / instant-ngp / nerfstudio), LLFF poses_bounds.npy and "
                   "COLMAP sparse models (text or binary). The input format is detected.",
                   "nerfreg convert scene/transforms.json --to colmap --out scene/sparse/0");
   std::string input, out;
   ConvertOptions options;
   app.add_option("input", input, "transforms.json, poses_bounds.npy (or its folder), or a COLMAP model folder")->required();
-  app.add_option("--to", options.to, "Output format: nerf, llff or colmap")->required();
-  app.add_option("--out", out, "Output: a transforms.json path or folder (nerf), a folder (llff, colmap)")->required();
+  app.add_option("--to", options.to, "Output format: nerf, nerfstudio, llff or colmap")->required();
+  app.add_option("--out", out, "Output: a transforms.json path or folder (nerf, nerfstudio), a folder (llff, colmap)")->required();
   app.add_flag("--binary", options.binary, "COLMAP output as .bin instead of .txt");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.force = common.force;

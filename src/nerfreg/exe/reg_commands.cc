@@ -144,7 +144,9 @@ int RunRegRegister(int argc, char** argv) {
   if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
   RegistrationResult r = RegisterBlocks(source, target, o, net.get());
   r.seconds = timer.Seconds();  // T.json's seconds: the whole command, loading included
-  const Json json = r.ToJson();
+  Json json = r.ToJson();
+  json["source"] = f.source;  // the report finds the blocks' points by these names
+  json["target"] = f.target;
   WriteJsonFile(f.out, json);
   WriteRegistrationOverlays(f.out, r);
   std::printf("%s\n", json.dump().c_str());

@@ -1,6 +1,7 @@
 #pragma once
-// Pinhole camera with OpenCV radial-tangential distortion (k1, k2, p1, p2; as in COLMAP's
-// OPENCV model and instant-ngp's transforms.json).
+// Pinhole camera with OpenCV radial-tangential distortion (k1, k2, p1, p2, and k3, k4 as
+// nerfstudio's OPENCV: radial 1 + k1 r^2 + k2 r^4 + k3 r^6 + k4 r^8), or the OpenCV fisheye
+// (equidistant) model with k1..k4 (nerfstudio's and COLMAP's OPENCV_FISHEYE).
 //
 // Conventions, used everywhere in nerfreg:
 //  - Camera frame: OpenCV/COLMAP axes, +x right, +y down, +z forward (the viewing direction).
@@ -14,17 +15,25 @@
 
 namespace nerfreg {
 
+enum class CameraModel { kOpenCV, kOpenCVFisheye };
+
 struct Camera {
   int width = 0;
   int height = 0;
   double fx = 0, fy = 0, cx = 0, cy = 0;
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0;
+  double k3 = 0, k4 = 0;
+  // kOpenCVFisheye: theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8) with
+  // theta the angle to the axis; p1, p2 unused.
+  CameraModel model = CameraModel::kOpenCV;
 
   static Camera Pinhole(int width, int height, double fx, double fy, double cx, double cy);
   // NeRF-synthetic: focal from the horizontal field of view, principal point at the centre.
   static Camera FromFovX(int width, int height, double camera_angle_x);
 
-  bool HasDistortion() const { return k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0; }
+  bool HasDistortion() const {
+    return model == CameraModel::kOpenCVFisheye || k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0 || k4 != 0;
+  }
   double FovX() const;
   double FovY() const;
 

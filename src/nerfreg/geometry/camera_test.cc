@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace nerfreg {
 namespace {
 
@@ -17,6 +19,31 @@ TEST(Camera, ProjectUnprojectRoundTripWithDistortion) {
       const Eigen::Vector2d uv = cam.ImgFromCam(p * 2.5);
       EXPECT_LT((cam.CamFromImg(uv) - p).norm(), 1e-10);
     }
+}
+
+TEST(Camera, FisheyeIsEquidistantAndRoundTrips) {
+  Camera c = Camera::Pinhole(640, 480, 300, 300, 320, 240);
+  c.model = CameraModel::kOpenCVFisheye;
+  // k = 0: the image radius is f * theta, the angle to the axis (a pinhole would give f tan theta).
+  const Eigen::Vector2d uv = c.ImgFromCam(Eigen::Vector3d(std::tan(1.0), 0, 1));
+  EXPECT_NEAR(uv.x(), 320 + 300 * 1.0, 1e-9);
+  c.k1 = 0.05;
+  c.k2 = -0.01;
+  c.k3 = 0.002;
+  c.k4 = -0.0005;
+  EXPECT_TRUE(c.HasDistortion());
+  for (const Eigen::Vector3d x : {Eigen::Vector3d(0.3, -0.2, 1), Eigen::Vector3d(1.5, 1.0, 1), Eigen::Vector3d(0, 0, 2)}) {
+    const Eigen::Vector3d back = c.CamFromImg(c.ImgFromCam(x));
+    EXPECT_NEAR(back.x(), x.x() / x.z(), 1e-8);
+    EXPECT_NEAR(back.y(), x.y() / x.z(), 1e-8);
+  }
+  // nerfstudio's OPENCV radial terms k3 (r^6) and k4 (r^8) move points and invert.
+  Camera o = Camera::Pinhole(640, 480, 300, 300, 320, 240);
+  o.k3 = 0.01;
+  o.k4 = 0.005;
+  const Eigen::Vector3d x(0.8, 0.6, 1);  // r^2 = 1
+  EXPECT_NEAR(o.ImgFromCam(x).x(), 320 + 300 * 0.8 * 1.015, 1e-9);
+  EXPECT_NEAR(o.CamFromImg(o.ImgFromCam(x)).x(), 0.8, 1e-9);
 }
 
 TEST(Camera, OpticalAxisHitsPrincipalPoint) {

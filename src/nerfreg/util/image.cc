@@ -82,19 +82,16 @@ Image ReadImage(const std::string& path, int channels) {
   return Decode(bytes, path, channels, &w, &h, &c);
 }
 
-void WriteImage(const std::string& path, const Image& image) {
+std::string EncodeImage(const Image& image, const std::string& ext, const std::string& name, int jpeg_quality) {
   if (image.empty() || image.width <= 0 || image.height <= 0 ||
       image.data.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
-    throw std::invalid_argument("WriteImage: inconsistent image for " + path);
+    throw std::invalid_argument("WriteImage: inconsistent image for " + name);
   }
   std::vector<unsigned char> bytes(image.data.size());
   for (size_t i = 0; i < bytes.size(); ++i) {
     const float v = std::isfinite(image.data[i]) ? image.data[i] : 0.f;
     bytes[i] = static_cast<unsigned char>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
   }
-  const std::string ext = LowerExtension(path);
-  // Encoded in memory, then written by WriteFileAtomic: stb's own file writer ignores a failed
-  // fwrite (a full disk left truncated PNGs that reported success).
   std::string encoded;
   auto append = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
@@ -104,12 +101,19 @@ void WriteImage(const std::string& path, const Image& image) {
     ok = stbi_write_png_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
                                 image.width * image.channels);
   } else if (ext == ".jpg" || ext == ".jpeg") {
-    ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(), 95);
+    ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
+                                jpeg_quality);
   } else {
-    ThrowInputError(path, "extension", ".png, .jpg or .jpeg");
+    ThrowInputError(name, "extension", ".png, .jpg or .jpeg");
   }
-  if (!ok || encoded.empty()) throw std::runtime_error("WriteImage: could not encode " + path);
-  WriteFileAtomic(path, encoded);
+  if (!ok || encoded.empty()) throw std::runtime_error("WriteImage: could not encode " + name);
+  return encoded;
+}
+
+void WriteImage(const std::string& path, const Image& image) {
+  // Encoded in memory, then written by WriteFileAtomic: stb's own file writer ignores a failed
+  // fwrite (a full disk left truncated PNGs that reported success).
+  WriteFileAtomic(path, EncodeImage(image, LowerExtension(path), path));
 }
 
 Image CompositeOver(const Image& rgba, float r, float g, float b) {

@@ -38,6 +38,11 @@ void ReadImageSize(const std::string& path, int* width, int* height, int* channe
 // Writes PNG (by extension .png) or JPEG (.jpg/.jpeg, quality 95) atomically; values clamped.
 void WriteImage(const std::string& path, const Image& image);
 
+// The bytes WriteImage would write, in memory (e.g. for data: URIs). `extension` is ".png",
+// ".jpg" or ".jpeg"; `name` names the image in errors.
+std::string EncodeImage(const Image& image, const std::string& extension, const std::string& name,
+                        int jpeg_quality = 95);
+
 // Composites RGBA over a constant background colour, returning RGB.
 Image CompositeOver(const Image& rgba, float r, float g, float b);
 

@@ -2,21 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
 
 #include "nerfreg/util/error.h"
-#include "nerfreg/util/file_util.h"
-
-namespace fs = std::filesystem;
 
 namespace nerfreg {
-
-void ReportOptions::Check() const {
-  if (max_images < 0 || max_image_bytes < 0) throw std::invalid_argument("ReportOptions: negative limit");
-}
 
 std::string HtmlEscape(const std::string& text) {
   std::string out;
@@ -56,51 +49,116 @@ std::string Base64Encode(const std::string& in) {
   return out;
 }
 
-std::string SvgLineChart(const std::string& title, const std::vector<CurveSeries>& series, int width,
-                         int height) {
+namespace {
+
+// About `target` round tick values (1, 2, 5 x 10^k) covering [lo, hi].
+std::vector<double> LinearTicks(double lo, double hi, int target = 5) {
+  const double raw = (hi - lo) / target;
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = mag;
+  for (double m : {1.0, 2.0, 5.0, 10.0}) {
+    step = m * mag;
+    if (step >= raw) break;
+  }
+  std::vector<double> ticks;
+  for (double t = std::ceil(lo / step) * step; t <= hi + 1e-9 * step; t += step) ticks.push_back(std::abs(t) < 1e-12 * step ? 0 : t);
+  return ticks;
+}
+
+std::string TickLabel(double v) {
+  char buf[32];
+  if (v != 0 && (std::abs(v) >= 1e5 || std::abs(v) < 1e-3)) std::snprintf(buf, sizeof buf, "%.0e", v);
+  else std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+}  // namespace
+
+bool PreferLogScale(const std::vector<CurveSeries>& series, double min_ratio) {
+  double lo = INFINITY, hi = 0;
+  for (const auto& s : series)
+    for (double y : s.y) {
+      if (!std::isfinite(y)) continue;
+      if (y <= 0) return false;
+      lo = std::min(lo, y);
+      hi = std::max(hi, y);
+    }
+  return hi > 0 && hi / lo > min_ratio;
+}
+
+std::string SvgLineChart(const std::string& title, const std::vector<CurveSeries>& series, const ChartAxes& axes,
+                         int width, int height) {
   static const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"};
-  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  auto fy = [&](double y) { return axes.log_y ? std::log10(y) : y; };
+  auto usable = [&](double x, double y) { return std::isfinite(x) && std::isfinite(y) && (!axes.log_y || y > 0); };
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;  // y in plotted units
   for (const auto& s : series)
     for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
-      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      if (!usable(s.x[i], s.y[i])) continue;
       x0 = std::min(x0, s.x[i]);
       x1 = std::max(x1, s.x[i]);
-      y0 = std::min(y0, s.y[i]);
-      y1 = std::max(y1, s.y[i]);
+      y0 = std::min(y0, fy(s.y[i]));
+      y1 = std::max(y1, fy(s.y[i]));
     }
+  if (!std::isfinite(x0)) { x0 = 0; x1 = 1; y0 = 0; y1 = 1; }
   if (!(x1 > x0)) { x0 -= 1; x1 += 1; }
-  if (!(y1 > y0)) { y0 -= 1; y1 += 1; }
-  const double left = 60, right = 10, top = 24, bottom = 30;
+  if (!(y1 > y0)) { y0 -= 0.5; y1 += 0.5; }
+  const double pad = 0.04 * (y1 - y0);
+  y0 -= pad;
+  y1 += pad;
+  const double left = 64, right = 12, top = 26, bottom = 44;
   const double pw = width - left - right, ph = height - top - bottom;
   auto px = [&](double x) { return left + (x - x0) / (x1 - x0) * pw; };
   auto py = [&](double y) { return top + (1 - (y - y0) / (y1 - y0)) * ph; };
   std::ostringstream o;
-  o.precision(4);
+  o.precision(5);
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << height
-    << "\" viewBox=\"0 0 " << width << " " << height << "\" role=\"img\">";
-  o << "<text x=\"" << left << "\" y=\"16\" font-size=\"13\" font-family=\"sans-serif\">"
-    << HtmlEscape(title) << "</text>";
+    << "\" viewBox=\"0 0 " << width << " " << height << "\" role=\"img\" font-family=\"sans-serif\">";
+  o << "<text x=\"" << left << "\" y=\"16\" font-size=\"13\" font-weight=\"bold\">" << HtmlEscape(title) << "</text>";
+  // Ticks and grid.
+  std::vector<std::pair<double, std::string>> yticks;  // plotted value, label
+  if (axes.log_y) {
+    const int d0 = static_cast<int>(std::floor(y0)), d1 = static_cast<int>(std::ceil(y1));
+    const bool few = d1 - d0 <= 2;
+    for (int d = d0; d <= d1; ++d)
+      for (double m : few ? std::vector<double>{1, 2, 5} : std::vector<double>{1}) {
+        const double v = std::log10(m) + d;
+        if (v >= y0 && v <= y1) yticks.push_back({v, TickLabel(m * std::pow(10.0, d))});
+      }
+  } else {
+    for (double t : LinearTicks(y0, y1)) yticks.push_back({t, TickLabel(t)});
+  }
+  for (const auto& [v, label] : yticks) {
+    o << "<line x1=\"" << left << "\" x2=\"" << left + pw << "\" y1=\"" << py(v) << "\" y2=\"" << py(v)
+      << "\" stroke=\"#e4e4e4\"/><text x=\"" << left - 4 << "\" y=\"" << py(v) + 3
+      << "\" font-size=\"10\" text-anchor=\"end\">" << label << "</text>";
+  }
+  for (double t : LinearTicks(x0, x1, 6)) {
+    o << "<line x1=\"" << px(t) << "\" x2=\"" << px(t) << "\" y1=\"" << top + ph << "\" y2=\"" << top + ph + 4
+      << "\" stroke=\"#999\"/><text x=\"" << px(t) << "\" y=\"" << top + ph + 15
+      << "\" font-size=\"10\" text-anchor=\"middle\">" << TickLabel(t) << "</text>";
+  }
   o << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
     << "\" fill=\"none\" stroke=\"#999\"/>";
-  o << "<text x=\"4\" y=\"" << top + 10 << "\" font-size=\"10\" font-family=\"sans-serif\">" << y1 << "</text>";
-  o << "<text x=\"4\" y=\"" << top + ph << "\" font-size=\"10\" font-family=\"sans-serif\">" << y0 << "</text>";
-  o << "<text x=\"" << left << "\" y=\"" << height - 8 << "\" font-size=\"10\" font-family=\"sans-serif\">" << x0
-    << "</text>";
-  o << "<text x=\"" << left + pw - 40 << "\" y=\"" << height - 8
-    << "\" font-size=\"10\" font-family=\"sans-serif\">" << x1 << "</text>";
+  o << "<text x=\"" << left + pw / 2 << "\" y=\"" << height - 6 << "\" font-size=\"11\" text-anchor=\"middle\">"
+    << HtmlEscape(axes.x_label) << "</text>";
+  const std::string y_label = axes.y_label + (axes.log_y ? " (log scale)" : "");
+  o << "<text transform=\"translate(13," << top + ph / 2 << ") rotate(-90)\" font-size=\"11\" text-anchor=\"middle\">"
+    << HtmlEscape(y_label) << "</text>";
   for (size_t k = 0; k < series.size(); ++k) {
     const auto& s = series[k];
     std::ostringstream pts;
     pts.precision(6);
     for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
-      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
-      pts << px(s.x[i]) << "," << py(s.y[i]) << " ";
+      if (!usable(s.x[i], s.y[i])) continue;
+      pts << px(s.x[i]) << "," << py(fy(s.y[i])) << " ";
     }
     const char* colour = kColours[k % 6];
-    o << "<polyline fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"1.5\" points=\"" << pts.str()
-      << "\"/>";
-    o << "<text x=\"" << left + pw - 120 << "\" y=\"" << top + 14 + 13 * k << "\" font-size=\"11\" fill=\""
-      << colour << "\" font-family=\"sans-serif\">" << HtmlEscape(s.name) << "</text>";
+    o << "<polyline fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"1.5\" points=\"" << pts.str() << "\"/>";
+    if (series.size() > 1) {
+      o << "<text x=\"" << left + pw - 6 << "\" y=\"" << top + 14 + 13 * k << "\" font-size=\"11\" fill=\"" << colour
+        << "\" text-anchor=\"end\">" << HtmlEscape(s.name) << "</text>";
+    }
   }
   o << "</svg>";
   return o.str();
@@ -130,119 +188,6 @@ std::vector<CurveSeries> ReadCurves(const std::string& jsonl_path) {
   std::vector<CurveSeries> out;
   for (auto& [name, s] : by_name) out.push_back(std::move(s));
   return out;
-}
-
-namespace {
-
-std::string JsonTable(const Json& j) {
-  std::ostringstream o;
-  o << "<table>";
-  if (j.is_object()) {
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      const std::string v = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
-      o << "<tr><th>" << HtmlEscape(it.key()) << "</th><td>"
-        << HtmlEscape(v.size() > 400 ? v.substr(0, 400) + " ..." : v) << "</td></tr>";
-    }
-  } else {
-    const std::string v = j.dump();
-    o << "<tr><td>" << HtmlEscape(v.size() > 2000 ? v.substr(0, 2000) + " ..." : v) << "</td></tr>";
-  }
-  o << "</table>";
-  return o.str();
-}
-
-}  // namespace
-
-void WriteRunReport(const std::string& run_dir, const std::string& out_path, const ReportOptions& options) {
-  options.Check();
-  if (!DirExists(run_dir)) ThrowInputError(run_dir, "", "a run directory");
-  std::vector<fs::path> pngs, jsons, logs, datasets;
-  for (auto it = fs::recursive_directory_iterator(run_dir); it != fs::recursive_directory_iterator(); ++it) {
-    // Input datasets inside the run (a folder with a transforms.json) are listed, not shown: the
-    // page is about the run's results.
-    if (it->is_directory() && fs::exists(it->path() / "transforms.json")) {
-      datasets.push_back(it->path());
-      it.disable_recursion_pending();
-      continue;
-    }
-    if (!it->is_regular_file()) continue;
-    const fs::path& p = it->path();
-    if (p.filename().string().rfind('.', 0) == 0) continue;  // temp files
-    const std::string ext = LowerExtension(p.string());
-    if (ext == ".png") pngs.push_back(p);
-    else if (ext == ".json") jsons.push_back(p);
-    else if (ext == ".jsonl") logs.push_back(p);
-  }
-  // Results first: files at the top of the run before those in sub-folders, then by name.
-  auto by_depth = [](const fs::path& a, const fs::path& b) {
-    const auto da = std::distance(a.begin(), a.end()), db = std::distance(b.begin(), b.end());
-    return da != db ? da < db : a < b;
-  };
-  std::sort(pngs.begin(), pngs.end(), by_depth);
-  std::sort(jsons.begin(), jsons.end(), by_depth);
-  std::sort(datasets.begin(), datasets.end());
-  std::sort(logs.begin(), logs.end());
-  const std::string title = options.title.empty() ? fs::path(run_dir).filename().string() : options.title;
-
-  std::ostringstream h;
-  h << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << HtmlEscape(title) << "</title><style>"
-    << "body{font-family:sans-serif;margin:1.5em;color:#222}h2{border-bottom:1px solid #ccc}"
-    << "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ddd;padding:2px 8px;"
-    << "text-align:left;font-size:13px}figure{display:inline-block;margin:4px;text-align:center}"
-    << "figcaption{font-size:11px}img{image-rendering:pixelated;max-width:320px}</style></head><body>";
-  h << "<h1>" << HtmlEscape(title) << "</h1><p>Run directory: <code>" << HtmlEscape(run_dir) << "</code></p>";
-
-  if (!datasets.empty()) {
-    h << "<p>Datasets in this run (not shown):";
-    for (const auto& d : datasets) h << " <code>" << HtmlEscape(fs::relative(d, run_dir).string()) << "</code>";
-    h << "</p>";
-  }
-  h << "<h2>Metrics and options</h2>";
-  if (jsons.empty()) h << "<p>No JSON files.</p>";
-  for (const auto& p : jsons) {
-    const std::string rel = fs::relative(p, run_dir).string();
-    h << "<h3>" << HtmlEscape(rel) << "</h3>";
-    try {
-      const Json j = ParseJson(ReadFileToString(p.string(), 4 << 20), p.string());
-      h << JsonTable(j);
-    } catch (const std::exception& e) {
-      h << "<p>unreadable: " << HtmlEscape(e.what()) << "</p>";
-    }
-  }
-
-  h << "<h2>Training curves</h2>";
-  if (logs.empty()) h << "<p>No training logs.</p>";
-  for (const auto& p : logs) {
-    const auto curves = ReadCurves(p.string());
-    for (const auto& c : curves) {
-      if (c.x.size() < 2) continue;  // a single point is not a curve
-      h << SvgLineChart(fs::relative(p, run_dir).string() + ": " + c.name, {c});
-    }
-  }
-
-  h << "<h2>Images</h2>";
-  if (pngs.empty()) h << "<p>No images.</p>";
-  std::string current_dir = "\x01";
-  int embedded = 0;
-  for (const auto& p : pngs) {
-    const std::string rel = fs::relative(p, run_dir).string();
-    const std::string dir = fs::path(rel).parent_path().string();
-    if (dir != current_dir) {
-      current_dir = dir;
-      h << "<h3>" << HtmlEscape(dir.empty() ? "." : dir) << "</h3>";
-    }
-    const auto size = static_cast<long long>(fs::file_size(p));
-    if (embedded >= options.max_images || size > options.max_image_bytes) {
-      h << "<p>" << HtmlEscape(rel) << " (not embedded)</p>";
-      continue;
-    }
-    ++embedded;
-    h << "<figure><img alt=\"" << HtmlEscape(rel) << "\" src=\"data:image/png;base64,"
-      << Base64Encode(ReadFileToString(p.string())) << "\"><figcaption>" << HtmlEscape(fs::path(rel).filename().string())
-      << "</figcaption></figure>";
-  }
-  h << "</body></html>\n";
-  WriteFileAtomic(out_path, h.str());
 }
 
 }  // namespace nerfreg

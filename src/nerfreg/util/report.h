@@ -1,21 +1,13 @@
 #pragma once
-// A self-contained HTML page for one run directory, so results can be looked at without tools:
-// every PNG in the run (embedded as base64, grouped by folder), every JSON file of metrics or
-// options (as tables), and training curves drawn as inline SVG from `*.jsonl` logs (one JSON object
-// per line with a "step" field and numeric metrics, as the trainers write them).
+// Building blocks of the HTML run report (pipeline/run_report.h writes the page): escaping,
+// base64 for data: URIs, training curves read from `*.jsonl` logs and drawn as inline SVG charts
+// (no scripts, no external resources).
 #include <string>
 #include <vector>
 
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
-
-struct ReportOptions {
-  std::string title;                 // page title; default: the run directory's name
-  int max_images = 200;              // images beyond this are listed, not embedded
-  long long max_image_bytes = 8 << 20;  // larger PNGs are listed, not embedded
-  void Check() const;
-};
 
 // One series of a training curve.
 struct CurveSeries {
@@ -24,9 +16,19 @@ struct CurveSeries {
   std::vector<double> y;
 };
 
-// Inline SVG line chart (no scripts, no external resources).
-std::string SvgLineChart(const std::string& title, const std::vector<CurveSeries>& series,
-                         int width = 520, int height = 260);
+struct ChartAxes {
+  std::string x_label = "step";
+  std::string y_label;
+  bool log_y = false;  // decades on the y axis; non-positive values are left out
+};
+
+// Inline SVG line chart with labelled, ticked axes and a legend.
+std::string SvgLineChart(const std::string& title, const std::vector<CurveSeries>& series, const ChartAxes& axes = {},
+                         int width = 560, int height = 280);
+
+// True when every finite y is positive and they span more than `min_ratio` (max / min): a loss
+// falling over decades reads better on a log axis, a PSNR does not.
+bool PreferLogScale(const std::vector<CurveSeries>& series, double min_ratio = 20);
 
 // Reads `*.jsonl` log lines into one series per numeric metric (x = "step").
 // Malformed lines are skipped (a log being written while we read may end mid-line).
@@ -34,10 +36,5 @@ std::vector<CurveSeries> ReadCurves(const std::string& jsonl_path);
 
 std::string HtmlEscape(const std::string& text);
 std::string Base64Encode(const std::string& bytes);
-
-// Builds the page for run_dir and writes it atomically to out_path.
-// Throws InputError when run_dir is not a directory.
-void WriteRunReport(const std::string& run_dir, const std::string& out_path,
-                    const ReportOptions& options);
 
 }  // namespace nerfreg

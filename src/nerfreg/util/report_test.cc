@@ -2,9 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
-#include "nerfreg/util/image.h"
 #include "nerfreg/util/test_util.h"
 
 namespace nerfreg {
@@ -29,26 +27,29 @@ TEST(Report, CurvesFromJsonlSkipMalformedLines) {
   EXPECT_EQ(curves[1].x, (std::vector<double>{1}));
 }
 
-TEST(Report, PageEmbedsImagesMetricsAndCurves) {
-  ScopedTempDir dir;
-  const std::string run = dir.File("run");
-  WriteImage(run + "/renders/r_000.png", Image(4, 4, 3, 0.5f));
-  WriteFileAtomic(run + "/metrics.json", R"({"psnr": 27.5, "note": "<b>"})");
-  WriteFileAtomic(run + "/train_log.jsonl", "{\"step\": 1, \"loss\": 1}\n{\"step\": 2, \"loss\": 0.5}\n");
-  WriteFileAtomic(run + "/data/transforms.json", R"({"frames": []})");
-  WriteImage(run + "/data/images/r_000.png", Image(4, 4, 3, 0.1f));
-  WriteRunReport(run, dir.File("report.html"), ReportOptions{});
-  const std::string html = ReadFileToString(dir.File("report.html"));
-  // The dataset folder is listed, its files are not embedded: one image only.
-  EXPECT_NE(html.find("<code>data</code>"), std::string::npos);
-  size_t images = 0;
-  for (size_t p = html.find("<img"); p != std::string::npos; p = html.find("<img", p + 1)) ++images;
-  EXPECT_EQ(images, 1u);
-  EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
-  EXPECT_NE(html.find("27.5"), std::string::npos);
-  EXPECT_NE(html.find("&lt;b&gt;"), std::string::npos);  // escaped
-  EXPECT_NE(html.find("<polyline"), std::string::npos);
-  EXPECT_THROW(WriteRunReport(dir.File("missing"), dir.File("r2.html"), ReportOptions{}), InputError);
+TEST(Report, LogScaleOnlyForPositiveCurvesSpanningDecades) {
+  CurveSeries loss{"loss", {1, 2, 3}, {1.0, 0.1, 0.01}};
+  CurveSeries psnr{"psnr", {1, 2, 3}, {18, 24, 29}};
+  CurveSeries signed_values{"x", {1, 2}, {-1, 100}};
+  EXPECT_TRUE(PreferLogScale({loss}));
+  EXPECT_FALSE(PreferLogScale({psnr}));
+  EXPECT_FALSE(PreferLogScale({signed_values}));
+}
+
+TEST(Report, ChartHasLabelledAxesAndDecadeTicks) {
+  const CurveSeries loss{"loss", {0, 500, 1000}, {1.0, 0.05, 0.002}};
+  const std::string svg = SvgLineChart("block_0: loss", {loss}, ChartAxes{"step", "loss", true});
+  EXPECT_NE(svg.find(">step</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">loss (log scale)</text>"), std::string::npos);
+  // Decade ticks 0.01, 0.1 and 1 on the y axis; round ticks on the x axis.
+  EXPECT_NE(svg.find(">0.01</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">0.1</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">1</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">1000</text>"), std::string::npos);
+  // The smallest value sits at the bottom of the plot: log10 spacing, not linear.
+  const std::string linear = SvgLineChart("loss", {loss}, ChartAxes{"step", "loss", false});
+  EXPECT_NE(svg, linear);
+  EXPECT_EQ(linear.find("log scale"), std::string::npos);
 }
 
 }  // namespace
