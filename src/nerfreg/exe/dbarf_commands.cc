@@ -160,6 +160,8 @@ int RunDbarfPoses(int argc, char** argv) {
   app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
   app.add_option("--refine-passes", options.network.refine_passes,
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
+  app.add_option("--bundle-adjust", options.network.bundle_adjust,
+                 "Network method: 1 refines the averaged cameras by photometric bundle adjustment with the network's depths, 0 not");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");
