@@ -17,6 +17,7 @@ namespace nerfreg {
 void NetworkPosesOptions::Check() const {
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
   if (min_graph_neighbours < 0) throw InputError("min_graph_neighbours: expected >= 0");
+  photometric_ba.Check();
   if (refine_passes < 0) throw InputError("--refine-passes: expected >= 0, got " + std::to_string(refine_passes));
   if (!(graph_edge_weight >= 0)) throw InputError("graph_edge_weight: expected >= 0");
   if (max_width < 0) throw InputError("max_width: expected >= 0");
@@ -149,6 +150,7 @@ NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, 
   const int64_t last = depth.size(0) - 1;
   run.depth_p02 = depth[static_cast<int64_t>(0.02 * last)].item<double>();
   run.depth_p98 = depth[static_cast<int64_t>(0.98 * last)].item<double>();
+  run.inv_depth = pred.inv_depths.back().detach().clone();
   return run;
 }
 
@@ -207,6 +209,42 @@ NetworkRegistration RegisterFromRelativePoses(const std::vector<Rigid3d>& src_fr
   return r;
 }
 
+std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& cam_from_world,
+                                                   const std::vector<bool>& posed,
+                                                   const std::vector<NetworkRelativePose>& poses, const ViewGraph& graph) {
+  const int n = static_cast<int>(cam_from_world.size());
+  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
+  for (const NetworkRelativePose& p : poses) {
+    if (p.target >= n || p.source >= n || !posed[p.target] || !posed[p.source]) continue;
+    const Rigid3d src_from_tgt = cam_from_world[p.source] * cam_from_world[p.target].Inverse();
+    const double angle = RotationErrorDeg(src_from_tgt.rotation, p.src_from_tgt.rotation);
+    const double direction = AngleDeg(src_from_tgt.translation, p.src_from_tgt.translation);
+    for (int m : {p.target, p.source}) residuals[m].push_back(angle), direction_residuals[m].push_back(direction);
+  }
+  // Where images were matched, their essential matrices are an independent check: a network that
+  // is consistently wrong (e.g. near the identity everywhere) agrees with itself around every cycle.
+  std::vector<std::vector<double>> graph_residuals(n), graph_direction_residuals(n);
+  for (const ViewGraphEdge& e : graph.edges) {
+    if (e.i >= n || e.j >= n || !posed[e.i] || !posed[e.j]) continue;
+    const Rigid3d j_from_i = cam_from_world[e.j] * cam_from_world[e.i].Inverse();
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
+    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
+  }
+  std::vector<ImagePoseConfidence> out(n);
+  for (int k = 0; k < n; ++k) {
+    if (!posed[k]) continue;
+    const bool by_graph = !graph_residuals[k].empty();
+    const std::vector<double>& rotation = by_graph ? graph_residuals[k] : residuals[k];
+    const std::vector<double>& direction = by_graph ? graph_direction_residuals[k] : direction_residuals[k];
+    ImagePoseConfidence& c = out[k];
+    c.edges = static_cast<int>(rotation.size());
+    c.rotation_residual_deg = rotation.empty() ? 180.0 : Median(rotation);
+    c.direction_residual_deg = direction.empty() ? 180.0 : Median(direction);
+  }
+  return out;
+}
+
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
                                        const ViewGraph& graph, const RelativePoseAveragingOptions& options,
                                        double graph_edge_weight) {
@@ -225,15 +263,10 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
   out.averaged.edge_direction_error_deg.resize(edges.size());
   out.averaged.edge_inlier.resize(edges.size());
   const RelativePoseAveragingResult& averaged = out.averaged;
-  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   std::vector<double> scales;  // output units per network unit, on the kept edges
   for (size_t k = 0; k < edges.size(); ++k) {
     const RelativePose& e = edges[k];
     if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
-    for (int m : {e.i, e.j}) {
-      residuals[m].push_back(averaged.edge_rotation_error_deg[k]);
-      direction_residuals[m].push_back(averaged.edge_direction_error_deg[k]);
-    }
     const double length = e.j_from_i.translation.norm();
     if (averaged.edge_inlier[k] && length > 1e-9) {
       scales.push_back((averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation).norm() /
@@ -241,27 +274,7 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
     }
   }
   out.scale = scales.empty() ? 1.0 : Median(scales);
-  // Where images were matched, their essential matrices are an independent check: a network that
-  // is consistently wrong (e.g. near the identity everywhere) agrees with itself around every cycle.
-  std::vector<std::vector<double>> graph_residuals(n), graph_direction_residuals(n);
-  for (const ViewGraphEdge& e : graph.edges) {
-    if (e.i >= n || e.j >= n || !averaged.posed[e.i] || !averaged.posed[e.j]) continue;
-    const Rigid3d j_from_i = averaged.cam_from_world[e.j] * averaged.cam_from_world[e.i].Inverse();
-    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
-    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
-  }
-  out.confidence.assign(n, ImagePoseConfidence());
-  for (int k = 0; k < n; ++k) {
-    if (!averaged.posed[k]) continue;
-    const bool by_graph = !graph_residuals[k].empty();
-    const std::vector<double>& rotation = by_graph ? graph_residuals[k] : residuals[k];
-    const std::vector<double>& direction = by_graph ? graph_direction_residuals[k] : direction_residuals[k];
-    ImagePoseConfidence& c = out.confidence[k];
-    c.edges = static_cast<int>(rotation.size());
-    c.rotation_residual_deg = rotation.empty() ? 180.0 : Median(rotation);
-    c.direction_residual_deg = direction.empty() ? 180.0 : Median(direction);
-  }
+  out.confidence = NetworkConfidence(averaged.cam_from_world, averaged.posed, poses, graph);
   return out;
 }
 
@@ -336,6 +349,53 @@ void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, 
   }
 }
 
+// Method network, bundle_adjust: the averaged cameras refined photometrically with the network's
+// last depths (network units brought into the output frame by `scale`), over the network's
+// (target, source) pairs; the frame re-normalised (first posed camera fixed, mean distance of the
+// others to it 1), the depth range with it.
+void PhotometricRefine(const torch::Tensor& images, const torch::Tensor& intrinsics,
+                       const std::vector<torch::Tensor>& inv_depths, const std::vector<std::vector<int>>& sources,
+                       const std::vector<bool>& posed, double scale, const PhotometricBundleAdjustmentOptions& options,
+                       std::vector<Rigid3d>* cam_from_world, double* near, double* far) {
+  const int n = static_cast<int>(images.size(0));
+  int fixed = -1;
+  for (int k = 0; k < n && fixed < 0; ++k)
+    if (posed[k]) fixed = k;
+  std::vector<std::pair<int, int>> pairs;
+  std::vector<torch::Tensor> depth_maps, cams;
+  for (int t = 0; t < n; ++t) {
+    const bool have_depth = inv_depths[t].defined();
+    depth_maps.push_back(have_depth ? inv_depths[t][0] / scale : torch::ones({1, images.size(2), images.size(3)}));
+    cams.push_back(Matrix4ToTensor((*cam_from_world)[t].ToMatrix()).to(torch::kDouble));
+    if (!have_depth || !posed[t]) continue;
+    for (int s : sources[t])
+      if (posed[s]) pairs.push_back({t, s});
+  }
+  if (fixed < 0 || pairs.empty()) return;
+  const PhotometricBundleAdjustmentResult ba =
+      PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, options);
+  std::vector<Rigid3d> refined = *cam_from_world;
+  double distance_sum = 0;
+  int others = 0;
+  const Eigen::Vector3d origin = (*cam_from_world)[fixed].Inverse().translation;
+  for (int k = 0; k < n; ++k) {
+    if (!posed[k]) continue;
+    const Eigen::Matrix4d m = TensorToMatrix4(ba.cam_from_world[k]);
+    refined[k] = Rigid3d(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>()));
+    if (k != fixed) distance_sum += (refined[k].Inverse().translation - origin).norm(), ++others;
+  }
+  // The scale gauge was free: back to the classical frame's (the fixed camera is the first posed
+  // one, at the identity in the averaged frame).
+  const double factor = others > 0 && distance_sum > 0 ? others / distance_sum : 1.0;
+  for (int k = 0; k < n; ++k)
+    if (posed[k]) refined[k].translation *= factor;
+  *cam_from_world = refined;
+  *near *= factor;
+  *far *= factor;
+  LOG_INFO("photometric bundle adjustment: {} pairs, error {:.4f} -> {:.4f} in {} steps, {:.1f} s", pairs.size(),
+           ba.initial_loss, ba.final_loss, ba.iterations, ba.seconds);
+}
+
 // Method network over all images: one network pass per target from the identity, averaging of
 // the edges; then refine_passes more, each starting from the relative poses of the last cameras.
 void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const torch::Tensor& intrinsics,
@@ -350,8 +410,10 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     for (int s : sources[t]) result->network_pairs.push_back({t, s});
   }
   NetworkEdgeAverage average;
+  std::vector<torch::Tensor> inv_depths(n);  // per target, the last pass's [1, 1, H, W]
+  std::vector<NetworkRelativePose> poses;
   for (int pass = 0; pass <= options.refine_passes; ++pass) {
-    std::vector<NetworkRelativePose> poses;
+    poses.clear();
     std::vector<double> p02, p98;
     for (int t = 0; t < n; ++t) {
       if (sources[t].empty()) continue;
@@ -365,6 +427,7 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
       }
       const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, t, sources[t], initial);
       poses.insert(poses.end(), run.poses.begin(), run.poses.end());
+      inv_depths[t] = run.inv_depth;
       p02.push_back(run.depth_p02);
       p98.push_back(run.depth_p98);
     }
@@ -374,6 +437,11 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     // triangulated ones, brought into the output frame by the fitted scale.
     result->near = p02.empty() ? options.near : 0.7 * average.scale * Median(p02);
     result->far = p98.empty() ? options.far : 1.4 * average.scale * Median(p98);
+  }
+  if (options.bundle_adjust) {
+    PhotometricRefine(images, intrinsics, inv_depths, sources, average.averaged.posed, average.scale, options.photometric_ba,
+                      &average.averaged.cam_from_world, &result->near, &result->far);
+    average.confidence = NetworkConfidence(average.averaged.cam_from_world, average.averaged.posed, poses, graph);
   }
   for (int k = 0; k < n; ++k) {
     result->posed[k] = average.averaged.posed[k];

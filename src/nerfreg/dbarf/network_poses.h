@@ -41,6 +41,7 @@
 #include <utility>
 #include <vector>
 
+#include "nerfreg/dbarf/photometric_bundle_adjustment.h"
 #include "nerfreg/dbarf/pose_depth_net.h"
 #include "nerfreg/geometry/camera.h"
 #include "nerfreg/geometry/rigid3.h"
@@ -76,6 +77,11 @@ struct NetworkPosesOptions {
   // rest around them.
   double graph_edge_weight = 0;
   RelativePoseAveragingOptions averaging;
+  // method network: after the averaging, a photometric bundle adjustment of all cameras and the
+  // network's depths over the (target, source) pairs the network ran on
+  // (photometric_bundle_adjustment.h; no keypoints, so no SIFT even where images were matched).
+  bool bundle_adjust = false;
+  PhotometricBundleAdjustmentOptions photometric_ba;
   void Check() const;  // throws InputError naming the option
 };
 
@@ -168,6 +174,7 @@ struct NetworkRelativePose {
 struct NetworkTargetRun {
   std::vector<NetworkRelativePose> poses;
   double depth_p02 = 0, depth_p98 = 0;  // percentiles of the predicted target depth
+  torch::Tensor inv_depth;              // [1, 1, H, W] float32: the last predicted target inverse depth
 };
 // One forward pass, target `target` with `sources`, from the identity (pose_init "network") or
 // from initial_src_from_tgt (one per source: the network refines them). images: [V, 3, H, W]
@@ -190,6 +197,11 @@ struct NetworkEdgeAverage {
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
                                        const ViewGraph& graph, const RelativePoseAveragingOptions& options,
                                        double graph_edge_weight = 0);
+// The network method's per-image confidence of cameras (see the top of this file): against the view
+// graph's edges where the image has any between posed images, else against the network's edges.
+std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& cam_from_world,
+                                                   const std::vector<bool>& posed,
+                                                   const std::vector<NetworkRelativePose>& poses, const ViewGraph& graph);
 
 // A target registered against posed sources from the network's src_from_tgt per source.
 struct NetworkRegistration {

@@ -176,6 +176,34 @@ TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
   EXPECT_GT(r.far, r.near);
   EXPECT_GT(r.near, 0);
 
+  // The photometric bundle adjustment after the averaging: no SIFT anywhere (no keypoints), the
+  // cameras move, and the output frame stays the classical one (first posed camera at the
+  // identity, mean distance of the others to it 1).
+  o.network.bundle_adjust = true;
+  o.network.photometric_ba.iterations_per_level = 10;
+  const ImagePosesResult b = EstimateImagePoses(images, cameras, names, o);
+  for (const auto& keypoints : b.sfm.view_graph.keypoints) EXPECT_TRUE(keypoints.empty());
+  EXPECT_TRUE(b.sfm.view_graph.edges.empty());
+  EXPECT_EQ(b.posed, r.posed);
+  int first = -1, others = 0;
+  double moved = 0, distance = 0;
+  for (int k = 0; k < 5; ++k) {
+    if (!b.posed[k]) continue;
+    if (first < 0) first = k;
+    moved += (b.cam_from_world[k].ToMatrix() - r.cam_from_world[k].ToMatrix()).norm();
+    if (k != first) distance += b.cam_from_world[k].Inverse().translation.norm(), ++others;
+  }
+  // (Untrained weights may leave too few consistent edges to pose anything; then there is nothing
+  // to adjust.)
+  if (first >= 0 && others > 0) {
+    EXPECT_GT(moved, 1e-4);
+    EXPECT_LT((b.cam_from_world[first].ToMatrix() - Eigen::Matrix4d::Identity()).norm(), 1e-6);
+    EXPECT_NEAR(distance / others, 1.0, 1e-6);
+    EXPECT_GT(b.far, b.near);
+    EXPECT_GT(b.near, 0);
+  }
+  o.network.bundle_adjust = false;
+
   // auto: the SfM cannot relate these small smooth renders (too few SIFT matches), so the network
   // poses them all.
   o.method = "auto";

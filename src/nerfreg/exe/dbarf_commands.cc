@@ -56,6 +56,8 @@ int RunDbarfPoses(int argc, char** argv) {
                  "Network method: weight of the essential-matrix edges averaged with the network's (default 0: none; auto uses 10 where the SfM poses too few)");
   app.add_option("--refine-passes", options.network.refine_passes,
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
+  app.add_option("--bundle-adjust", options.network.bundle_adjust,
+                 "Network method: 1 refines the averaged cameras by photometric bundle adjustment with the network's depths, 0 not");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");
