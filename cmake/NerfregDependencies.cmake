@@ -12,20 +12,23 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(ZLIB REQUIRED)
-find_package(embree 3 REQUIRED)
-find_package(Open3D REQUIRED)
-find_package(Ceres REQUIRED)
-find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+if(NOT NERFREG_LEARNED_CORE_ONLY)
+  find_package(embree 3 REQUIRED)
+  find_package(Open3D REQUIRED)
+  find_package(Ceres REQUIRED)
+  find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+endif()
 if(NERFREG_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()
-if(NERFREG_BUILD_BENCH)
+if(NERFREG_BUILD_BENCH AND NOT NERFREG_LEARNED_CORE_ONLY)
   find_package(benchmark REQUIRED)
 endif()
 
 # Torch's imported target carries flags (-D_GLIBCXX_USE_CXX11_ABI, include dirs); wrap it so the
 # layers link one name.
 if(NERFREG_WITH_TORCH)
+  message(STATUS "nerfreg: LibTorch ${Torch_VERSION} from ${Torch_DIR}")
   add_library(nerfreg_torch INTERFACE)
   target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
   target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
@@ -37,3 +40,19 @@ endif()
 # putting OpenBLAS first doubled its rate (0.28 -> 0.58 steps/s, 2 cores, shared machine). Every
 # executable therefore names libblas.so.3 first (nerfreg_blas_first in NerfregMacros.cmake).
 find_file(NERFREG_BLAS_LIBRARY libblas.so.3 PATHS /usr/lib/x86_64-linux-gnu /usr/lib/aarch64-linux-gnu /usr/lib NO_DEFAULT_PATH)
+
+# The CUDA build (NERFREG_CUDA): the .cu kernels need nvcc and a LibTorch built with CUDA (its
+# TorchConfig brings CUDA::cudart and friends). A LibTorch taken from the PyPI wheel lacks the
+# runtime libraries pip installs beside it (nvidia-* packages: cuSPARSELt, cuFile, NVSHMEM); the
+# toolkit's own are found through rpath-link and the rest are left to the machine that runs the
+# binaries (--allow-shlib-undefined), so the build links on a machine without them.
+if(NERFREG_CUDA)
+  if(NOT TORCH_CUDA_LIBRARIES AND NOT TARGET torch_cuda)
+    message(FATAL_ERROR "NERFREG_CUDA=ON needs a LibTorch built with CUDA (Torch_DIR=${Torch_DIR})")
+  endif()
+  find_package(CUDAToolkit REQUIRED)
+  add_link_options("LINKER:--allow-shlib-undefined" "LINKER:-rpath-link,${CUDAToolkit_LIBRARY_DIR}")
+  if(EXISTS "${CUDAToolkit_LIBRARY_ROOT}/lib")
+    add_link_options("LINKER:-rpath-link,${CUDAToolkit_LIBRARY_ROOT}/lib")
+  endif()
+endif()
