@@ -16,6 +16,7 @@
 #include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -140,7 +141,8 @@ int RunDbarfPoses(int argc, char** argv) {
                   "OUT/cameras.png (the posed cameras seen from above: centres and viewing directions, with a scale "
                   "bar whose length is logged).",
                   "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");
-  std::string images_dir, intrinsics, out, neighbours = "graph";
+  std::string images_dir, intrinsics, out, neighbours = "graph", device = "cpu";
+  AddDeviceOption(app, &device);
   double focal = 0;
   ImagePosesOptions options;
   // The network here starts from the identity: the weights trained for that (models/dbarf_pose_cpu.md).
@@ -172,6 +174,7 @@ int RunDbarfPoses(int argc, char** argv) {
     throw InputError("--neighbours: expected graph or appearance, got \"" + neighbours + "\"");
   }
   options.network.match_images = neighbours == "graph";
+  options.device = ParseDevice(device);
   options.Check();
   if (options.method != "classical" && !FileExists(options.weights)) ThrowInputError(options.weights, "", "a DBARF weights file (--weights)");
   while (out.size() > 1 && out.back() == '/') out.pop_back();

@@ -15,6 +15,7 @@
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
@@ -44,12 +45,14 @@ struct TrainCli {
   std::string out, config = "cpu", weights;
   std::string cameras_out;  // finetune --refine-cameras: where the refined cameras go
   double rotation_scale = 0;  // pretrain: the pose heads' rotation scale (0: the config's or the weights')
+  std::string device = "cpu";
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;
 };
 
 void AddTrainOptions(CLI::App& app, TrainCli* c) {
+  AddDeviceOption(app, &c->device);
   app.add_option("--out", c->run.out, "Output weights (OUT.train: the state --resume continues; OUT.log.jsonl)")->required();
   app.add_option("--steps", c->run.steps, "Total steps (a resumed run counts its earlier steps)");
   app.add_option("--checkpoint-every", c->run.checkpoint_every, "Steps between checkpoints (default 250)");
@@ -112,6 +115,7 @@ void WriteRefinedCameras(const std::string& input, const LoadedDbarfScene& loade
 }
 
 int RunTraining(TrainCli& c, const CommonOptions& common, const char* what) {
+  c.run.device = ParseDevice(c.device);
   std::vector<std::string> inputs = c.scenes;
   inputs.push_back(c.weights);
   if (!c.run.resume) CheckCanWriteOutput(c.run.out, common.force, inputs);
@@ -238,6 +242,7 @@ int RunDbarfFinetune(int argc, char** argv) {
   app.add_option("--lr-cameras", c.train.lr_cameras, "Camera-refinement learning rate");
   AddTrainOptions(app, &c);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  c.run.device = ParseDevice(c.device);  // before the weights are read (RunTraining parses it too)
   c.scenes = {scene};
   c.train.refine_cameras = !c.cameras_out.empty();
   if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force, {scene, c.weights});
@@ -256,7 +261,8 @@ int RunDbarfRender(int argc, char** argv) {
                   "PNG per frame of T.json (cameras in the posed images' frame), named as the frame, and its inverse "
                   "depth in DIR/depth/.",
                   "nerfreg dbarf render runs/poses/transforms.json --transforms novel.json --out runs/novel");
-  std::string posed, transforms, out, weights = DefaultDbarfWeights();
+  std::string posed, transforms, out, weights = DefaultDbarfWeights(), device = "cpu";
+  AddDeviceOption(app, &device);
   int num_sources = 8;
   DbarfSceneOptions scene_options;
   scene_options.hold_out_test = false;
@@ -267,8 +273,10 @@ int RunDbarfRender(int argc, char** argv) {
   app.add_option("--sources", num_sources, "Source views per rendered view (nearest cameras)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (num_sources < 1) throw InputError("--sources: expected >= 1");
+  const torch::Device dev = ParseDevice(device);
   CheckCanWriteOutput(out, common.force, {posed, transforms, weights});
   DbarfModel model = LoadDbarfWeights(weights);
+  model.To(dev);
   LoadedDbarfScene loaded = LoadDbarfScene(posed, scene_options);
   if (loaded.estimated_here) {
     LOG_WARN("{}: not written by dbarf poses; its cameras were estimated again, so the frame is that of this run, "
@@ -308,7 +316,8 @@ int RunDbarfEval(int argc, char** argv) {
                   "PSNR / SSIM against its image. Writes DIR/eval.json, DIR/views/ (renders, inverse depth) and "
                   "DIR/compare.png (image | render | depth per test view).",
                   "nerfreg dbarf eval data/fwd/scene_201/transforms.json --out runs/eval_201");
-  std::string dataset, out, weights = DefaultDbarfWeights();
+  std::string dataset, out, weights = DefaultDbarfWeights(), device = "cpu";
+  AddDeviceOption(app, &device);
   int num_sources = 8;
   DbarfSceneOptions scene_options;
   app.add_option("dataset", dataset, "A dataset with ground-truth poses and a test split")->required();
@@ -326,8 +335,10 @@ int RunDbarfEval(int argc, char** argv) {
   if (!(perturb.deg >= 0 && perturb.deg <= 30 && perturb.translation >= 0 && perturb.translation <= 1)) {
     throw InputError("--perturb-deg / --perturb-translation: expected 0 to 30 degrees and 0 to 1");
   }
+  const torch::Device dev = ParseDevice(device);
   CheckCanWriteOutput(out, common.force, {dataset, weights});
   DbarfModel model = LoadDbarfWeights(weights);
+  model.To(dev);
   const Timer timer;
   LoadedDbarfScene loaded = LoadDbarfScene(dataset, scene_options);
   if (!loaded.ground_truth.defined()) ThrowInputError(dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");

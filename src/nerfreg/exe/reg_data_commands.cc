@@ -11,6 +11,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 
@@ -41,15 +42,17 @@ int RunRegExtract(int argc, char** argv) {
                   "Extract the voxel grid DReg-NeRF registers from a trained block (spec dreg-nerf.md 3): jittered "
                   "points, density mask, surface field, view-averaged colour and alpha. Writes a .grid file.",
                   "nerfreg reg extract runs/block_0.ckpt --out runs/block_0.grid");
-  std::string block_path, out;
+  std::string block_path, out, device = "cpu";
+  AddDeviceOption(app, &device);
   GridExtractionOptions g;
   app.add_option("block", block_path, "Block checkpoint (nerf train)")->required();
   app.add_option("--out", out, "Output grid file")->required();
   AddGridOptions(app, &g);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   CheckCanWriteOutput(out, common.force, {block_path});
   Timer timer;
-  NerfBlock block = LoadNerfBlock(block_path);
+  NerfBlock block = LoadNerfBlock(block_path, nullptr, dev);
   const RegGrid grid = ExtractRegGrid(block, g);
   const std::int64_t masked = grid.mask.sum().item<std::int64_t>();
   if (masked < 100) LOG_WARN("{}: only {} voxels in the mask: is the block trained / its occupancy grid empty?", block_path, masked);
@@ -115,6 +118,8 @@ int RunRegTrain(int argc, char** argv) {
   std::string out;
   DregTrainOptions o;
   bool resume = false;
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("data", data, "pairs.json files")->required()->expected(1, 100);
   app.add_option("--out", out, "Output weights")->required();
   app.add_option("--config", o.config, "Network size: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
@@ -140,6 +145,7 @@ int RunRegTrain(int argc, char** argv) {
                "surface at the true match (the overlap; ours), not S alone (the paper)");
   app.add_flag("--resume", resume, "Continue from OUT.train");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  o.device = ParseDevice(device);
   if (!resume) CheckCanWriteOutput(out, common.force, data);
   const DregTrainResult r = TrainDreg(data, o, out, resume);
   std::printf("%s\n", Json({{"weights", out}, {"iterations", r.iterations}, {"seconds", r.seconds}, {"final_loss", r.final_loss},
