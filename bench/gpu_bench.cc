@@ -3,6 +3,7 @@
 // colour varies with the normal, rendered exactly. Prints one JSON object (and writes it to --out).
 //   build-gpu/bench/nerfreg_gpu_bench --device cuda --out results/gpu_bench.json
 #include <torch/torch.h>
+#include <torch/version.h>
 
 #include <chrono>
 #include <cmath>
