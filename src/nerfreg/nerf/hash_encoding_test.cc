@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "nerfreg/util/torch_device.h"
 
 namespace nerfreg {
@@ -133,7 +135,12 @@ class HashEncodingDevice : public ::testing::TestWithParam<std::tuple<std::strin
   }
 };
 INSTANTIATE_TEST_SUITE_P(Devices, HashEncodingDevice,
-                         ::testing::Combine(::testing::Values("cpu", "cuda"), ::testing::Values("nerfreg", "instant-ngp")));
+                         ::testing::Combine(::testing::Values("cpu", "cuda"), ::testing::Values("nerfreg", "instant-ngp")),
+                         [](const ::testing::TestParamInfo<HashEncodingDevice::ParamType>& info) {
+                           std::string name = std::get<0>(info.param) + "_" + std::get<1>(info.param);
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;  // e.g. cuda_instant_ngp (scripts/gpu_check.sh filters on it)
+                         });
 
 TEST_P(HashEncodingDevice, KernelMatchesCpuReferenceForwardAndBackward) {
   torch::manual_seed(11);
