@@ -32,6 +32,20 @@ if(NERFREG_WITH_TORCH)
   add_library(nerfreg_torch INTERFACE)
   target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
   target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
+  # LibTorch 2.x (PyPI) ships fmt 12's headers in its include folder, and they shadow the system's
+  # fmt that spdlog was built with (Debian: fmt 9; spdlog's headers then fail to compile). A folder
+  # holding only a link to the system's fmt/ goes before Torch's. (torch/torch.h itself does not
+  # include fmt.) Debian's LibTorch shares /usr/include with fmt: nothing to do there.
+  get_target_property(nerfreg_fmt_include fmt::fmt INTERFACE_INCLUDE_DIRECTORIES)
+  foreach(dir ${TORCH_INCLUDE_DIRS})
+    if(nerfreg_fmt_include AND EXISTS "${dir}/fmt/core.h" AND NOT dir STREQUAL nerfreg_fmt_include
+       AND EXISTS "${nerfreg_fmt_include}/fmt/core.h")
+      file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/system_fmt)
+      file(CREATE_LINK ${nerfreg_fmt_include}/fmt ${PROJECT_BINARY_DIR}/system_fmt/fmt SYMBOLIC)
+      target_include_directories(nerfreg_torch SYSTEM BEFORE INTERFACE ${PROJECT_BINARY_DIR}/system_fmt)
+      break()
+    endif()
+  endforeach()
 endif()
 
 # BLAS: Debian's Ceres links ATLAS's libf77blas.so.3 directly. An executable that lists it before
