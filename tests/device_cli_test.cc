@@ -23,11 +23,6 @@ const std::vector<std::string>& Commands() {
       "reg train no_pairs.json --out no_dir/w.pt",
       "reg register no_a.ckpt no_b.ckpt --out no_dir/t.json",
       "reg eval --pairs no_pairs.json",
-      "dbarf pretrain no_scene --out no_dir/w.pt",
-      "dbarf finetune no_scene --out no_dir/w.pt",
-      "dbarf render no.json --transforms no.json --out no_dir/r",
-      "dbarf eval no_dataset --out no_dir/e",
-      "dbarf poses no_images --focal 100 --out no_dir/p",
   };
   return commands;
 }
@@ -53,7 +48,6 @@ TEST(DeviceCli, CudaWithoutAGpuIsExit2) {
   if (std::filesystem::exists("/dev/nvidia0")) GTEST_SKIP() << "this machine has a GPU";
   ExpectDeviceError("nerf train no_dataset --out no_dir/a.ckpt", "cuda", "a CUDA device (none is available");
   ExpectDeviceError("reg train no_pairs.json --out no_dir/w.pt", "cuda", "a CUDA device (none is available");
-  ExpectDeviceError("dbarf pretrain no_scene --out no_dir/w.pt", "cuda", "a CUDA device (none is available");
 }
 
 TEST(DeviceCli, CpuAndAutoPassTheDeviceCheck) {

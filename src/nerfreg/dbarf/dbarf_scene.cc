@@ -7,6 +7,7 @@
 #include <map>
 
 #include "nerfreg/data/convert.h"
+#include "nerfreg/dbarf/posed_images.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
@@ -135,6 +136,12 @@ void WriteSfmCache(const std::string& file, const std::string& scene_path, const
 }
 
 }  // namespace
+
+Image InverseDepthImage(const torch::Tensor& depth, const torch::Tensor& valid, double near, double far) {
+  const torch::Tensor inv = ((1.0 / depth.clamp_min(1e-6) - 1.0 / far) / (1.0 / near - 1.0 / far)).clamp(0, 1) *
+                            valid.to(torch::kFloat);
+  return TensorToImage(inv.unsqueeze(0));
+}
 
 void DbarfSceneOptions::Check() const {
   if (max_width < 0) throw InputError("--max-width: expected >= 0, got " + std::to_string(max_width));
@@ -291,28 +298,24 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
   if (!json_path.empty()) json = ReadJsonFile(json_path);
   std::vector<torch::Tensor> poses;
   for (const Frame& f : d.frames) poses.push_back(Matrix4ToTensor(f.cam_from_world.ToMatrix()));
-  if (json.is_object() && json.contains("dbarf_poses")) {
+  if (IsPosedImages(json)) {
     scene.cam_from_world = torch::stack(poses);
-    const JsonField root(json, json_path);
+    const PosedImagesInfo posed = ReadPosedImagesInfo(json, json_path);
     std::map<std::string, int> index;
     for (int64_t i = 0; i < v; ++i) index[scene.image_names[i]] = static_cast<int>(i);
     std::vector<std::vector<std::pair<int, int>>> weighted(v);
-    const JsonField graph = root["view_graph"];
-    for (size_t e = 0; e < graph.ArraySize(); ++e) {
-      const std::string a = graph[e][0].String(), b = graph[e][1].String();
-      const int inliers = graph[e][2].Int();
-      if (!index.count(a) || !index.count(b)) continue;  // an image that was not posed
-      weighted[index[a]].push_back({inliers, index[b]});
-      weighted[index[b]].push_back({inliers, index[a]});
+    for (const PosedImagesInfo::Edge& e : posed.view_graph) {
+      if (!index.count(e.a) || !index.count(e.b)) continue;  // an image that was not posed
+      weighted[index[e.a]].push_back({e.inliers, index[e.b]});
+      weighted[index[e.b]].push_back({e.inliers, index[e.a]});
     }
     scene.neighbours.resize(v);
     for (int64_t i = 0; i < v; ++i) {
       std::stable_sort(weighted[i].begin(), weighted[i].end(), [](const auto& x, const auto& y) { return x.first > y.first; });
       for (const auto& [w, j] : weighted[i]) scene.neighbours[i].push_back(j);
     }
-    const JsonField info = root["dbarf_poses"];
-    scene.near = info["near"].Double();
-    scene.far = info["far"].Double();
+    scene.near = posed.near;
+    scene.far = posed.far;
   } else {
     // The dataset's poses are ground truth: kept aside; estimate everything from the images.
     out.ground_truth = torch::stack(poses);

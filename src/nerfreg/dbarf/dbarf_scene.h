@@ -89,4 +89,8 @@ torch::Tensor IntrinsicsToTensor(const Camera& camera);
 torch::Tensor ImageToTensor(const Image& image);
 Image TensorToImage(const torch::Tensor& chw);
 
+// Inverse depth for viewing (depth [H, W], valid [H, W] bool): near is white, far black, invalid
+// pixels black.
+Image InverseDepthImage(const torch::Tensor& depth, const torch::Tensor& valid, double near, double far);
+
 }  // namespace nerfreg
