@@ -7,8 +7,20 @@
 
 #include <cctype>
 #include <string>
+#include <utility>
 
 #include "nerfreg/util/error.h"
+
+// LibTorch 2.x dropped the C++ API's torch/linalg.h (namespace torch::linalg); ATen's functions of
+// the same names exist in 1.13 and 2.x. Under 2.x this gives back the names the code uses.
+#if !__has_include(<torch/linalg.h>)
+namespace torch::linalg {
+template <class... A> auto inv(A&&... a) { return at::linalg_inv(std::forward<A>(a)...); }
+template <class... A> auto det(A&&... a) { return at::linalg_det(std::forward<A>(a)...); }
+template <class... A> auto svd(A&&... a) { return at::linalg_svd(std::forward<A>(a)...); }
+template <class... A> auto qr(A&&... a) { return at::linalg_qr(std::forward<A>(a)...); }
+}  // namespace torch::linalg
+#endif
 
 namespace nerfreg {
 
