@@ -5,7 +5,7 @@ CMAKE_FLAGS ?=
 FUZZ_SECONDS ?= 300
 FUZZ_SECONDS_CI ?= 10
 
-.PHONY: all setup build test demo fuzz bench clean
+.PHONY: all setup build test demo fuzz bench clean cuda
 
 all: build
 
@@ -26,8 +26,14 @@ test: build
 fuzz: setup
 	FUZZ_SECONDS=$(FUZZ_SECONDS) bash scripts/fuzz.sh
 
+# The learned core with the CUDA kernels against a CUDA LibTorch, in build-cuda/ (docs/gpu.md):
+# TORCH_DIR=... for a LibTorch of your own, else the pinned PyPI wheel is fetched once. Not part
+# of build / test.
+cuda:
+	CUDA_BUILD_DIR=build-cuda JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
+
 demo: build
 	bash scripts/demo.sh
 
 clean:
-	rm -rf $(BUILD_DIR)
+	rm -rf $(BUILD_DIR) build-cuda

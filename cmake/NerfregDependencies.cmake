@@ -12,23 +12,40 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(ZLIB REQUIRED)
-find_package(embree 3 REQUIRED)
-find_package(Open3D REQUIRED)
-find_package(Ceres REQUIRED)
-find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+if(NOT NERFREG_LEARNED_CORE_ONLY)
+  find_package(embree 3 REQUIRED)
+  find_package(Open3D REQUIRED)
+  find_package(Ceres REQUIRED)
+  find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+endif()
 if(NERFREG_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()
-if(NERFREG_BUILD_BENCH)
+if(NERFREG_BUILD_BENCH AND NOT NERFREG_LEARNED_CORE_ONLY)
   find_package(benchmark REQUIRED)
 endif()
 
 # Torch's imported target carries flags (-D_GLIBCXX_USE_CXX11_ABI, include dirs); wrap it so the
 # layers link one name.
 if(NERFREG_WITH_TORCH)
+  message(STATUS "nerfreg: LibTorch ${Torch_VERSION} from ${Torch_DIR}")
   add_library(nerfreg_torch INTERFACE)
   target_link_libraries(nerfreg_torch INTERFACE ${TORCH_LIBRARIES} OpenMP::OpenMP_CXX)
   target_include_directories(nerfreg_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
+  # LibTorch 2.x (PyPI) ships fmt 12's headers in its include folder, and they shadow the system's
+  # fmt that spdlog was built with (Debian: fmt 9; spdlog's headers then fail to compile). A folder
+  # holding only a link to the system's fmt/ goes before Torch's. (torch/torch.h itself does not
+  # include fmt.) Debian's LibTorch shares /usr/include with fmt: nothing to do there.
+  get_target_property(nerfreg_fmt_include fmt::fmt INTERFACE_INCLUDE_DIRECTORIES)
+  foreach(dir ${TORCH_INCLUDE_DIRS})
+    if(nerfreg_fmt_include AND EXISTS "${dir}/fmt/core.h" AND NOT dir STREQUAL nerfreg_fmt_include
+       AND EXISTS "${nerfreg_fmt_include}/fmt/core.h")
+      file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/system_fmt)
+      file(CREATE_LINK ${nerfreg_fmt_include}/fmt ${PROJECT_BINARY_DIR}/system_fmt/fmt SYMBOLIC)
+      target_include_directories(nerfreg_torch SYSTEM BEFORE INTERFACE ${PROJECT_BINARY_DIR}/system_fmt)
+      break()
+    endif()
+  endforeach()
 endif()
 
 # BLAS: Debian's Ceres links ATLAS's libf77blas.so.3 directly. An executable that lists it before
@@ -37,3 +54,19 @@ endif()
 # putting OpenBLAS first doubled its rate (0.28 -> 0.58 steps/s, 2 cores, shared machine). Every
 # executable therefore names libblas.so.3 first (nerfreg_blas_first in NerfregMacros.cmake).
 find_file(NERFREG_BLAS_LIBRARY libblas.so.3 PATHS /usr/lib/x86_64-linux-gnu /usr/lib/aarch64-linux-gnu /usr/lib NO_DEFAULT_PATH)
+
+# The CUDA build (NERFREG_CUDA): the .cu kernels need nvcc and a LibTorch built with CUDA (its
+# TorchConfig brings CUDA::cudart and friends). A LibTorch taken from the PyPI wheel lacks the
+# runtime libraries pip installs beside it (nvidia-* packages: cuSPARSELt, cuFile, NVSHMEM); the
+# toolkit's own are found through rpath-link and the rest are left to the machine that runs the
+# binaries (--allow-shlib-undefined), so the build links on a machine without them.
+if(NERFREG_CUDA)
+  if(NOT TORCH_CUDA_LIBRARIES AND NOT TARGET torch_cuda)
+    message(FATAL_ERROR "NERFREG_CUDA=ON needs a LibTorch built with CUDA (Torch_DIR=${Torch_DIR})")
+  endif()
+  find_package(CUDAToolkit REQUIRED)
+  add_link_options("LINKER:--allow-shlib-undefined" "LINKER:-rpath-link,${CUDAToolkit_LIBRARY_DIR}")
+  if(EXISTS "${CUDAToolkit_LIBRARY_ROOT}/lib")
+    add_link_options("LINKER:-rpath-link,${CUDAToolkit_LIBRARY_ROOT}/lib")
+  endif()
+endif()

@@ -54,6 +54,13 @@ function(nerfreg_add_test NAME)
     NERFREG_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     NERFREG_BINARY="${PROJECT_BINARY_DIR}/nerfreg")
   # The threading environment nerfreg's main() sets for itself (see exe/main.cc).
-  gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120
+  # The CUDA build lists its tests when ctest runs, not after linking: `make cuda` links on machines
+  # that lack the CUDA runtime libraries the binaries need to start.
+  if(NERFREG_CUDA)
+    set(discovery_mode PRE_TEST)
+  else()
+    set(discovery_mode POST_BUILD)
+  endif()
+  gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120 DISCOVERY_MODE ${discovery_mode}
     PROPERTIES TIMEOUT 180 ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE;OPENBLAS_NUM_THREADS=1")
 endfunction()

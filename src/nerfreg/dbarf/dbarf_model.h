@@ -48,6 +48,8 @@ struct DbarfModel {
   std::vector<torch::Tensor> PoseParameters() const { return pose_net->parameters(); }
   void Train(bool on);
   void To(torch::Device device);
+  // Where the parameters are (To()'s device; the CPU for a model just built or loaded).
+  torch::Device Device() const { return pose_net->parameters().front().device(); }
 
   DbarfOptions options;
   GeneralizableNerf nerf;

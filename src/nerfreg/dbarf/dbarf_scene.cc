@@ -222,16 +222,21 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
   TORCH_CHECK(!sources.empty(), "RenderNovelView: no source views");
   torch::NoGradGuard no_grad;
   model.Train(false);
-  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  // The scene may sit on another device than the model (a CPU scene, a GPU model): the views go
+  // to the model's.
+  const torch::Device device = model.Device();
+  const torch::Tensor idx =
+      torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(scene.images.device());
   IbrSourceViews views;
-  views.images = scene.images.index_select(0, idx);
-  views.intrinsics = scene.intrinsics.index_select(0, idx);
-  views.cam_from_world = scene.cam_from_world.index_select(0, idx);
+  views.images = scene.images.index_select(0, idx).to(device);
+  views.intrinsics = scene.intrinsics.index_select(0, idx).to(device);
+  views.cam_from_world = scene.cam_from_world.index_select(0, idx).to(device);
   const IbrRenderOutput out =
-      RenderIbrImage(model.nerf.feature_net, model.nerf.ibrnet, views, intrinsics.to(torch::kFloat),
-                     cam_from_world.to(torch::kFloat), height, width, scene.near, scene.far, model.options.nerf.render);
-  return {out.rgb.t().reshape({3, height, width}).contiguous(), out.depth.reshape({height, width}),
-          out.valid.reshape({height, width})};
+      RenderIbrImage(model.nerf.feature_net, model.nerf.ibrnet, views, intrinsics.to(device, torch::kFloat),
+                     cam_from_world.to(device, torch::kFloat), height, width, scene.near, scene.far, model.options.nerf.render);
+  // Back on the CPU, where images are written and scored.
+  return {out.rgb.t().reshape({3, height, width}).contiguous().cpu(), out.depth.reshape({height, width}).cpu(),
+          out.valid.reshape({height, width}).cpu()};
 }
 
 LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions& options) {

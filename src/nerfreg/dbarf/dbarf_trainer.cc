@@ -12,6 +12,7 @@
 #include "nerfreg/dbarf/ibr_render.h"
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/dbarf/sfm_loss.h"
+#include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
@@ -164,8 +165,9 @@ DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, co
   if (options_.refine_cameras) {
     for (const DbarfScene& scene : scenes_) {
       const int64_t v = scene.NumViews();
-      camera_twists_.push_back(torch::zeros({v, 6}, torch::kFloat).requires_grad_(true));
-      torch::Tensor mask = torch::ones({v, 1}, torch::kFloat);
+      const auto f = torch::TensorOptions().dtype(torch::kFloat).device(scene.images.device());
+      camera_twists_.push_back(torch::zeros({v, 6}, f).requires_grad_(true));
+      torch::Tensor mask = torch::ones({v, 1}, f);
       for (int64_t i = 0; i < v; ++i) {
         if (scene.usable[i]) {
           mask[i] = 0.0;
@@ -231,7 +233,7 @@ torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_wor
     if (use[v]) views.push_back(static_cast<int64_t>(v));
   if (views.size() < 2) ThrowInputError(source, "ground truth", "at least 2 estimated cameras to fix the scale");
   const auto centres = [&](const torch::Tensor& c) {  // -R^T t of the used views: [U, 3]
-    const torch::Tensor u = c.index_select(0, torch::tensor(views, torch::kLong)).to(torch::kDouble);
+    const torch::Tensor u = c.index_select(0, torch::tensor(views, torch::kLong).to(c.device())).to(torch::kDouble);
     return -torch::matmul(u.slice(1, 0, 3).slice(2, 0, 3).transpose(1, 2), u.slice(1, 0, 3).slice(2, 3, 4)).squeeze(2);
   };
   const auto spread = [](const torch::Tensor& c) { return (c - c.mean(0, true)).pow(2).sum(1).mean().sqrt().item<double>(); };
@@ -243,8 +245,16 @@ torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_wor
   return out;
 }
 
+DbarfScene DbarfSceneTo(const DbarfScene& scene, const torch::Device& device) {
+  DbarfScene s = scene;
+  for (torch::Tensor* t : {&s.images, &s.intrinsics, &s.cam_from_world, &s.supervision_cam_from_world})
+    if (t->defined()) *t = t->to(device);
+  return s;
+}
+
 torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources) {
-  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  const torch::Tensor idx =
+      torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(cam_from_world.device());
   const torch::Tensor world_from_tgt = Se3Inverse(cam_from_world[target]);
   return torch::matmul(cam_from_world.index_select(0, idx), world_from_tgt);
 }
@@ -254,10 +264,11 @@ torch::Tensor PerturbRelativePoses(const torch::Tensor& src_from_tgt, double deg
   TORCH_CHECK(src_from_tgt.dim() == 3 && src_from_tgt.size(1) == 4 && src_from_tgt.size(2) == 4,
               "PerturbRelativePoses: expected [N, 4, 4], got ", src_from_tgt.sizes());
   const int64_t n = src_from_tgt.size(0);
-  const auto options = src_from_tgt.options();
+  // Drawn on the CPU (the generators are CPU ones, so a run draws alike on every device).
+  const auto options = src_from_tgt.options().device(torch::kCPU);
   const torch::Tensor baseline = src_from_tgt.slice(1, 0, 3).select(2, 3).norm(2, 1, true);  // [N, 1]
-  const torch::Tensor rho = torch::randn({n, 3}, generator, options) * translation * baseline;
-  const torch::Tensor omega = torch::randn({n, 3}, generator, options) * (deg * M_PI / 180.0);
+  const torch::Tensor rho = torch::randn({n, 3}, generator, options).to(src_from_tgt.device()) * translation * baseline;
+  const torch::Tensor omega = torch::randn({n, 3}, generator, options).to(src_from_tgt.device()) * (deg * M_PI / 180.0);
   return Se3Update(torch::cat({rho, omega}, 1), src_from_tgt);
 }
 
@@ -279,7 +290,8 @@ DbarfStepResult DbarfTrainer::Step() {
   result.target = t;
   result.num_sources = static_cast<int>(sources.size());
 
-  const torch::Tensor src_idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  const torch::Tensor src_idx =
+      torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(scene.images.device());
   const torch::Tensor target = scene.images.slice(0, t, t + 1);        // [1, 3, H, W]
   const torch::Tensor source_images = scene.images.index_select(0, src_idx);  // [N, 3, H, W]
   const torch::Tensor k_t = scene.intrinsics[t];                        // [3, 3]
@@ -350,8 +362,8 @@ DbarfStepResult DbarfTrainer::Step() {
     const int64_t height = scene.images.size(2), width = scene.images.size(3);
     const int64_t num_rays = std::max<int64_t>(
         1, std::min<int64_t>(height * width, options_.rays_per_step * 5 / static_cast<int64_t>(sources.size())));
-    const torch::Tensor pixels = torch::randperm(height * width, torch::kLong).slice(0, 0, num_rays);
-    const IbrRays rays = TargetRays(k_t, torch::eye(4), height, width, pixels);
+    const torch::Tensor pixels = torch::randperm(height * width, torch::kLong).slice(0, 0, num_rays).to(k_t.device());
+    const IbrRays rays = TargetRays(k_t, torch::eye(4, k_t.options()), height, width, pixels);
     const IbrRenderOutput out = model_->nerf.RenderRays(views, rays, scene.near, scene.far, /*training=*/true);
     const torch::Tensor gt = target[0].reshape({3, -1}).t().index_select(0, pixels);  // [R, 3]
     const torch::Tensor mask = out.valid.to(torch::kFloat).unsqueeze(1);
@@ -424,10 +436,14 @@ void DbarfTrainer::LoadState(const std::string& path) {
     archive.read("pose_optimizer", pose);
     nerf_optimizer_->load(nerf);
     pose_optimizer_->load(pose);
+    const torch::Device device = scenes_.front().images.device();  // the state was read on the CPU
+    MoveOptimizerState(*nerf_optimizer_, device);
+    MoveOptimizerState(*pose_optimizer_, device);
     if (camera_optimizer_) {
       torch::serialize::InputArchive cameras;
       archive.read("camera_optimizer", cameras);
       camera_optimizer_->load(cameras);
+      MoveOptimizerState(*camera_optimizer_, device);
       for (size_t s = 0; s < camera_twists_.size(); ++s) {
         torch::Tensor twist;
         archive.read("camera_twists_" + std::to_string(s), twist);
@@ -451,6 +467,8 @@ void DbarfRunOptions::Check() const {
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
                                 const DbarfRunOptions& run) {
   run.Check();
+  model->To(run.device);
+  for (DbarfScene& scene : scenes) scene = DbarfSceneTo(scene, run.device);
   DbarfTrainer trainer(model, std::move(scenes), options);
   const std::string state_path = run.out + ".train";
   if (run.resume) {
@@ -518,7 +536,7 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
   torch::NoGradGuard no_grad;
   for (size_t s = 0; s < trainer.scenes().size(); ++s) {
     const torch::Tensor c = trainer.Cameras(static_cast<int>(s));
-    result.cameras.push_back(c.defined() ? c.detach().clone() : c);
+    result.cameras.push_back(c.defined() ? c.detach().cpu().clone() : c);
   }
   return result;
 }
@@ -580,7 +598,7 @@ RelativePoseError EvaluateIdentityRelativePoses(const DbarfScene& scene, const t
     const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
     if (!sources.empty()) {
       const int64_t n = static_cast<int64_t>(sources.size());
-      sum.Add(torch::eye(4).expand({n, 4, 4}), RelativeCameras(true_cam_from_world, t, sources));
+      sum.Add(torch::eye(4, true_cam_from_world.options()).expand({n, 4, 4}), RelativeCameras(true_cam_from_world, t, sources));
     }
   }
   return sum.Result();
@@ -597,12 +615,16 @@ RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& sce
     if (!scene.usable[t]) continue;
     const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
     if (sources.empty()) continue;
-    const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
-    const torch::Tensor init =
-        pose_init == "cameras" ? InitialRelativePoses(scene, t, sources, noise) : torch::Tensor();
-    const auto pred = model.pose_net->forward(scene.images.slice(0, t, t + 1), scene.images.index_select(0, idx),
-                                              scene.intrinsics[t], init);
-    sum.Add(pred.src_from_tgt.back(), RelativeCameras(true_cam_from_world, t, sources));
+    // The scene may sit on another device than the model: its inputs go to the model's, the
+    // prediction comes back.
+    const torch::Device device = model.Device();
+    const torch::Tensor idx =
+        torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(scene.images.device());
+    torch::Tensor init = pose_init == "cameras" ? InitialRelativePoses(scene, t, sources, noise) : torch::Tensor();
+    if (init.defined()) init = init.to(device);
+    const auto pred = model.pose_net->forward(scene.images.slice(0, t, t + 1).to(device), scene.images.index_select(0, idx).to(device),
+                                              scene.intrinsics[t].to(device), init);
+    sum.Add(pred.src_from_tgt.back().to(true_cam_from_world.device()), RelativeCameras(true_cam_from_world, t, sources));
   }
   return sum.Result();
 }

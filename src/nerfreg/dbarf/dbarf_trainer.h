@@ -176,6 +176,8 @@ struct DbarfRunOptions {
   int64_t checkpoint_every = 250;
   std::string out;
   bool resume = false;
+  // Where the model and the scenes' tensors live during the run (`--device`).
+  torch::Device device = torch::kCPU;
   void Check() const;  // throws InputError naming the option
 };
 struct DbarfRunResult {
@@ -204,6 +206,9 @@ torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_wor
                                           const std::vector<bool>& use, const std::string& source);
 
 // src_from_tgt [N, 4, 4] of views `sources` relative to `target` from the scene's cameras.
+// The scene with its tensors on `device`.
+DbarfScene DbarfSceneTo(const DbarfScene& scene, const torch::Device& device);
+
 torch::Tensor RelativeCameras(const torch::Tensor& cam_from_world, int target, const std::vector<int>& sources);
 
 // src_from_tgt [N, 4, 4] moved by a random twist per pose: a rotation about a random axis whose

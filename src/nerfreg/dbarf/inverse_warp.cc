@@ -1,3 +1,4 @@
+#include "nerfreg/util/torch_device.h"  // torch::linalg under LibTorch 2.x
 #include "nerfreg/dbarf/inverse_warp.h"
 
 #include "nerfreg/dbarf/se3.h"

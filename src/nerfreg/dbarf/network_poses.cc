@@ -131,22 +131,26 @@ NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, 
               "RunPoseNetwork: one initial pose per source");
   torch::NoGradGuard no_grad;
   net->eval();
-  const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
+  // The images stay where they are (the CPU); the network's inputs go to its device and the
+  // prediction comes back.
+  const torch::Device device = net->parameters().front().device();
+  const torch::Tensor idx =
+      torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(images.device());
   torch::Tensor initial;  // [N, 4, 4] or undefined (the network's own start)
   if (!initial_src_from_tgt.empty()) {
     std::vector<torch::Tensor> m;
     for (const Rigid3d& p : initial_src_from_tgt) m.push_back(Matrix4ToTensor(p.ToMatrix()));
-    initial = torch::stack(m);
+    initial = torch::stack(m).to(device);
   }
-  const PoseDepthPrediction pred =
-      net->forward(images.slice(0, target, target + 1), images.index_select(0, idx), intrinsics[target], initial);
-  const torch::Tensor src_from_tgt = pred.src_from_tgt.back();  // [N, 4, 4]
+  const PoseDepthPrediction pred = net->forward(images.slice(0, target, target + 1).to(device),
+                                                images.index_select(0, idx).to(device), intrinsics[target].to(device), initial);
+  const torch::Tensor src_from_tgt = pred.src_from_tgt.back().cpu();  // [N, 4, 4]
   NetworkTargetRun run;
   for (size_t k = 0; k < sources.size(); ++k) {
     const Eigen::Matrix4d m = TensorToMatrix4(src_from_tgt[static_cast<int64_t>(k)]);
     run.poses.push_back({target, sources[k], Rigid3d(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>()))});
   }
-  const torch::Tensor depth = std::get<0>((1.0 / pred.inv_depths.back().reshape({-1})).sort());  // [H * W]
+  const torch::Tensor depth = std::get<0>((1.0 / pred.inv_depths.back().reshape({-1}).cpu()).sort());  // [H * W]
   const int64_t last = depth.size(0) - 1;
   run.depth_p02 = depth[static_cast<int64_t>(0.02 * last)].item<double>();
   run.depth_p98 = depth[static_cast<int64_t>(0.98 * last)].item<double>();
@@ -535,6 +539,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   std::unique_ptr<DbarfModel> model;
   if (options.method != "classical") {
     model = std::make_unique<DbarfModel>(LoadDbarfWeights(options.weights));
+    model->To(options.device);
     model->Train(false);
   }
   ImagePosesResult result;

@@ -96,6 +96,7 @@ struct ImagePosesOptions {
   double low_confidence_deg = 5.0;             // rotation residual
   double low_confidence_direction_deg = 30.0;  // direction residual
   int low_confidence_observations = 10;
+  torch::Device device = torch::kCPU;  // --device: where the network runs (the images stay on the CPU)
   void Check() const;  // throws InputError naming the option
 };
 

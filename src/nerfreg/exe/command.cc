@@ -16,6 +16,10 @@ void AddCommonOptions(CLI::App& app, CommonOptions* options) {
   app.add_flag("--force", options->force, "Overwrite existing outputs");
 }
 
+void AddDeviceOption(CLI::App& app, std::string* device) {
+  app.add_option("--device", *device, "Where the networks run: cpu (default), cuda, cuda:N or auto (a GPU when present)");
+}
+
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common) {
   try {
     app.parse(argc, argv);

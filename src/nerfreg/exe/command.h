@@ -20,6 +20,10 @@ struct CommonOptions {
 // Adds --quiet, --json, --verbose and --force to `app`.
 void AddCommonOptions(CLI::App& app, CommonOptions* options);
 
+// Adds --device (cpu, cuda, cuda:N or auto; default cpu) to `app`. The command parses the value
+// once with ParseDevice (util/torch_device.h) right after ParseCommand.
+void AddDeviceOption(CLI::App& app, std::string* device);
+
 // Parses argv into app. Returns -1 when parsing succeeded and the command should run, otherwise
 // the exit code to return (0 for --help, 2 for a usage error, with the message printed).
 // Also applies the logging options.

@@ -15,6 +15,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/progress.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 
@@ -32,6 +33,8 @@ int RunNerfTrain(int argc, char** argv) {
   std::int64_t samples = 0;
   unsigned seed = 0;
   bool resume = false;
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("dataset", dataset_path, "Dataset: transforms.json, its folder, an LLFF scene or a COLMAP model")->required();
   app.add_option("--out", out, "Checkpoint to write")->required();
   app.add_option("--preset", preset, "fast (2 CPU cores) or default (the paper's settings)");
@@ -47,6 +50,7 @@ int RunNerfTrain(int argc, char** argv) {
   if (app.count("--checkpoint-every") && checkpoint_every < 0) ThrowInputError("--checkpoint-every", "", ">= 0");
   if (app.count("--samples") && samples < 1) ThrowInputError("--samples", "", ">= 1");
   NerfTrainOptions options = NerfTrainOptions::Preset(preset);
+  options.device = ParseDevice(device);
   if (iters > 0) options.iterations = iters;
   options.seed = seed;
   options.stop_after = stop_after;
@@ -77,13 +81,15 @@ int RunNerfRender(int argc, char** argv) {
   AddCommonOptions(app, &common);
   DescribeCommand(app, "Render one PNG per frame of a transforms.json with a trained block (named as the frame's image).",
                   "nerfreg nerf render runs/block_0.ckpt --transforms data/spider/block_0/transforms.json --out renders");
-  std::string ckpt, transforms, out;
+  std::string ckpt, transforms, out, device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
   app.add_option("--transforms", transforms, "transforms.json with the cameras to render")->required();
   app.add_option("--out", out, "Output folder")->required();
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   CheckCanWriteOutput(out, common.force, {ckpt, transforms});
-  NerfBlock block = LoadNerfBlock(ckpt);
+  NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
   const Dataset cams = ReadCameras(transforms);
   // Rendered into a temporary folder moved into place whole: a killed run leaves no partial set of
   // PNGs under the real name (which a rerun would then refuse as existing).
@@ -105,13 +111,15 @@ int RunNerfEval(int argc, char** argv) {
   AddCommonOptions(app, &common);
   DescribeCommand(app, "PSNR and SSIM of a block's renders of a dataset's test views (white background).",
                   "nerfreg nerf eval runs/block_0.ckpt data/spider/block_0");
-  std::string ckpt, dataset_path, out;
+  std::string ckpt, dataset_path, out, device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
   app.add_option("dataset", dataset_path, "Dataset whose test split is evaluated")->required();
   app.add_option("--out", out, "Also write the result to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {ckpt, dataset_path});
-  NerfBlock block = LoadNerfBlock(ckpt);
+  NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
   const Dataset dataset = ReadCameras(dataset_path);
   if (dataset.IndicesOfSplit("test").empty()) ThrowInputError(dataset_path, "frames", "at least one frame with \"split\": \"test\"");
   const NerfEvalResult r = EvaluateNerfBlock(block, dataset);
@@ -129,7 +137,8 @@ int RunNerfExport(int argc, char** argv) {
                   "Export a block's occupied space as a coloured point cloud (--points) or its density iso-surface as "
                   "a coloured triangle mesh (--mesh, marching cubes), both PLY.",
                   "nerfreg nerf export runs/block_0.ckpt --points block_0.ply");
-  std::string ckpt, points, mesh_path;
+  std::string ckpt, points, mesh_path, device = "cpu";
+  AddDeviceOption(app, &device);
   double threshold = -1;
   MeshExportOptions mesh_options;
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
@@ -140,11 +149,12 @@ int RunNerfExport(int argc, char** argv) {
   app.add_option("--resolution", mesh_options.resolution, "Mesh: marching-cubes cells per axis (default 128)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (points.empty() && mesh_path.empty()) throw InputError("nerf export: give --points OUT.ply or --mesh OUT.ply");
+  const torch::Device dev = ParseDevice(device);
   if (!mesh_path.empty()) {
     if (threshold > 0) mesh_options.density_threshold = threshold;
     mesh_options.Check();
     CheckCanWriteOutput(mesh_path, common.force, {ckpt});
-    NerfBlock block = LoadNerfBlock(ckpt);
+    NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
     const ColoredMesh mesh = ExtractMesh(block, mesh_options);
     WriteMeshPly(mesh, mesh_path);
     LOG_INFO("wrote {} vertices, {} triangles to {}", mesh.vertices.size(0), mesh.triangles.size(0), mesh_path);
@@ -152,7 +162,7 @@ int RunNerfExport(int argc, char** argv) {
   }
   if (threshold <= 0) threshold = 5.0;
   CheckCanWriteOutput(points, common.force, {ckpt});
-  NerfBlock block = LoadNerfBlock(ckpt);
+  NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
   torch::NoGradGuard no_grad;
   // One jittered point per occupied cell above the density threshold, view-averaged colour.
   const BlockPoints exported = ExtractOccupiedPoints(block, threshold);

@@ -17,6 +17,7 @@
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 
@@ -65,6 +66,7 @@ namespace {
 struct RegisterFlags {
   std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes";
   bool no_flips = false, no_block_icp = false;
+  std::string device = "cpu";
   BlockRegistrationOptions options;
 };
 
@@ -73,6 +75,7 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
   o.weights = DefaultDregWeights();
   app.add_option("source", f->source, "Source block checkpoint")->required();
   app.add_option("target", f->target, "Target block checkpoint")->required();
+  AddDeviceOption(app, &f->device);
   app.add_option("--out", f->out, "Output JSON")->required();
   app.add_option("--method", f->method,
                  "auto (default with weights: dreg and ransac, each refined, the one whose fields agree best on common "
@@ -131,6 +134,7 @@ int RunRegRegister(int argc, char** argv) {
   AddRegisterFlags(app, &f);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   BlockRegistrationOptions& o = f.options;
+  o.device = ParseDevice(f.device);
   CheckCanWriteOutput(f.out, common.force, {f.source, f.target, o.weights});
   o.method = RegistrationMethodFromName(f.method);
   o.refine = RegistrationRefinementFromName(f.refine);
@@ -139,7 +143,7 @@ int RunRegRegister(int argc, char** argv) {
   o.block_icp = !f.no_block_icp;
   o.Check();
   Timer timer;
-  NerfBlock source = LoadNerfBlock(f.source), target = LoadNerfBlock(f.target);
+  NerfBlock source = LoadNerfBlock(f.source, nullptr, o.device), target = LoadNerfBlock(f.target, nullptr, o.device);
   std::unique_ptr<DregNet> net;
   if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
   RegistrationResult r = RegisterBlocks(source, target, o, net.get());
@@ -190,7 +194,8 @@ int RunRegEval(int argc, char** argv) {
                   "table of every method on every pair of a reg make-data folder (--pairs), with mean, median and "
                   "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
                   "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
-  std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights();
+  std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights(), device = "cpu";
+  AddDeviceOption(app, &device);
   std::vector<std::string> methods = {"ransac"}, refines = {"icp"}, dreg_solvers = {"procrustes"};
   std::vector<int> dreg_passes = {1};
   int source = 0, target = 1, max_pairs = 0;
@@ -231,11 +236,12 @@ int RunRegEval(int argc, char** argv) {
   AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
   if (!pairs_path.empty()) {
     base.voxel = voxel;
     base.flips = !no_flips;
-    const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options};
+    const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options, dev};
     eo.Check();
     return EvalPairs({pairs_path, split, weights, out, max_pairs, overlap_threshold, eo});
   }

@@ -12,6 +12,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 
@@ -42,15 +43,17 @@ int RunRegExtract(int argc, char** argv) {
                   "Extract the voxel grid DReg-NeRF registers from a trained block (spec dreg-nerf.md 3): jittered "
                   "points, density mask, surface field, view-averaged colour and alpha. Writes a .grid file.",
                   "nerfreg reg extract runs/block_0.ckpt --out runs/block_0.grid");
-  std::string block_path, out;
+  std::string block_path, out, device = "cpu";
+  AddDeviceOption(app, &device);
   GridExtractionOptions g;
   app.add_option("block", block_path, "Block checkpoint (nerf train)")->required();
   app.add_option("--out", out, "Output grid file")->required();
   AddGridOptions(app, &g);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   CheckCanWriteOutput(out, common.force, {block_path});
   Timer timer;
-  NerfBlock block = LoadNerfBlock(block_path);
+  NerfBlock block = LoadNerfBlock(block_path, nullptr, dev);
   const RegGrid grid = ExtractRegGrid(block, g);
   const std::int64_t masked = grid.mask.sum().item<std::int64_t>();
   if (masked < 100) LOG_WARN("{}: only {} voxels in the mask: is the block trained / its occupancy grid empty?", block_path, masked);
@@ -117,6 +120,8 @@ int RunRegTrain(int argc, char** argv) {
   DregTrainOptions o;
   DistOptions dist;
   bool resume = false;
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("data", data, "pairs.json files")->required()->expected(1, 100);
   app.add_option("--out", out, "Output weights")->required();
   app.add_option("--config", o.config, "Network size: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
@@ -144,6 +149,7 @@ int RunRegTrain(int argc, char** argv) {
   app.add_flag("--resume", resume, "Continue from OUT.train");
   AddDistOptions(app, &dist);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  o.device = ParseDevice(device);
   if (!resume) CheckCanWriteOutput(out, common.force, data);
   if (int rc = LaunchIfAsked(dist, argc, argv); rc >= 0) return rc;
   const auto group = DistGroup::FromEnvironment(dist.timeout_s);

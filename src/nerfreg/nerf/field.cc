@@ -101,6 +101,13 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const 
 }
 
 std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions, const torch::Tensor& dirs) {
+  const torch::Device device = table.device();
+  if (positions.device() != device) {
+    // The caller's samples (marched on the CPU) go to the field's device and the answers come
+    // back; the copies are differentiable, so training on a GPU field needs nothing else.
+    auto [sigma, rgb] = Forward(positions.to(device), dirs.to(device));
+    return {sigma.to(positions.device()), rgb.to(positions.device())};
+  }
   auto [sigma, features] = DensityAndFeatures(positions);
   const auto color_in = options_.InstantNgp() ? torch::cat({features, SphericalHarmonics16(dirs.index_select(1, axes_))}, 1)
                                               : torch::cat({SphericalHarmonics16(dirs), features}, 1);
@@ -108,6 +115,10 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tens
   return {sigma, rgb};
 }
 
-torch::Tensor NerfFieldImpl::Density(const torch::Tensor& positions) { return DensityAndFeatures(positions).first; }
+torch::Tensor NerfFieldImpl::Density(const torch::Tensor& positions) {
+  const torch::Device device = table.device();
+  if (positions.device() != device) return DensityAndFeatures(positions.to(device)).first.to(positions.device());
+  return DensityAndFeatures(positions).first;
+}
 
 }  // namespace nerfreg

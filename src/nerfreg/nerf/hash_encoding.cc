@@ -6,6 +6,9 @@
 #include <algorithm>
 
 #include "nerfreg/data/ngp_snapshot.h"
+#ifdef NERFREG_WITH_CUDA
+#include "nerfreg/nerf/hash_encoding_cuda.h"
+#endif
 
 namespace nerfreg {
 
@@ -93,6 +96,22 @@ inline void Corners(const LevelInfo& li, const float* p, std::uint32_t mask, std
   }
 }
 
+#ifdef NERFREG_WITH_CUDA
+HashGridParams CudaGrid(const HashEncodingOptions& o) {
+  HashGridParams g;
+  const auto levels = Levels(o);
+  g.levels = o.levels;
+  g.features = o.features;
+  g.mask = static_cast<std::uint32_t>(o.TableSize() - 1);
+  g.table_size = o.TableSize();
+  for (int l = 0; l < o.levels; ++l) {
+    const LevelInfo& li = levels[l];
+    g.level[l] = {li.dense ? 1 : 0, li.scale, li.stride, li.wrap ? 1 : 0, li.rows};
+  }
+  return g;
+}
+#endif
+
 // Points are processed in groups: every corner of the group is located and its cache line
 // prefetched before any is read, so the fine levels' misses (tables beyond L2) overlap instead of
 // queueing one level at a time.
@@ -102,6 +121,16 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
  public:
   static torch::Tensor forward(torch::autograd::AutogradContext* ctx, torch::Tensor positions, torch::Tensor table,
                                const HashEncodingOptions& o) {
+    ctx->save_for_backward({positions});
+    ctx->saved_data["levels"] = static_cast<std::int64_t>(o.levels);
+    ctx->saved_data["features"] = static_cast<std::int64_t>(o.features);
+    ctx->saved_data["log2"] = static_cast<std::int64_t>(o.log2_table_size);
+    ctx->saved_data["base"] = static_cast<std::int64_t>(o.base_resolution);
+    ctx->saved_data["scale"] = o.per_level_scale;
+    ctx->saved_data["rule"] = o.grid_rule;
+#ifdef NERFREG_WITH_CUDA
+    if (positions.is_cuda()) return HashEncodeForwardCuda(positions, table, CudaGrid(o));
+#endif
     const auto levels = Levels(o);
     const std::int64_t n = positions.size(0);
     const int L = o.levels, F = o.features;
@@ -141,13 +170,6 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
         }
       }
     }
-    ctx->save_for_backward({positions});
-    ctx->saved_data["levels"] = static_cast<std::int64_t>(o.levels);
-    ctx->saved_data["features"] = static_cast<std::int64_t>(o.features);
-    ctx->saved_data["log2"] = static_cast<std::int64_t>(o.log2_table_size);
-    ctx->saved_data["base"] = static_cast<std::int64_t>(o.base_resolution);
-    ctx->saved_data["scale"] = o.per_level_scale;
-    ctx->saved_data["rule"] = o.grid_rule;
     return out;
   }
 
@@ -161,6 +183,9 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     o.grid_rule = ctx->saved_data["rule"].toStringRef();
     const auto positions = ctx->get_saved_variables()[0];
     const auto grad_out = grads[0].contiguous();
+#ifdef NERFREG_WITH_CUDA
+    if (positions.is_cuda()) return {torch::Tensor(), HashEncodeBackwardCuda(positions, grad_out, CudaGrid(o)), torch::Tensor()};
+#endif
     const auto levels = Levels(o);
     const std::int64_t n = positions.size(0);
     const int L = o.levels, F = o.features;
@@ -201,8 +226,16 @@ torch::Tensor HashEncode(const torch::Tensor& positions, const torch::Tensor& ta
   TORCH_CHECK(positions.scalar_type() == torch::kFloat32 && table.scalar_type() == torch::kFloat32, "HashEncode: float32 expected");
   TORCH_CHECK(table.dim() == 3 && table.size(0) == o.levels && table.size(1) == o.TableSize() && table.size(2) == o.features,
               "HashEncode: table must be [L, T, F]");
-  if (!positions.device().is_cpu()) return HashEncodeReference(positions, table, o);
-  return HashEncodingFunction::apply(positions.contiguous(), table, o);
+  TORCH_CHECK(positions.device() == table.device(), "HashEncode: positions and table must be on one device");
+  if (HashEncodeHasKernel(positions.device())) return HashEncodingFunction::apply(positions.contiguous(), table, o);
+  return HashEncodeReference(positions, table, o);
+}
+
+bool HashEncodeHasKernel(const torch::Device& device) {
+#ifdef NERFREG_WITH_CUDA
+  if (device.is_cuda()) return true;
+#endif
+  return device.is_cpu();
 }
 
 torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table, const HashEncodingOptions& o) {

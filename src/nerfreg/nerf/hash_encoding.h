@@ -41,10 +41,13 @@ struct HashEncodingOptions {
 // Per-level resolution (vertices per axis under the options' grid rule).
 int LevelResolution(const HashEncodingOptions& options, int level);
 
-// positions: [N, 3] float32 in [0, 1] (clamped), any device (CPU kernel; CUDA falls back to the
-// reference). table: [L, T, F] float32, requires grad. Returns [N, L * F] float32.
+// positions: [N, 3] float32 in [0, 1] (clamped), on the table's device: the CPU kernel, the CUDA
+// kernel (hash_encoding.cu, CUDA build only), else the reference. table: [L, T, F] float32,
+// requires grad. Returns [N, L * F] float32.
 torch::Tensor HashEncode(const torch::Tensor& positions, const torch::Tensor& table,
                          const HashEncodingOptions& options);
+// Whether HashEncode() runs a fused kernel on `device` (CPU always; CUDA in the CUDA build).
+bool HashEncodeHasKernel(const torch::Device& device);
 torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table,
                                   const HashEncodingOptions& options);
 

@@ -129,7 +129,8 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
   SaveArchiveAtomic(archive, path);
 }
 
-NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch::serialize::InputArchive&)>& extra) {
+NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch::serialize::InputArchive&)>& extra,
+                        const torch::Device& device) {
   torch::serialize::InputArchive archive;
   const Json meta = LoadArchiveMeta(path, "NeRF checkpoint", kFormatTag, kNerfCheckpointVersion, &archive);
   const JsonField m(meta, path);
@@ -183,6 +184,7 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   const Json& cams = meta["cameras"];
   const bool no_cameras = cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
   if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));
+  b.field->to(device);
   return b;
 }
 

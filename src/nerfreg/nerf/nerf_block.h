@@ -55,7 +55,9 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                    const std::function<void(torch::serialize::OutputArchive&)>& extra = nullptr);
 // Throws InputError naming the file when it is missing, truncated, not a nerfreg NeRF checkpoint,
 // or of another version.
+// The file is read on the CPU (whatever device wrote it) and the field then moved to `device`.
 NerfBlock LoadNerfBlock(const std::string& path,
-                        const std::function<void(torch::serialize::InputArchive&)>& extra = nullptr);
+                        const std::function<void(torch::serialize::InputArchive&)>& extra = nullptr,
+                        const torch::Device& device = torch::kCPU);
 
 }  // namespace nerfreg

@@ -11,6 +11,7 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/progress.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/torch_device.h"
 
 namespace nerfreg {
 
@@ -38,6 +39,7 @@ NerfTrainOptions NerfTrainOptions::Preset(const std::string& name) {
 
 void NerfTrainOptions::Check() const {
   if (iterations < 1) ThrowInputError("--iters", "", ">= 1");
+  if (sparse_table_adam && !device.is_cpu()) ThrowInputError("--device", device.str(), "cpu with the sparse table Adam (a CPU kernel)");
   if (target_samples < 1024 || initial_rays < 1 || max_rays < initial_rays || !(lr > 0) || eval_every < 0 ||
       checkpoint_every < 0) {
     throw InputError("nerf train: invalid options");
@@ -167,8 +169,10 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       ar.read("n_rays", rays_tensor);
       ar.read("seconds", seconds_tensor);
     });
+    block.field->to(options.device);
     make_optimizer();
     optimizer->load(*opt_archive);
+    MoveOptimizerState(*optimizer, options.device);
     if (table_adam) table_adam->Load(*table_archive, "table");
     gen.set_state(gen_state);
     n_rays = static_cast<int>(rays_tensor.item<std::int64_t>());
@@ -178,6 +182,7 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     ChooseAabb(dataset, &options.field);
     block = NerfBlock::Create(options.field, options.grid, options.march, options.seed);
     block.cameras = dataset;
+    block.field->to(options.device);
     make_optimizer();
   }
   block.train_options = options.ToJson();

@@ -32,6 +32,9 @@ struct NerfTrainOptions {
   FieldOptions field;
   OccupancyGridOptions grid;
   MarchOptions march;
+  // Where the field (hash table and MLPs) lives and runs (`--device`). Rays, the occupancy grid,
+  // marching and compositing stay on the CPU; samples go to the field's device and back.
+  torch::Device device = torch::kCPU;
 
   // Presets. "default": 16 levels x 2, 2^19 table, 128^3 grid, step 3 sqrt(3)/1024 of a 3-wide
   // box, 2^18 samples, 10k iterations. "fast": 2^17 table, 64^3 grid, 4x the step, 2^16 samples,

@@ -46,8 +46,8 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
         continue;
       }
       auto ckpt = [](const std::string& grid) { return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt"; };
-      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source)));
-      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target)));
+      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source), nullptr, options.device));
+      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target), nullptr, options.device));
       occupied = std::make_unique<OccupiedPoints>(*src_block, *tgt_block, BlockRegistrationOptions{}.min_density, 0);
     }
     for (const auto& m : options.methods) {
@@ -206,6 +206,7 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
       if (!FileExists(o.weights)) ThrowInputError(o.weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
       DregModelOptions mo;
       net = std::make_unique<DregNet>(LoadDregWeights(o.weights, &mo));
+      (*net)->to(o.evaluation.device);
     }
   }
   if (on_start) on_start();

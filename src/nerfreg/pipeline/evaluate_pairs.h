@@ -23,6 +23,7 @@ struct PairEvaluationOptions {
   std::vector<int> dreg_passes = {1};                      // --dreg-passes (dreg rows only)
   GridRegistrationOptions base;  // the grid ICP's points, distance, half-turns and the voxel
   FieldAlignmentOptions field;   // --refine field (--field-overlap-only)
+  torch::Device device = torch::kCPU;  // --device: the blocks' fields (the caller moves the network)
   void Check() const;            // throws InputError naming the flag
 };
 

@@ -535,6 +535,7 @@ DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
   if (!o.config.empty()) {
     CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), o.weights);
   }
+  net->to(o.device);
   return net;
 }
 

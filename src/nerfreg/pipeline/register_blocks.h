@@ -64,6 +64,7 @@ struct BlockRegistrationOptions {
   DregSolver dreg_solver = DregSolver::kProcrustes;                    // --dreg-solver
   int dreg_passes = 1;                                                 // --dreg-passes, 1..10
   bool block_icp = true;                                               // not --no-block-icp
+  torch::Device device = torch::kCPU;  // --device: where the caller puts the blocks' fields and the network
 
   bool UsesNetwork() const { return method == RegistrationMethod::kAuto || method == RegistrationMethod::kDreg; }
   // Throws InputError naming the flag ("--field-iterations: expected >= 0").

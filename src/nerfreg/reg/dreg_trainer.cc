@@ -10,6 +10,7 @@
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/reg/registration_success.h"
 #include "nerfreg/reg/training_data.h"
+#include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
@@ -221,17 +222,20 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     return std::make_unique<torch::optim::AdamW>(net->parameters(),
                                                  torch::optim::AdamWOptions(options.lr).weight_decay(options.weight_decay));
   };
+  net->to(options.device);
   auto optimizer = make_optimizer();
   if (resume) {
     if (!FileExists(state_path)) ThrowInputError(state_path, "", "a training state to resume (written by reg train)");
     try {
       torch::serialize::InputArchive ar;
-      ar.load_from(state_path);
+      ar.load_from(state_path, torch::Device(torch::kCPU));  // written on any device, read on the CPU
       torch::serialize::InputArchive model_ar, opt_ar;
       ar.read("model", model_ar);
       net->load(model_ar);
+      net->to(options.device);  // the state was read on the CPU
       ar.read("optimizer", opt_ar);
       optimizer->load(opt_ar);
+      MoveOptimizerState(*optimizer, options.device);
       torch::Tensor step_t, seconds_t, rng_t, config_t;
       ar.read("step", step_t);
       ar.read("seconds", seconds_t);

@@ -57,6 +57,8 @@ struct DregTrainOptions {
   // --resume the state's weights replace them.
   std::string init_weights;
   DregLossOptions loss;
+  // Where the network trains (`--device`); grids stay on the CPU and the network moves them.
+  torch::Device device = torch::kCPU;
   void Check() const;  // throws InputError naming the option
   Json ToJson() const;
 };

@@ -1,3 +1,4 @@
+#include "nerfreg/util/torch_device.h"  // torch::linalg under LibTorch 2.x
 #include "nerfreg/reg/weighted_procrustes.h"
 
 #include <gtest/gtest.h>

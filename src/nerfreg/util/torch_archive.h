@@ -122,7 +122,7 @@ inline Json LoadArchiveMeta(const std::string& path, const std::string& what, co
   if (!problem.empty()) ThrowInputError(path, "", "a nerfreg " + what + " (unreadable or truncated: " + problem + ")");
   Json meta;
   try {
-    archive->load_from(path);
+    archive->load_from(path, torch::Device(torch::kCPU));  // written on any device, read on the CPU
     torch::Tensor meta_tensor;
     archive->read("meta", meta_tensor);
     meta = Json::parse(TensorString(meta_tensor));

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# `make cuda`: the learned core (util, geometry, data, nerf, reg, dbarf) and its tests with the
+# CUDA kernels, against a CUDA LibTorch, in its own build folder. Compiles and links on a machine
+# without a GPU; the CUDA tests skip there.
+#
+#   TORCH_DIR        a CUDA LibTorch's TorchConfig.cmake folder (default: the pinned PyPI wheel,
+#                    fetched once by scripts/fetch_libtorch.sh)
+#   CUDA_BUILD_DIR   build folder (default build-cuda)
+#   CUDA_ARCHS       CMAKE_CUDA_ARCHITECTURES (default 90-real;90-virtual: H100, PTX for newer)
+#   JOBS, CMAKE_FLAGS as for `make build`
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+BUILD_DIR=${CUDA_BUILD_DIR:-build-cuda}
+JOBS=${JOBS:-$(nproc)}
+TORCH_DIR=${TORCH_DIR:-}
+if [ -z "${TORCH_DIR}" ]; then
+  TORCH_DIR=$(bash scripts/fetch_libtorch.sh)
+fi
+if [ ! -f "${TORCH_DIR}/TorchConfig.cmake" ]; then
+  echo "error: TORCH_DIR: ${TORCH_DIR}: expected a folder holding TorchConfig.cmake" >&2
+  exit 2
+fi
+
+NVCC=${CUDACXX:-}
+if [ -z "${NVCC}" ]; then
+  NVCC=$(command -v nvcc || true)
+fi
+for candidate in /usr/local/cuda/bin/nvcc /usr/local/cuda-*/bin/nvcc; do
+  if [ -z "${NVCC}" ] && [ -x "${candidate}" ]; then NVCC=${candidate}; fi
+done
+if [ -z "${NVCC}" ]; then
+  echo "error: nvcc: expected the CUDA toolkit (nvcc on PATH, CUDACXX, or /usr/local/cuda)" >&2
+  exit 2
+fi
+CUDA_ROOT=$(dirname "$(dirname "$(readlink -f "${NVCC}")")")
+
+start=$(date +%s)
+# shellcheck disable=SC2086  # CMAKE_FLAGS is a list of flags
+cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY=ON -DNERFREG_BUILD_BENCH=OFF \
+  -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
+  -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-90-real;90-virtual}" ${CMAKE_FLAGS:-}
+cmake --build "${BUILD_DIR}" -j "${JOBS}"
+echo "make cuda: built ${BUILD_DIR} in $(( $(date +%s) - start )) s (Torch_DIR=${TORCH_DIR})"

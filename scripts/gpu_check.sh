@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# The GPU check, one command on a machine with an NVIDIA GPU and no network (docs/gpu.md). It needs
+# PyTorch with CUDA (its LibTorch is built against), nvcc, CMake >= 3.24, Ninja, and the learned
+# core's header libraries (Eigen, nlohmann-json, spdlog, fmt, GoogleTest, zlib). It
+#   1. builds the learned core with the CUDA kernels from the working tree (build-gpu/),
+#   2. runs its tests, the CUDA cases included (they must run, not skip),
+#   3. times the learned core on the GPU and the hash encoding on the CPU too (bench/gpu_bench.cc):
+#      a NeRF block at 100x100 to 28 dB, an 800x800 block of 100 views, DReg-NeRF training steps and
+#      DBARF pretraining steps in the paper configurations,
+#   4. writes results/gpu.json (machine, versions, build time, tests, timings).
+#
+#   PYTHON          the Python whose torch is used (default python3)
+#   GPU_BUILD_DIR   build folder (default build-gpu)
+#   GPU_RESULTS     output JSON (default results/gpu.json)
+#   CUDA_ARCHS      CMAKE_CUDA_ARCHITECTURES (default native: the GPU present)
+#   GPU_QUICK=1     a short smoke run of the timings (not for results)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PYTHON=${PYTHON:-python3}
+BUILD_DIR=${GPU_BUILD_DIR:-build-gpu}
+RESULTS=${GPU_RESULTS:-results/gpu.json}
+JOBS=${JOBS:-$(nproc)}
+
+fail() {
+  echo "error: gpu_check: $*" >&2
+  exit 2
+}
+for tool in cmake ninja nvidia-smi "${PYTHON}"; do
+  command -v "${tool}" >/dev/null || fail "${tool}: expected on PATH"
+done
+
+TORCH_DIR=$("${PYTHON}" -c 'import os, torch; print(os.path.join(torch.utils.cmake_prefix_path, "Torch"))') ||
+  fail "${PYTHON}: expected an importable torch"
+TORCH_VERSION=$("${PYTHON}" -c 'import torch; print(torch.__version__)')
+TORCH_CUDA=$("${PYTHON}" -c 'import torch; print(torch.version.cuda or "")')
+[ -n "${TORCH_CUDA}" ] || fail "torch ${TORCH_VERSION}: expected a build with CUDA"
+"${PYTHON}" -c 'import torch, sys; sys.exit(0 if torch.cuda.is_available() else 1)' ||
+  fail "torch.cuda.is_available(): expected True (a GPU and its driver)"
+
+NVCC=${CUDACXX:-$(command -v nvcc || true)}
+for candidate in /usr/local/cuda/bin/nvcc /usr/local/cuda-*/bin/nvcc; do
+  if [ -z "${NVCC}" ] && [ -x "${candidate}" ]; then NVCC=${candidate}; fi
+done
+[ -n "${NVCC}" ] || fail "nvcc: expected the CUDA toolkit (PATH, CUDACXX or /usr/local/cuda)"
+CUDA_ROOT=$(dirname "$(dirname "$(readlink -f "${NVCC}")")")
+GPU_NAME=$(nvidia-smi --query-gpu=name --format=csv,noheader | head -n 1)
+DRIVER=$(nvidia-smi --query-gpu=driver_version --format=csv,noheader | head -n 1)
+echo "gpu_check: ${GPU_NAME} (driver ${DRIVER}), torch ${TORCH_VERSION} (CUDA ${TORCH_CUDA}), ${NVCC}"
+
+LOGS=${BUILD_DIR}/gpu_check
+mkdir -p "${LOGS}"
+
+# 1. Build.
+build_start=$(date +%s)
+cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY=ON -DNERFREG_BUILD_BENCH=OFF \
+  -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
+  -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-native}" >"${LOGS}/configure.log" 2>&1 ||
+  { tail -n 40 "${LOGS}/configure.log" >&2; fail "configure failed (${LOGS}/configure.log)"; }
+cmake --build "${BUILD_DIR}" -j "${JOBS}" >"${LOGS}/build.log" 2>&1 ||
+  { tail -n 40 "${LOGS}/build.log" >&2; fail "build failed (${LOGS}/build.log)"; }
+build_seconds=$(( $(date +%s) - build_start ))
+echo "gpu_check: built ${BUILD_DIR} in ${build_seconds} s"
+
+# 2. Tests: all of the learned core's, then the CUDA cases alone, which must run.
+tests_rc=0
+ctest --test-dir "${BUILD_DIR}" --output-on-failure -j 4 --timeout 900 >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
+tests_summary=$(grep -E "tests passed|tests failed" "${LOGS}/ctest.log" | tail -n 1 || true)
+echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
+cuda_rc=0
+"${BUILD_DIR}/src/nerfreg/nerf/nerfreg_nerf_kernels_test" --gtest_filter='*HashEncodingDevice*cuda_*' >"${LOGS}/cuda_tests.log" 2>&1 || cuda_rc=$?
+cuda_ran=$(grep -c '^\[       OK \]' "${LOGS}/cuda_tests.log" || true)
+cuda_skipped=$(grep -c '^\[  SKIPPED \]' "${LOGS}/cuda_tests.log" || true)
+echo "gpu_check: CUDA kernel tests: ${cuda_ran} passed, ${cuda_skipped} skipped, exit ${cuda_rc}"
+
+# 3. Timings.
+quick=()
+if [ "${GPU_QUICK:-0}" = 1 ]; then quick=(--quick); fi
+BENCH=${BUILD_DIR}/bench/nerfreg_gpu_bench
+"${BENCH}" --device cuda --work "${BUILD_DIR}/gpu_bench_work" --out "${LOGS}/bench_cuda.json" "${quick[@]}" \
+  2>&1 | tee "${LOGS}/bench_cuda.log"
+"${BENCH}" --device cpu --only hash --out "${LOGS}/bench_cpu_hash.json" "${quick[@]}" 2>&1 | tee "${LOGS}/bench_cpu.log"
+
+# 4. results/gpu.json.
+mkdir -p "$(dirname "${RESULTS}")"
+"${PYTHON}" - "${RESULTS}" "${LOGS}" <<PY
+import json, os, subprocess, sys, datetime
+out, logs = sys.argv[1], sys.argv[2]
+def load(name):
+    with open(os.path.join(logs, name)) as f:
+        return json.load(f)
+commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+result = {
+    "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+    "commit": commit,
+    "command": "bash scripts/gpu_check.sh",
+    "gpu": "${GPU_NAME}",
+    "driver": "${DRIVER}",
+    "torch": "${TORCH_VERSION}",
+    "torch_cuda": "${TORCH_CUDA}",
+    "cpu_threads": os.cpu_count(),
+    "build_seconds": ${build_seconds},
+    "tests": {"exit_code": ${tests_rc}, "summary": "${tests_summary}"},
+    "cuda_kernel_tests": {"passed": ${cuda_ran}, "skipped": ${cuda_skipped}, "exit_code": ${cuda_rc}},
+    "quick": "${GPU_QUICK:-0}" == "1",
+    "cuda": load("bench_cuda.json"),
+    "cpu_hash_encoding": load("bench_cpu_hash.json").get("hash_encoding"),
+}
+tmp = out + ".tmp"
+with open(tmp, "w") as f:
+    json.dump(result, f, indent=2)
+    f.write("\n")
+os.replace(tmp, out)
+print("gpu_check: wrote " + out)
+PY
+if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ]; then
+  fail "tests failed or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
+fi
