@@ -21,6 +21,7 @@
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/util/stage_times.h"
 
 using namespace nerfreg;
 namespace fs = std::filesystem;
@@ -188,8 +189,12 @@ int RunDbarfPoses(int argc, char** argv) {
   } else {
     for (const Image& im : images) cameras.push_back(Camera::Pinhole(im.width, im.height, focal, focal, 0.5 * im.width, 0.5 * im.height));
   }
+  StageTimes times;
+  times.Record("read images", timer.Seconds());
   LOG_INFO("posing {} images of {} (method {})", names.size(), images_dir, options.method);
   const ImagePosesResult result = EstimateImagePoses(images, cameras, names, options, images_dir);
+  times.Append(result.times);
+  const Timer writing;
   const SfmResult& r = result.sfm;  // final cameras, with the SfM's points (if any)
   int num_posed = 0, num_by_network = 0;
   for (size_t k = 0; k < names.size(); ++k) num_posed += result.posed[k], num_by_network += result.posed_by[k] == "network";
@@ -284,13 +289,16 @@ int RunDbarfPoses(int argc, char** argv) {
                                         {"median_triangulation_angle_deg", quality.median_triangulation_angle_deg}};
     }
     if (options.method != "classical") json["dbarf_poses"]["weights"] = options.weights;
-    WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> posed;
     for (const Frame& f : dataset.frames) posed.push_back(f.cam_from_world);
     const CameraPlot plot = PlotCamerasFromAbove({{posed, kEstimateColor}}, false);
     WriteImage(JoinPaths(tmp, "cameras.png"), plot.image);
     LOG_INFO("{}/cameras.png: posed cameras seen from above, scale bar {:g} units", out, plot.scale_bar_length);
+    times.Record("write output", writing.Seconds());
+    json["dbarf_poses"]["timings_s"] = times.ToJson();
+    json["dbarf_poses"]["timings_s"]["total"] = timer.Seconds();
+    WriteJsonFile(JoinPaths(tmp, "transforms.json"), json);
     output.Commit();
   }
   for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
@@ -299,6 +307,7 @@ int RunDbarfPoses(int argc, char** argv) {
     for (const auto& name : result.low_confidence) list += (list.empty() ? "" : ", ") + name;
     LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(), list, out);
   }
+  LOG_INFO("stages (s): {}; total {:.2f}", times.Summary(), timer.Seconds());
   LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
            num_posed, names.size(), num_by_network, quality.WellConstrained() ? "" : " (NOT well constrained: see the warnings)",
            r.points.size(), r.mean_reprojection_error_px, timer.Seconds(), out);

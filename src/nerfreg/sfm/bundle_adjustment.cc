@@ -96,6 +96,7 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver, &problem, &ceres_summary);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary.iterations = static_cast<int>(ceres_summary.iterations.size());
   for (int k = 0; k < n; ++k) {
     if (!posed[k]) continue;
     Eigen::Matrix3d r;

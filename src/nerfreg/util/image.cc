@@ -82,7 +82,7 @@ Image ReadImage(const std::string& path, int channels) {
   return Decode(bytes, path, channels, &w, &h, &c);
 }
 
-void WriteImage(const std::string& path, const Image& image) {
+void WriteImage(const std::string& path, const Image& image, int jpeg_quality) {
   if (image.empty() || image.width <= 0 || image.height <= 0 ||
       image.data.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
     throw std::invalid_argument("WriteImage: inconsistent image for " + path);
@@ -104,7 +104,8 @@ void WriteImage(const std::string& path, const Image& image) {
     ok = stbi_write_png_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
                                 image.width * image.channels);
   } else if (ext == ".jpg" || ext == ".jpeg") {
-    ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(), 95);
+    ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
+                                std::clamp(jpeg_quality, 1, 100));
   } else {
     ThrowInputError(path, "extension", ".png, .jpg or .jpeg");
   }
