@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <map>
 
 #include "nerfreg/data/convert.h"
+#include "nerfreg/dbarf/posed_images.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
@@ -31,6 +34,113 @@ Eigen::Matrix4d TensorToMatrix4(const torch::Tensor& t) {
 
 torch::Tensor IntrinsicsToTensor(const Camera& c) {
   return torch::tensor({c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
+}
+
+namespace {
+
+uint64_t Fnv1a(uint64_t h, const void* data, size_t n) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+template <typename T>
+uint64_t Fnv1aValue(uint64_t h, const T& value) {
+  return Fnv1a(h, &value, sizeof(value));
+}
+
+// The cache entry's name: a hash of everything the SfM sees (pixels, intrinsics, size).
+std::string SfmCacheKey(const std::vector<Image>& images, const std::vector<Camera>& cameras, int max_width) {
+  uint64_t h = 14695981039346656037ull;
+  h = Fnv1aValue(h, kSfmCacheVersion);
+  h = Fnv1aValue(h, max_width);
+  for (size_t i = 0; i < images.size(); ++i) {
+    const Image& im = images[i];
+    h = Fnv1aValue(h, im.width);
+    h = Fnv1aValue(h, im.height);
+    h = Fnv1aValue(h, im.channels);
+    h = Fnv1a(h, im.data.data(), im.data.size() * sizeof(float));
+    const Camera& c = cameras[i];
+    for (double x : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2}) h = Fnv1aValue(h, x);
+  }
+  char name[32];
+  std::snprintf(name, sizeof(name), "%016llx.json", static_cast<unsigned long long>(h));
+  return name;
+}
+
+// Fills the scene's cameras, usability, neighbours and depth range from a cache entry. Returns
+// false (and changes nothing) when the entry is missing or does not fit the scene: a stale or
+// damaged entry costs one SfM run, never a wrong camera.
+bool ReadSfmCache(const std::string& file, DbarfScene* scene, std::vector<std::string>* not_posed) {
+  if (!FileExists(file)) return false;
+  try {
+    const Json json = ReadJsonFile(file);
+    const int64_t v = scene->NumViews();
+    if (json.at("version").get<int>() != kSfmCacheVersion) return false;
+    const auto& poses = json.at("cam_from_world");
+    const auto& posed = json.at("posed");
+    const auto& neighbours = json.at("neighbours");
+    if (static_cast<int64_t>(poses.size()) != v || static_cast<int64_t>(posed.size()) != v ||
+        static_cast<int64_t>(neighbours.size()) != v)
+      return false;
+    std::vector<torch::Tensor> cams;
+    std::vector<std::vector<int>> nbrs(v);
+    for (int64_t i = 0; i < v; ++i) {
+      const std::vector<double> m = poses[i].get<std::vector<double>>();
+      if (m.size() != 16) return false;
+      cams.push_back(torch::tensor(m, torch::kDouble).view({4, 4}).to(torch::kFloat));
+      for (int j : neighbours[i].get<std::vector<int>>()) {
+        if (j < 0 || j >= v) return false;
+        nbrs[i].push_back(j);
+      }
+    }
+    const double near = json.at("near").get<double>(), far = json.at("far").get<double>();
+    if (!(near > 0 && far > near)) return false;
+    scene->cam_from_world = torch::stack(cams);
+    scene->neighbours = std::move(nbrs);
+    scene->near = near;
+    scene->far = far;
+    for (int64_t i = 0; i < v; ++i) {
+      if (!posed[i].get<bool>()) {
+        scene->usable[i] = false;
+        not_posed->push_back(scene->image_names[i]);
+      }
+    }
+    return true;
+  } catch (const std::exception& e) {
+    LOG_WARN("{}: ignoring an unreadable SfM cache entry ({})", file, e.what());
+    return false;
+  }
+}
+
+void WriteSfmCache(const std::string& file, const std::string& scene_path, const DbarfScene& scene,
+                   const std::vector<bool>& posed) {
+  Json json;
+  json["version"] = kSfmCacheVersion;
+  json["scene"] = scene_path;  // for people reading the folder; not part of the key
+  Json poses = Json::array(), nbrs = Json::array();
+  for (int64_t i = 0; i < scene.NumViews(); ++i) {
+    const Eigen::Matrix4d m = TensorToMatrix4(scene.cam_from_world[i]);
+    std::vector<double> row;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) row.push_back(m(r, c));
+    poses.push_back(row);
+    nbrs.push_back(scene.neighbours[i]);
+  }
+  json["cam_from_world"] = poses;
+  json["posed"] = posed;
+  json["neighbours"] = nbrs;
+  json["near"] = scene.near;
+  json["far"] = scene.far;
+  WriteJsonFile(file, json);
+}
+
+}  // namespace
+
+Image InverseDepthImage(const torch::Tensor& depth, const torch::Tensor& valid, double near, double far) {
+  const torch::Tensor inv = ((1.0 / depth.clamp_min(1e-6) - 1.0 / far) / (1.0 / near - 1.0 / far)).clamp(0, 1) *
+                            valid.to(torch::kFloat);
+  return TensorToImage(inv.unsqueeze(0));
 }
 
 void DbarfSceneOptions::Check() const {
@@ -183,33 +293,40 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
   if (!json_path.empty()) json = ReadJsonFile(json_path);
   std::vector<torch::Tensor> poses;
   for (const Frame& f : d.frames) poses.push_back(Matrix4ToTensor(f.cam_from_world.ToMatrix()));
-  if (json.is_object() && json.contains("dbarf_poses")) {
+  if (IsPosedImages(json)) {
     scene.cam_from_world = torch::stack(poses);
-    const JsonField root(json, json_path);
+    const PosedImagesInfo posed = ReadPosedImagesInfo(json, json_path);
     std::map<std::string, int> index;
     for (int64_t i = 0; i < v; ++i) index[scene.image_names[i]] = static_cast<int>(i);
     std::vector<std::vector<std::pair<int, int>>> weighted(v);
-    const JsonField graph = root["view_graph"];
-    for (size_t e = 0; e < graph.ArraySize(); ++e) {
-      const std::string a = graph[e][0].String(), b = graph[e][1].String();
-      const int inliers = graph[e][2].Int();
-      if (!index.count(a) || !index.count(b)) continue;  // an image that was not posed
-      weighted[index[a]].push_back({inliers, index[b]});
-      weighted[index[b]].push_back({inliers, index[a]});
+    for (const PosedImagesInfo::Edge& e : posed.view_graph) {
+      if (!index.count(e.a) || !index.count(e.b)) continue;  // an image that was not posed
+      weighted[index[e.a]].push_back({e.inliers, index[e.b]});
+      weighted[index[e.b]].push_back({e.inliers, index[e.a]});
     }
     scene.neighbours.resize(v);
     for (int64_t i = 0; i < v; ++i) {
       std::stable_sort(weighted[i].begin(), weighted[i].end(), [](const auto& x, const auto& y) { return x.first > y.first; });
       for (const auto& [w, j] : weighted[i]) scene.neighbours[i].push_back(j);
     }
-    const JsonField info = root["dbarf_poses"];
-    scene.near = info["near"].Double();
-    scene.far = info["far"].Double();
+    scene.near = posed.near;
+    scene.far = posed.far;
   } else {
     // The dataset's poses are ground truth: kept aside; estimate everything from the images.
     out.ground_truth = torch::stack(poses);
     std::vector<Camera> cameras;
     for (const Frame& f : d.frames) cameras.push_back(f.camera);
+    std::string cache_file;
+    if (!options.sfm_cache_dir.empty()) {
+      CreateDirectories(options.sfm_cache_dir);
+      cache_file = JoinPaths(options.sfm_cache_dir, SfmCacheKey(images, cameras, options.max_width));
+      if (ReadSfmCache(cache_file, &scene, &out.not_posed)) {
+        LOG_INFO("{}: cameras estimated from the images earlier, from {}", path, cache_file);
+        out.estimated_here = true;
+        scene.Check();
+        return out;
+      }
+    }
     LOG_INFO("{}: estimating cameras from the {} images (the file's poses are kept for evaluation only)", path, v);
     const SfmResult sfm = PoseImages(images, cameras, scene.image_names, options.sfm);
     std::vector<torch::Tensor> estimated;
@@ -225,6 +342,7 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     for (int64_t i = 0; i < v; ++i) scene.neighbours[i] = sfm.view_graph.Neighbors(static_cast<int>(i), static_cast<int>(v));
     DepthRangeFromPoints(sfm, path, &scene.near, &scene.far);
     out.estimated_here = true;
+    if (!cache_file.empty()) WriteSfmCache(cache_file, path, scene, sfm.posed);
   }
   scene.Check();
   return out;

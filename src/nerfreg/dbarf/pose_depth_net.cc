@@ -322,7 +322,12 @@ PoseDepthPrediction PoseDepthNetImpl::forward(const torch::Tensor& target, const
           FeatureCostMaps(f_tgt, f_src, ToInverseDepth(disparity), src_from_tgt, k_low).mean(0, true);
       const torch::Tensor motion = depth_encoder_->forward(cost, disparity);
       hidden_d = depth_gru_->forward(hidden_d, torch::cat({context_d, motion}, 1));
-      disparity = (disparity + torch::tanh(depth_delta_head_->forward(hidden_d))).clamp(0.0, 1.0);
+      // Kept in [0, 1] in the forward pass, but with the gradient of the unclamped update (straight
+      // through): a plain clamp has zero gradient outside the range, so once a photometric loss had
+      // pushed every pixel to the far bound (which it does while the poses are poor: at infinite
+      // depth only the rotation moves pixels) no loss could bring the depth back.
+      const torch::Tensor raw = disparity + torch::tanh(depth_delta_head_->forward(hidden_d));  // [1, 1, h, w]
+      disparity = raw + (raw.clamp(0.0, 1.0) - raw).detach();
       mask = 0.25 * depth_mask_head_->forward(hidden_d);
     }
     // Poses: one cost map per view, with the depth just updated (detached).

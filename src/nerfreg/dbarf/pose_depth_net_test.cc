@@ -156,6 +156,34 @@ TEST_F(PoseDepthNetTest, ForwardShapesRangesAndFiniteGradients) {
   EXPECT_EQ(with_grad, total);
 }
 
+// A depth pushed past the far bound shows the far bound, yet a loss on it still reaches the depth
+// updates: with a plain clamp their gradient is zero there, and a depth that has collapsed to the
+// far bound during training never comes back (what happened training from the identity).
+TEST_F(PoseDepthNetTest, ADepthClampedAtTheFarBoundStillReceivesGradients) {
+  const auto options = PoseDepthNetOptions::Cpu();
+  PoseDepthNet net(options);
+  torch::Tensor bias;
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : net->named_parameters()) {
+      if (p.key() == "depth_delta_head.2.bias") bias = p.value();
+    }
+    ASSERT_TRUE(bias.defined());
+    bias.fill_(-2.0);  // every update is about tanh(-2) = -0.96: below the range after one step
+  }
+  const PlaneScene scene = PlaneScene::Tilted(2.0, 48, 64);
+  const torch::Tensor poses = testing_scene::SourcePoses(2);
+  const torch::Tensor target = scene.Render(torch::eye(4));
+  const torch::Tensor sources = torch::cat({scene.Render(poses[0]), scene.Render(poses[1])}, 0);
+  const auto pred = net->forward(target, sources, scene.intrinsics);
+  const torch::Tensor last = pred.inv_depths.back();  // [1, 1, 48, 64]
+  EXPECT_NEAR(last.max().item<double>(), 1.0 / options.far, 1e-6);
+  EXPECT_NEAR(last.min().item<double>(), 1.0 / options.far, 1e-6);
+  last.mean().backward();  // a loss that wants the depth nearer
+  ASSERT_TRUE(bias.grad().defined());
+  EXPECT_GT(bias.grad().abs().sum().item<double>(), 0.0);
+}
+
 TEST_F(PoseDepthNetTest, SetRotationScaleKeepsTheFunction) {
   PoseDepthNetOptions o = PoseDepthNetOptions::Cpu();
   o.outer_iterations = 1;

@@ -5,18 +5,12 @@
 
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
-#include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/pipeline/evaluate_pairs.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
-#include "nerfreg/posegraph/pose_graph.h"
-#include "nerfreg/reg/baselines.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg/register_grids.h"
-#include "nerfreg/reg/training_data.h"
-#include "nerfreg/render/point_splat.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -26,33 +20,6 @@
 using namespace nerfreg;
 
 namespace {
-
-// Before / after: source in orange, target in blue, from three fixed viewpoints, beside `out`.
-void WriteOverlays(const std::string& out, const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                   const Sim3d& target_from_source) {
-  const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
-  auto subsample = [](const Eigen::Matrix3Xd& m) {
-    const Eigen::Index step = std::max<Eigen::Index>(1, m.cols() / 20000);
-    Eigen::Matrix3Xd s(3, (m.cols() + step - 1) / step);
-    for (Eigen::Index i = 0, k = 0; i < m.cols(); i += step, ++k) s.col(k) = m.col(i);
-    return s;
-  };
-  const Eigen::Matrix3Xd s_small = subsample(src), t_small = subsample(tgt);
-  Eigen::Matrix3Xd moved(3, s_small.cols());
-  for (Eigen::Index i = 0; i < s_small.cols(); ++i) moved.col(i) = target_from_source * Eigen::Vector3d(s_small.col(i));
-  const Eigen::Vector3d centre = t_small.cols() ? Eigen::Vector3d(t_small.rowwise().mean()) : Eigen::Vector3d::Zero();
-  const Eigen::Vector3f orange(0.95f, 0.5f, 0.1f), blue(0.1f, 0.35f, 0.9f);
-  WriteImage(stem + "_before.png", ThreeViewOverlay({{s_small, orange}, {t_small, blue}}, centre, 5.0));
-  WriteImage(stem + "_after.png", ThreeViewOverlay({{moved, orange}, {t_small, blue}}, centre, 5.0));
-}
-
-// Errors of an estimate against the truth (or between two estimates): geodesic rotation angle
-// (deg) and the full norm of the translation difference (scene units).
-void Errors(const Eigen::Matrix4d& est_m, const Eigen::Matrix4d& gt_m, double* rot, double* trans) {
-  const Sim3d est = Sim3d::FromMatrix(est_m, 1e-3), gt = Sim3d::FromMatrix(gt_m, 1e-3);
-  *rot = RotationErrorDeg(est.rotation, gt.rotation);
-  *trans = TranslationError(est.translation, gt.translation);
-}
 
 // FPFH + RANSAC on the occupied points of a large block took 13 s (the milk truck: 16k points
 // after downsampling); capped at 5000 it takes 2.7 s. The other held-out pairs (2.5-2.7k points)
@@ -145,19 +112,6 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                "runs after ICP on the grids, before --refine field)");
 }
 
-// The network for dreg / auto: the weights must exist and, with --config, be of that config.
-DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
-  if (o.weights.empty() || !FileExists(o.weights)) {
-    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
-  }
-  DregModelOptions model_options;
-  DregNet net = LoadDregWeights(o.weights, &model_options);
-  if (!o.config.empty()) {
-    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), o.weights);
-  }
-  return net;
-}
-
 }  // namespace
 
 int RunRegRegister(int argc, char** argv) {
@@ -191,111 +145,33 @@ int RunRegRegister(int argc, char** argv) {
   r.seconds = timer.Seconds();  // T.json's seconds: the whole command, loading included
   const Json json = r.ToJson();
   WriteJsonFile(f.out, json);
-  WriteOverlays(f.out, r.Chosen().source_points, r.Chosen().target_points, r.target_from_source);
+  WriteRegistrationOverlays(f.out, r);
   std::printf("%s\n", json.dump().c_str());
   return 0;
 }
 
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-
-// Prints the summary per method (mean, median, success at 5 deg / 0.05 and 10 deg / 0.1 of the
-// extent, and by overlap when the pairs mix overlaps) and returns it.
-Json SummariseRows(const std::vector<PairEvaluation>& rows, double overlap_threshold) {
-  Json summary = Json::object();
-  std::printf("\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
-              "succ 5/.05", "succ 10/.1", "med time");
-  std::vector<std::string> names;
-  for (const auto& r : rows)
-    if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
-  auto success = [](const PairEvaluation& r, double deg, double fraction) {
-    return r.rotation_deg <= deg && r.translation / 2.5 <= fraction;
-  };
-  for (const auto& name : names) {
-    std::vector<double> rot, trans, secs;
-    int s5 = 0, s10 = 0;
-    for (const auto& r : rows) {
-      if (r.method != name) continue;
-      rot.push_back(r.rotation_deg);
-      trans.push_back(r.translation / 2.5);
-      secs.push_back(r.seconds);
-      s5 += success(r, 5, 0.05);
-      s10 += success(r, 10, 0.1);
-    }
-    double mean = 0;
-    for (double x : rot) mean += x / rot.size();
-    const double n = static_cast<double>(rot.size());
-    summary[name] = {{"pairs", rot.size()}, {"mean_rotation_deg", mean}, {"median_rotation_deg", Median(rot)},
-                     {"median_translation_fraction", Median(trans)}, {"success_5deg_0.05", s5 / n},
-                     {"success_10deg_0.1", s10 / n}, {"median_seconds", Median(secs)}};
-    std::printf("%-20s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean, Median(rot),
-                Median(trans), 100 * s5 / n, 100 * s10 / n, Median(secs));
-  }
-  // Success by overlap: a set that mixes pair overlaps (the 4-block splits: 0.49-0.96) hides in one
-  // rate whether a method fails only the low-overlap pairs, the case a learned registrar must win.
-  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap < overlap_threshold; }) &&
-                     std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap >= overlap_threshold; });
-  if (mixed) {
-    char below[32], above[32];
-    std::snprintf(below, sizeof below, "overlap < %.2f", overlap_threshold);
-    std::snprintf(above, sizeof above, "overlap >= %.2f", overlap_threshold);
-    std::printf("\n%-20s %16s %16s   (successes at 5 deg / 0.05 by the pair's overlap)\n", "method", below, above);
-  }
-  for (const auto& name : names) {
-    int n_low = 0, ok_low = 0, n_high = 0, ok_high = 0;
-    for (const auto& r : rows) {
-      if (r.method != name) continue;
-      const bool ok = success(r, 5, 0.05);
-      (r.overlap < overlap_threshold ? n_low : n_high) += 1;
-      (r.overlap < overlap_threshold ? ok_low : ok_high) += ok;
-    }
-    summary[name]["by_overlap"] = {{"threshold", overlap_threshold},
-                                   {"below", {{"pairs", n_low}, {"successes_5deg_0.05", ok_low}}},
-                                   {"at_or_above", {{"pairs", n_high}, {"successes_5deg_0.05", ok_high}}}};
-    if (mixed)
-      std::printf("%-20s %16s %16s\n", name.c_str(), (std::to_string(ok_low) + " of " + std::to_string(n_low)).c_str(),
-                  (std::to_string(ok_high) + " of " + std::to_string(n_high)).c_str());
-  }
-  return summary;
-}
-
 // `reg eval --pairs`: every method on every pair's grids, one table.
-int EvalPairs(const std::string& pairs_path, const PairEvaluationOptions& eo, const std::string& split, const std::string& weights,
-              int max_pairs, double overlap_threshold, const std::string& out) {
-  std::vector<PairRecord> pairs;
-  for (const auto& p : ReadPairs(pairs_path))
-    if (split == "all" || p.split == split) pairs.push_back(p);
-  if (max_pairs > 0 && static_cast<int>(pairs.size()) > max_pairs) pairs.resize(max_pairs);
-  if (pairs.empty()) ThrowInputError(pairs_path, "pairs", "at least one pair of split " + split);
-  std::unique_ptr<DregNet> net;
-  for (const auto& m : eo.methods) {
-    if (m == "dreg" && !net) {
-      if (!FileExists(weights)) ThrowInputError(weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
-      DregModelOptions mo;
-      net = std::make_unique<DregNet>(LoadDregWeights(weights, &mo));
-    }
-  }
-  std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
-  const std::vector<PairEvaluation> rows = EvaluatePairs(pairs, eo, net.get(), [](const PairEvaluation& row) {
+int EvalPairs(const PairsFileEvaluationOptions& o) {
+  const auto header = [] {
+    std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+  };
+  const PairsFileEvaluation r = EvaluatePairsFile(o, header, [](const PairEvaluation& row) {
     std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
                 row.rotation_deg, row.translation / 2.5, row.confidence, row.seconds);
     std::fflush(stdout);
   });
-  const Json summary = SummariseRows(rows, overlap_threshold);
-  if (!out.empty()) {
-    Json table = Json::array();
-    for (const auto& r : rows) {
-      table.push_back({{"pair", r.pair}, {"method", r.method}, {"rotation_error_deg", r.rotation_deg},
-                       {"translation_error", r.translation}, {"translation_error_fraction", r.translation / 2.5},
-                       {"confidence", r.confidence}, {"overlap", r.overlap}, {"seconds", r.seconds}});
-    }
-    WriteJsonFile(out, {{"pairs_file", pairs_path}, {"split", split}, {"rows", table}, {"summary", summary}});
-  }
+  std::printf("%s", r.summary.table.c_str());
+  return 0;
+}
+
+// `reg eval --pair`: one result against the ground truth.
+int EvalPair(const std::string& pair, const std::string& gt_path, int source, int target, const std::string& out) {
+  const RegistrationError r = EvaluateRegistrationFile(pair, gt_path, source, target, out);
+  std::printf("%-22s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
+  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", r.method.c_str(), r.rotation_deg, r.translation, r.translation_fraction,
+              r.success ? "yes" : "no");
   return 0;
 }
 
@@ -358,31 +234,10 @@ int RunRegEval(int argc, char** argv) {
     base.flips = !no_flips;
     const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options};
     eo.Check();
-    return EvalPairs(pairs_path, eo, split, weights, max_pairs, overlap_threshold, out);
+    return EvalPairs({pairs_path, split, weights, out, max_pairs, overlap_threshold, eo});
   }
   if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
-  const Json pj = ReadJsonFile(pair), gj = ReadJsonFile(gt_path);
-  const JsonField p(pj, pair), g(gj, gt_path);
-  Sim3d est, src_from_world, tgt_from_world;
-  try {
-    est = Sim3d::FromMatrix(p["target_from_source"].Matrix(4, 4));
-    src_from_world = Sim3d::FromMatrix(g["blocks"][source]["block_from_world"].Matrix(4, 4));
-    tgt_from_world = Sim3d::FromMatrix(g["blocks"][target]["block_from_world"].Matrix(4, 4));
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("reg eval: a transform is not a similarity: ") + e.what());
-  }
-  const Sim3d gt = tgt_from_world * src_from_world.Inverse();
-  const double rot = RotationErrorDeg(est.rotation, gt.rotation);
-  const double trans = TranslationError(est.translation, gt.translation);
-  const double extent = 2.5;
-  const bool success = rot <= 5.0 && trans / extent <= 0.05;
-  const Json j = {{"rotation_error_deg", rot}, {"translation_error", trans}, {"translation_error_fraction", trans / extent},
-                  {"success", success}, {"method", p.StringOr("method", "?")}, {"seconds", p.DoubleOr("seconds", 0)}};
-  if (!out.empty()) WriteJsonFile(out, j);
-  std::printf("%-22s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
-  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", p.StringOr("method", "?").c_str(), rot, trans, trans / extent,
-              success ? "yes" : "no");
-  return 0;
+  return EvalPair(pair, gt_path, source, target, out);
 }
 
 int RunRegRegisterMany(int argc, char** argv) {

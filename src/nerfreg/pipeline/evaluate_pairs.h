@@ -12,6 +12,7 @@
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/register_grids.h"
 #include "nerfreg/reg/training_data.h"
+#include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
 
@@ -35,5 +36,43 @@ struct PairEvaluation {
 // `net`: needed when methods holds dreg. `on_row` (optional) sees each row as it is made.
 std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, const PairEvaluationOptions& options,
                                           DregNet* net, const std::function<void(const PairEvaluation&)>& on_row = {});
+
+// The summary per method of rows: mean, median, success at 5 deg / 0.05 and 10 deg / 0.1 of the
+// extent, and successes by overlap (below / at or above overlap_threshold), as JSON and as the
+// table `reg eval --pairs` prints (the by-overlap table only when the pairs mix overlaps).
+struct PairSummary {
+  Json json;
+  std::string table;
+};
+PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, double overlap_threshold);
+
+// `reg eval --pairs` as a whole: the pairs of `split` ("all": every one; at most max_pairs when > 0)
+// of a pairs.json evaluated (the network loaded from `weights` when a method needs it), summarised
+// and, with `out`, written there.
+struct PairsFileEvaluationOptions {
+  std::string pairs_path, split = "val", weights, out;
+  int max_pairs = 0;
+  double overlap_threshold = 0.8;
+  PairEvaluationOptions evaluation;
+};
+struct PairsFileEvaluation {
+  std::vector<PairEvaluation> rows;
+  PairSummary summary;
+};
+// `on_start` (optional) runs once the pairs and the network are loaded, before the first row.
+PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& options, const std::function<void()>& on_start = {},
+                                      const std::function<void(const PairEvaluation&)>& on_row = {});
+
+// `reg eval --pair`: one registration output (T.json of reg register) against the ground truth
+// (ground_truth.json of the rendered dataset: blocks[k].block_from_world) of source block `source`
+// and target block `target`; with `out`, the errors are written there.
+struct RegistrationError {
+  double rotation_deg = 0, translation = 0, translation_fraction = 0;  // fraction of the object extent
+  bool success = false;                                                // 5 deg and 0.05 of the extent
+  std::string method = "?";
+  Json json;
+};
+RegistrationError EvaluateRegistrationFile(const std::string& pair_path, const std::string& ground_truth_path, int source,
+                                           int target, const std::string& out = "");
 
 }  // namespace nerfreg

@@ -12,6 +12,9 @@
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/reg/reg_grid.h"
+#include "nerfreg/render/point_splat.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/image.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
@@ -520,6 +523,40 @@ Json RegistrationResult::ToJson() const {
   j.update(c.extra);
   j["options"] = options.ToJson();
   return j;
+}
+
+// The network for dreg / auto: the weights must exist and, with --config, be of that config.
+DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
+  if (o.weights.empty() || !FileExists(o.weights)) {
+    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
+  }
+  DregModelOptions model_options;
+  DregNet net = LoadDregWeights(o.weights, &model_options);
+  if (!o.config.empty()) {
+    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), o.weights);
+  }
+  return net;
+}
+
+// Before / after: source in orange, target in blue, from three fixed viewpoints, beside `out`.
+void WriteRegistrationOverlays(const std::string& out, const RegistrationResult& result) {
+  const Eigen::Matrix3Xd& src = result.Chosen().source_points;
+  const Eigen::Matrix3Xd& tgt = result.Chosen().target_points;
+  const Sim3d& target_from_source = result.target_from_source;
+  const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
+  auto subsample = [](const Eigen::Matrix3Xd& m) {
+    const Eigen::Index step = std::max<Eigen::Index>(1, m.cols() / 20000);
+    Eigen::Matrix3Xd s(3, (m.cols() + step - 1) / step);
+    for (Eigen::Index i = 0, k = 0; i < m.cols(); i += step, ++k) s.col(k) = m.col(i);
+    return s;
+  };
+  const Eigen::Matrix3Xd s_small = subsample(src), t_small = subsample(tgt);
+  Eigen::Matrix3Xd moved(3, s_small.cols());
+  for (Eigen::Index i = 0; i < s_small.cols(); ++i) moved.col(i) = target_from_source * Eigen::Vector3d(s_small.col(i));
+  const Eigen::Vector3d centre = t_small.cols() ? Eigen::Vector3d(t_small.rowwise().mean()) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3f orange(0.95f, 0.5f, 0.1f), blue(0.1f, 0.35f, 0.9f);
+  WriteImage(stem + "_before.png", ThreeViewOverlay({{s_small, orange}, {t_small, blue}}, centre, 5.0));
+  WriteImage(stem + "_after.png", ThreeViewOverlay({{moved, orange}, {t_small, blue}}, centre, 5.0));
 }
 
 }  // namespace nerfreg

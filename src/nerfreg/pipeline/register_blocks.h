@@ -140,6 +140,14 @@ struct RegistrationResult {
 };
 
 // `net`: needed when options.UsesNetwork() (std::invalid_argument when null). Checks `options`.
+// The network for dreg / auto: the weights must exist (InputError naming them, or --weights) and,
+// with options.config, be of that config.
+DregNet LoadCheckedDregNet(const BlockRegistrationOptions& options);
+
+// Before / after pictures of a registration beside `out` (OUT_before.png, OUT_after.png): the
+// chosen candidate's source points in orange, target in blue, from three fixed viewpoints.
+void WriteRegistrationOverlays(const std::string& out, const RegistrationResult& result);
+
 RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
                                   DregNet* net);
 

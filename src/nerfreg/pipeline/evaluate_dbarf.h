@@ -1,0 +1,42 @@
+#pragma once
+// `dbarf eval`'s job: the pose-free pipeline against ground truth. Every image of a dataset (train
+// and test split) is posed from the images alone; poses are scored after a Sim(3) alignment and,
+// scale-free, as relative poses to view-graph neighbours (the estimated cameras' and the pose
+// network's refinement of them); each test view is rendered at its ESTIMATED camera from its
+// view-graph neighbours among the training views and scored by PSNR / SSIM. Writes OUT/eval.json,
+// OUT/views/ (renders, inverse depth) and OUT/compare.png, all moved into place at once.
+#include <string>
+
+#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf/dbarf_trainer.h"
+#include "nerfreg/sfm/pose_evaluation.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct DbarfEvaluationOptions {
+  std::string dataset;     // a dataset with ground-truth poses and a test split
+  std::string out;         // output folder
+  std::string weights;     // DBARF weights
+  int num_sources = 8;     // source views per rendered view
+  DbarfSceneOptions scene;
+  // Also score the network refining cameras perturbed by this much (inactive: zero).
+  RelativePoseNoise perturb;
+  bool force = false;      // replace an existing output
+  void Check() const;      // throws InputError naming the flag
+};
+
+struct DbarfEvaluation {
+  Json json;                 // what OUT/eval.json holds
+  PoseEvaluation poses;      // absolute poses after the alignment (as measured, even when not aligned)
+  RelativePoseError relative_cameras, relative_network;
+  int64_t images = 0;
+  size_t posed = 0, rendered = 0;
+  double psnr_mean = 0, ssim_mean = 0;
+  double seconds = 0, seconds_poses = 0;
+};
+
+// Throws InputError on bad input; writes nothing then.
+DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& options);
+
+}  // namespace nerfreg

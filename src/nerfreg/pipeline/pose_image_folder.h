@@ -1,0 +1,34 @@
+#pragma once
+// `dbarf poses`'s job: every image of a folder posed from the images and their intrinsics alone
+// (dbarf/network_poses.h: the SfM, the pose network or both), written as posed images
+// (dbarf/posed_images.h: OUT/transforms.json) with a COLMAP model (OUT/sparse/0) and the cameras
+// seen from above (OUT/cameras.png), all moved into place at once.
+#include <string>
+
+#include "nerfreg/dbarf/network_poses.h"
+
+namespace nerfreg {
+
+struct ImageFolderPosesOptions {
+  std::string images_dir;  // PNG / JPEG images, sorted by name
+  // Intrinsics: a transforms.json (its poses ignored), or a focal length in pixels (principal point
+  // at the image centre).
+  std::string intrinsics;
+  double focal = 0;
+  std::string out;                   // output folder
+  bool force = false;                // replace an existing output
+  std::string neighbours = "graph";  // network: graph (SIFT view graph) or appearance (thumbnails only)
+  ImagePosesOptions poses;           // the method and its options (network.match_images follows neighbours)
+  void Check() const;                // throws InputError naming the flag
+};
+
+struct ImageFolderPosesResult {
+  int images = 0, posed = 0, posed_by_network = 0;
+  bool well_constrained = true;
+  double seconds = 0;
+};
+
+// Throws InputError on bad input; writes nothing then.
+ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions options);
+
+}  // namespace nerfreg
