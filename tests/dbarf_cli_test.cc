@@ -43,6 +43,10 @@ TEST(DbarfCli, TinyImagesAreReportedAsNotWellConstrained) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("the poses are not well constrained"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("NOT well constrained"), std::string::npos) << r.output;
+  // One log line per stage as it ends, and a summary of them.
+  EXPECT_NE(r.output.find("stage features:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("stage bundle adjustment:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("stages (s): read images"), std::string::npos) << r.output;
   const Json j = ReadJsonFile(out + "/transforms.json");
   EXPECT_FALSE(j["dbarf_poses"]["well_constrained"].get<bool>());
   EXPECT_FALSE(j["dbarf_poses"]["problems"].empty());
@@ -62,6 +66,18 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   const Json j = ReadJsonFile(out + "/transforms.json");
   EXPECT_TRUE(j["not_posed"].empty());
   EXPECT_TRUE(j["dbarf_poses"]["well_constrained"].get<bool>()) << j["dbarf_poses"].dump();
+  // Every stage's wall time, and a total no smaller than their sum (values are not checked:
+  // speed is the benchmarks' business, bench/dbarf_speed.sh).
+  const Json& times = j["dbarf_poses"]["timings_s"];
+  double sum = 0;
+  for (const char* stage : {"read images", "load weights", "features", "matching", "geometry", "rotation averaging",
+                            "translation averaging", "tracks", "triangulation", "bundle adjustment", "write output"}) {
+    ASSERT_TRUE(times.contains(stage) && times[stage].is_number()) << stage << ": " << times.dump();
+    EXPECT_GE(times[stage].get<double>(), 0.0) << stage;
+    sum += times[stage].get<double>();
+  }
+  EXPECT_FALSE(times.contains("network")) << times.dump();  // the SfM posed everything
+  EXPECT_GE(times["total"].get<double>(), sum - 1e-6) << times.dump();
   const ColmapModel model = ReadColmapModel(out + "/sparse/0");
   EXPECT_EQ(model.images.size(), 10u);
   EXPECT_GT(model.points3d.size(), 100u);
@@ -191,6 +207,9 @@ TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
   EXPECT_TRUE(j["not_posed"].empty()) << j["not_posed"].dump();
   ASSERT_EQ(j["frames"].size(), 8u);
   EXPECT_EQ(j["dbarf_poses"]["posed_by_network"].get<int>(), 1);
+  EXPECT_TRUE(j["dbarf_poses"]["timings_s"].contains("network")) << j["dbarf_poses"].dump();
+  EXPECT_TRUE(classical["dbarf_poses"]["timings_s"].contains("bundle adjustment")) << classical["dbarf_poses"].dump();
+  EXPECT_FALSE(classical["dbarf_poses"]["timings_s"].contains("load weights")) << classical["dbarf_poses"].dump();
   for (const Json& f : j["frames"]) {
     const bool is_blurred = std::filesystem::path(f["file_path"].get<std::string>()).filename() == "r_004.png";
     EXPECT_EQ(f["posed_by"].get<std::string>(), is_blurred ? "network" : "sfm") << f.dump();

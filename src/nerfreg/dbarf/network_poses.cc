@@ -536,13 +536,14 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   const Timer timer;
   // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
   // pose everything and the network not run).
+  ImagePosesResult result;
   std::unique_ptr<DbarfModel> model;
   if (options.method != "classical") {
     model = std::make_unique<DbarfModel>(LoadDbarfWeights(options.weights));
     model->To(options.device);
     model->Train(false);
+    result.times.Record("load weights", timer.Seconds());
   }
-  ImagePosesResult result;
   result.cam_from_world.assign(n, Rigid3d());
   result.posed.assign(n, false);
   result.posed_by.assign(n, "");
@@ -552,6 +553,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   bool run_network_on_all = options.method == "network";
   if (options.method != "network") {
     result.sfm = PoseImages(images, cameras, names, options.sfm);
+    result.times.Append(result.sfm.times);
     int num_posed = 0;
     for (bool p : result.sfm.posed) num_posed += p;
     const bool complete = num_posed == n;
@@ -576,7 +578,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     if (graph.names.empty()) {
       if (options.network.match_images) {
         const Timer matching;
-        graph = BuildViewGraph(images, cameras, names, options.sfm.view_graph);
+        graph = BuildViewGraph(images, cameras, names, options.sfm.view_graph, &result.times);
         result.sfm.seconds_view_graph = matching.Seconds();
       } else {
         graph.names = names;
@@ -615,6 +617,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     if (c.low) result.low_confidence.push_back(names[k]);
   }
   result.sfm.not_posed = result.not_posed;
+  if (result.seconds_network > 0) result.times.Record("network", result.seconds_network);
   result.seconds = timer.Seconds();
   return result;
 }

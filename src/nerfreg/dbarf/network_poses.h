@@ -48,6 +48,7 @@
 #include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/relative_pose_averaging.h"
 #include "nerfreg/util/image.h"
+#include "nerfreg/util/stage_times.h"
 
 namespace nerfreg {
 
@@ -130,6 +131,8 @@ struct ImagePosesResult {
   std::vector<std::pair<int, int>> network_pairs;
   double seconds_network = 0;
   double seconds = 0;
+  // Per stage: "load weights" (network, auto), the SfM's (sfm.times), "network".
+  StageTimes times;
 };
 
 // Poses images of one size with their intrinsics. Throws InputError naming the file / option on bad

@@ -39,10 +39,15 @@ int RunRender(int argc, char** argv) {
   app.add_option("--test-every", options.test_every, "Every n-th view of a block is a test view (default 20)");
   app.add_option("--supersample", options.render.supersample, "Rays per pixel side (default 2)");
   app.add_flag("--depth", options.write_depth, "Also write z-depth maps as depth/r_XXX.npy");
+  std::vector<double> distortion;
+  app.add_option("--distortion", distortion, "K1[,K2]: radial lens distortion of the cameras (OpenCV; default 0)")->delimiter(',')->expected(1, 2);
+  app.add_option("--noise", options.noise_sigma, "Gaussian pixel noise, standard deviation in [0, 1] units (default 0)");
+  app.add_option("--jpeg", options.jpeg_quality, "Write JPEG images of this quality (1..100) instead of PNG");
   app.add_option("--seed", options.seed, "Seed of the block split and frames");
   app.add_option("--out", out, "Output dataset folder")->required();
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.force = common.force;
+  if (!distortion.empty()) options.k1 = distortion[0], options.k2 = distortion.size() > 1 ? distortion[1] : 0.0;
   if (mesh_path.empty() && procedural < 0) throw InputError("render: give --mesh FILE or --procedural SEED");
   CheckCanWriteOutput(out, common.force, {mesh_path});
   if (!size.empty()) {

@@ -16,6 +16,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/stage_times.h"
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {
@@ -211,8 +212,12 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   } else {
     for (const Image& im : images) cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   }
+  StageTimes times;
+  times.Record("read images", timer.Seconds());
   LOG_INFO("posing {} images of {} (method {})", names.size(), o.images_dir, o.poses.method);
   const ImagePosesResult result = EstimateImagePoses(images, cameras, names, o.poses, o.images_dir);
+  times.Append(result.times);
+  const Timer writing;
   const SfmResult& r = result.sfm;  // final cameras, with the SfM's points (if any)
   ImageFolderPosesResult summary;
   summary.images = static_cast<int>(names.size());
@@ -233,14 +238,18 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "sparse/0"));
   {
-    const PosedImages posed = MakePosedImages(o, names, cameras, result, quality, any_sfm, timer.Seconds());
-    WritePosedImages(JoinPaths(tmp, "transforms.json"), posed);
+    PosedImages posed = MakePosedImages(o, names, cameras, result, quality, any_sfm, timer.Seconds());
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> cams;
     for (const Frame& f : posed.dataset.frames) cams.push_back(f.cam_from_world);
     const CameraPlot plot = PlotCamerasFromAbove({{cams, kEstimateColor}}, false);
     WriteImage(JoinPaths(tmp, "cameras.png"), plot.image);
     LOG_INFO("{}/cameras.png: posed cameras seen from above, scale bar {:g} units", out, plot.scale_bar_length);
+    // transforms.json last, so its stage times cover the other outputs' writing.
+    times.Record("write output", writing.Seconds());
+    posed.info["timings_s"] = times.ToJson();
+    posed.info["timings_s"]["total"] = timer.Seconds();
+    WritePosedImages(JoinPaths(tmp, "transforms.json"), posed);
     output.Commit();
   }
   for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
@@ -250,6 +259,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   }
   summary.well_constrained = quality.WellConstrained();
   summary.seconds = timer.Seconds();
+  LOG_INFO("stages (s): {}; total {:.2f}", times.Summary(), timer.Seconds());
   LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
            summary.posed, names.size(), summary.posed_by_network, summary.well_constrained ? "" : " (NOT well constrained: see the warnings)",
            r.points.size(), r.mean_reprojection_error_px, timer.Seconds(), out);

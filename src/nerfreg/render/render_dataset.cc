@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <random>
 
@@ -27,6 +28,9 @@ void RenderDatasetOptions::Check() const {
   if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
   if (test_every < 0) ThrowInputError("--test-every", "", ">= 0");
   if (!(forward_spread >= 0 && forward_spread <= 3)) ThrowInputError("--spread", "", "0..3 (0: the default)");
+  if (!(std::abs(k1) < 1) || !(std::abs(k2) < 1)) ThrowInputError("--distortion", "", "K1[,K2] each in (-1, 1)");
+  if (!(noise_sigma >= 0 && noise_sigma < 1)) ThrowInputError("--noise", "", "a standard deviation in [0, 1)");
+  if (jpeg_quality < 0 || jpeg_quality > 100) ThrowInputError("--jpeg", "", "a quality in 1..100 (0: PNG)");
   try {
     block_frame.Check();
     render.Check();
@@ -39,7 +43,8 @@ Json RenderDatasetOptions::ToJson() const {
   return {{"trajectory", trajectory}, {"views", views}, {"width", width}, {"height", height}, {"blocks", blocks},
           {"test_every", test_every}, {"seed", seed}, {"forward_spread", forward_spread}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
           {"block_max_translation", block_frame.max_translation}, {"block_min_scale", block_frame.min_scale},
-          {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth}};
+          {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth},
+          {"k1", k1}, {"k2", k2}, {"noise_sigma", noise_sigma}, {"jpeg_quality", jpeg_quality}};
 }
 
 RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options, const std::string& out_dir) {
@@ -63,6 +68,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     else if (options.width) o.height = options.width * 3 / 4;
     cams = ForwardTrajectory(o);
   }
+  for (PosedCamera& c : cams) c.camera.k1 = options.k1, c.camera.k2 = options.k2;
   const int n = static_cast<int>(cams.size());
   if (options.blocks > n) ThrowInputError("--blocks", "", "at most the number of views (" + std::to_string(n) + ")");
 
@@ -73,9 +79,17 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     Dataset world;
     world.root = tmp;
     ProgressBar bar("render", n, "view");
-    for (int i = 0; i < n; ++i) {
+    std::mt19937 noise_rng(options.seed * 104729u + 17u);
+    std::normal_distribution<float> noise(0.f, static_cast<float>(options.noise_sigma));
+    // Noise on the colour channels (not alpha), then the file format's quantisation.
+    const auto degrade = [&](Image im) {
+      if (options.noise_sigma > 0)
+        for (size_t p = 0; p < im.data.size(); ++p)
+          if (im.channels != 4 || p % 4 != 3) im.data[p] += noise(noise_rng);
+      return im;
+    };    for (int i = 0; i < n; ++i) {
       char name[32];
-      std::snprintf(name, sizeof(name), "r_%03d.png", i);
+      std::snprintf(name, sizeof(name), options.jpeg_quality > 0 ? "r_%03d.jpg" : "r_%03d.png", i);
       const RenderResult r = RenderView(caster, mesh, cams[i].camera, cams[i].cam_from_world, options.render);
       Frame f;
       f.name = name;
@@ -83,9 +97,9 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
       f.camera = cams[i].camera;
       f.cam_from_world = cams[i].cam_from_world;
       if (orbit) {
-        WriteImage(world.ImagePath(f), r.rgba);
+        WriteImage(world.ImagePath(f), degrade(r.rgba), options.jpeg_quality);
       } else {
-        WriteImage(world.ImagePath(f), CompositeOver(r.rgba, 0, 0, 0));
+        WriteImage(world.ImagePath(f), degrade(CompositeOver(r.rgba, 0, 0, 0)), options.jpeg_quality);
         // Depth bounds of what this view sees, padded (LLFF's near/far).
         float lo = INFINITY, hi = 0;
         for (float d : r.depth.data)

@@ -26,6 +26,13 @@ struct RenderDatasetOptions {
   unsigned seed = 0;                 // block split and block frames
   BlockFrameOptions block_frame;
   RenderOptions render;
+  // Photo-like degradations (forward scenes and orbits alike): the cameras' radial distortion
+  // (OpenCV k1, k2: rendered through it and written with the intrinsics), Gaussian pixel noise of
+  // this standard deviation (in [0, 1] units, seeded by `seed`), and JPEG files of this quality
+  // (0: PNG).
+  double k1 = 0, k2 = 0;
+  double noise_sigma = 0;
+  int jpeg_quality = 0;
   bool write_depth = false;          // depth maps as DIR/depth/r_XXX.npy (z-depth, 0 = no surface)
   bool force = false;                // replace an existing DIR
   void Check() const;                // throws InputError naming the option

@@ -93,6 +93,7 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
   const ceres::Solver::Summary ceres_summary =
       SolveCeresProblem(&problem, options.max_iterations, ceres::SPARSE_SCHUR, options.num_threads);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary.iterations = static_cast<int>(ceres_summary.iterations.size());
   for (int k = 0; k < n; ++k) {
     if (!posed[k]) continue;
     Eigen::Matrix3d r;

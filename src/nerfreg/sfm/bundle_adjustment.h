@@ -25,6 +25,7 @@ struct BundleAdjustmentSummary {
   double final_rms_px = 0;    // after
   int num_observations = 0;
   bool converged = false;
+  int iterations = 0;  // Ceres iterations run
 };
 
 // fixed_camera: the posed image whose pose is held constant. Cameras with !posed[k] and points'

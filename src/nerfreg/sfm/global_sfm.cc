@@ -42,10 +42,14 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   result.cam_from_world.assign(n, Rigid3d());
   result.posed.assign(n, false);
 
+  Timer stage;
   const RotationAveragingResult rotations = AverageRotations(graph, options.rotation);
+  result.times.Record("rotation averaging", stage.Seconds());
+  stage.Restart();
   std::vector<bool> usable = rotations.edge_inlier;
   for (bool u : usable) result.num_edges_used += u;
   const TranslationAveragingResult centers = AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
+  result.times.Record("translation averaging", stage.Seconds());
   int root = -1;
   for (int k = 0; k < n; ++k) {
     result.posed[k] = centers.solved[k];
@@ -61,8 +65,12 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     return result;
   }
 
+  stage.Restart();
   const std::vector<Track> tracks = BuildTracks(graph, usable, options.tracks);
+  result.times.Record("tracks", stage.Seconds());
+  double seconds_triangulation = 0, seconds_ba = 0;
   for (double threshold : options.round_reprojection_error_px) {
+    stage.Restart();
     TriangulationOptions tri;
     tri.max_reprojection_error_px = threshold;
     tri.min_angle_deg = options.min_triangulation_angle_deg;
@@ -73,11 +81,16 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
         result.points.push_back(std::move(point));
       }
     }
-    const auto ba = BundleAdjust(cameras, graph.keypoints, result.posed, root, &result.cam_from_world, &result.points,
+    seconds_triangulation += stage.Seconds();
+    stage.Restart();
+    [[maybe_unused]] const auto ba = BundleAdjust(cameras, graph.keypoints, result.posed, root, &result.cam_from_world, &result.points,
                                  options.bundle_adjustment);
-    LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px", threshold, result.points.size(), ba.initial_rms_px,
-              ba.final_rms_px);
+    seconds_ba += stage.Seconds();
+    LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
+              result.points.size(), ba.initial_rms_px, ba.final_rms_px, ba.iterations, stage.Seconds());
   }
+  result.times.Record("triangulation", seconds_triangulation);
+  result.times.Record("bundle adjustment", seconds_ba);
   // Final observations: those within the last threshold of the adjusted points.
   const double last = options.round_reprojection_error_px.back();
   std::vector<SfmPoint> kept;
@@ -131,10 +144,13 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
                     "at least 3 images to pose, got " + std::to_string(images.size()));
   }
   const Timer timer;
-  const ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph);
+  StageTimes times;
+  const ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times);
   const double seconds_view_graph = timer.Seconds();
   SfmResult result = RunGlobalSfm(graph, cameras, options);
   result.seconds_view_graph = seconds_view_graph;
+  times.Append(result.times);
+  result.times = times;
   for (const auto& name : result.not_posed) LOG_WARN("{}: not posed (no consistent two-view geometry with the others)", name);
   return result;
 }

@@ -24,6 +24,7 @@
 #include "nerfreg/sfm/translation_averaging.h"
 #include "nerfreg/sfm/triangulation.h"
 #include "nerfreg/util/image.h"
+#include "nerfreg/util/stage_times.h"
 #include "nerfreg/viewgraph/view_graph.h"
 
 namespace nerfreg {
@@ -58,6 +59,9 @@ struct SfmResult {
   int num_edges_used = 0;                 // edges consistent with the averaged rotations
   double seconds_view_graph = 0;
   double seconds_sfm = 0;                 // averaging, triangulation and bundle adjustment
+  // Per stage: features, matching, geometry (PoseImages only), rotation averaging, translation
+  // averaging, tracks, triangulation, bundle adjustment (all rounds together).
+  StageTimes times;
 };
 
 // From a built view graph (used directly by tests with synthetic correspondences). cameras: one

@@ -102,7 +102,7 @@ std::string EncodeImage(const Image& image, const std::string& ext, const std::s
                                 image.width * image.channels);
   } else if (ext == ".jpg" || ext == ".jpeg") {
     ok = stbi_write_jpg_to_func(append, &encoded, image.width, image.height, image.channels, bytes.data(),
-                                jpeg_quality);
+                                std::clamp(jpeg_quality, 1, 100));
   } else {
     ThrowInputError(name, "extension", ".png, .jpg or .jpeg");
   }
@@ -110,10 +110,10 @@ std::string EncodeImage(const Image& image, const std::string& ext, const std::s
   return encoded;
 }
 
-void WriteImage(const std::string& path, const Image& image) {
+void WriteImage(const std::string& path, const Image& image, int jpeg_quality) {
   // Encoded in memory, then written by WriteFileAtomic: stb's own file writer ignores a failed
   // fwrite (a full disk left truncated PNGs that reported success).
-  WriteFileAtomic(path, EncodeImage(image, LowerExtension(path), path));
+  WriteFileAtomic(path, EncodeImage(image, LowerExtension(path), path, jpeg_quality));
 }
 
 Image CompositeOver(const Image& rgba, float r, float g, float b) {

@@ -35,8 +35,9 @@ Image ReadImage(const std::string& path, int channels = 0);
 // Reads only the size. Throws like ReadImage.
 void ReadImageSize(const std::string& path, int* width, int* height, int* channels);
 
-// Writes PNG (by extension .png) or JPEG (.jpg/.jpeg, quality 95) atomically; values clamped.
-void WriteImage(const std::string& path, const Image& image);
+// Writes PNG (by extension .png) or JPEG (.jpg/.jpeg, quality jpeg_quality in 1..100) atomically;
+// values clamped.
+void WriteImage(const std::string& path, const Image& image, int jpeg_quality = 95);
 
 // The bytes WriteImage would write, in memory (e.g. for data: URIs). `extension` is ".png",
 // ".jpg" or ".jpeg"; `name` names the image in errors.

@@ -6,6 +6,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "nerfreg/util/error.h"
@@ -13,6 +14,11 @@
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {
+
+int EffectiveUpsample(const ViewGraphOptions& options, int max_side) {
+  if (options.upsample <= 1 || options.upsample_max_side <= 0) return options.upsample;
+  return max_side > 0 && max_side * options.upsample <= options.upsample_max_side ? options.upsample : 1;
+}
 
 void ViewGraphOptions::Check() const {
   // Named by the command-line options that set them (dbarf poses), since users set them there.
@@ -23,6 +29,7 @@ void ViewGraphOptions::Check() const {
   if (min_inliers < 5) ThrowInputError("--min-inliers", "", ">= 5 (an essential matrix needs 5), got " + std::to_string(min_inliers));
   if (!(contrast_threshold > 0)) ThrowInputError("--sift-contrast", "", "> 0");
   if (upsample < 1 || upsample > 4) ThrowInputError("--sift-upsample", "", "1..4, got " + std::to_string(upsample));
+  if (upsample_max_side < 0) ThrowInputError("--sift-upsample-max-side", "", ">= 0, got " + std::to_string(upsample_max_side));
 }
 
 std::vector<int> ViewGraph::Neighbors(int i, int k) const {
@@ -113,7 +120,7 @@ std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, d
 }  // namespace
 
 ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                         const std::vector<std::string>& names, const ViewGraphOptions& options) {
+                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times) {
   options.Check();
   if (images.size() != cameras.size() || images.size() != names.size()) {
     throw std::invalid_argument("BuildViewGraph: images, cameras and names differ in count");
@@ -135,35 +142,48 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   std::vector<Features> features(n);
   std::vector<std::vector<cv::Point2d>> normalised(n);
   graph.keypoints.resize(n);
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
-  const double up = options.upsample;
+  const int up = EffectiveUpsample(options, images.empty() ? 0 : std::max(images[0].width, images[0].height));
   const Timer timer;
-  for (int k = 0; k < n; ++k) {
-    cv::Mat gray = ToGray8(images[k]);
-    if (options.upsample > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
-    sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
-    const cv::Mat& desc = features[k].descriptors;
-    features[k].eigen.resize(desc.rows, desc.cols);
-    for (int r = 0; r < desc.rows; ++r)
-      for (int c = 0; c < desc.cols; ++c) features[k].eigen(r, c) = desc.at<float>(r, c);
-    features[k].norms = features[k].eigen.rowwise().squaredNorm();
-    for (const auto& kp : features[k].keypoints) {
-      // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
-      // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
-      const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
-      graph.keypoints[k].push_back(uv);
-      const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
-      normalised[k].push_back({d.x(), d.y()});
+  // Images, then pairs, in parallel (OpenCV's pool: all cores, or cv::setNumThreads). Each item
+  // writes only its own slot, so the graph is the same whatever the thread count.
+  cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
+    cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+    for (int k = range.start; k < range.end; ++k) {
+      cv::Mat gray = ToGray8(images[k]);
+      if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
+      sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
+      const cv::Mat& desc = features[k].descriptors;
+      features[k].eigen.resize(desc.rows, desc.cols);
+      for (int r = 0; r < desc.rows; ++r)
+        for (int c = 0; c < desc.cols; ++c) features[k].eigen(r, c) = desc.at<float>(r, c);
+      features[k].norms = features[k].eigen.rowwise().squaredNorm();
+      for (const auto& kp : features[k].keypoints) {
+        // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
+        // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
+        const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
+        graph.keypoints[k].push_back(uv);
+        const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
+        normalised[k].push_back({d.x(), d.y()});
+      }
     }
-  }
-  [[maybe_unused]] const double seconds_features = timer.Seconds();
-  double seconds_matching = 0;
+  });
+  const double seconds_features = timer.Seconds();
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) pairs.push_back({i, j});
+  const int num_pairs = static_cast<int>(pairs.size());
+  std::vector<std::vector<cv::DMatch>> pair_matches(num_pairs);
+  cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
+    for (int p = range.start; p < range.end; ++p)
+      pair_matches[p] = MatchMutualRatio(features[pairs[p].first], features[pairs[p].second], options.ratio);
+  });
+  const double seconds_matching = timer.Seconds() - seconds_features;
+  std::vector<std::optional<ViewGraphEdge>> pair_edges(num_pairs);
   const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      const double start = timer.Seconds();
-      const auto matches = MatchMutualRatio(features[i], features[j], options.ratio);
-      seconds_matching += timer.Seconds() - start;
+  cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
+    for (int p = range.start; p < range.end; ++p) {
+      const auto [i, j] = pairs[p];
+      const std::vector<cv::DMatch>& matches = pair_matches[p];
       if (static_cast<int>(matches.size()) < options.min_inliers) continue;
       std::vector<cv::Point2d> pi, pj;
       for (const auto& m : matches) {
@@ -194,11 +214,16 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       for (size_t m = 0; m < matches.size(); ++m) {
         if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
       }
-      graph.edges.push_back(edge);
+      pair_edges[p] = std::move(edge);
     }
+  });
+  for (auto& edge : pair_edges)
+    if (edge) graph.edges.push_back(std::move(*edge));
+  if (times != nullptr) {
+    times->Record("features", seconds_features);
+    times->Record("matching", seconds_matching);
+    times->Record("geometry", timer.Seconds() - seconds_features - seconds_matching);
   }
-  LOG_DEBUG("view graph: features {:.2f} s, matching {:.2f} s, geometry {:.2f} s", seconds_features, seconds_matching,
-            timer.Seconds() - seconds_features - seconds_matching);
   for (int k : graph.Isolated()) LOG_WARN("{}: no geometric matches to any other image; left out", names[k]);
   return graph;
 }

@@ -16,6 +16,7 @@
 #include "nerfreg/geometry/camera.h"
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/util/image.h"
+#include "nerfreg/util/stage_times.h"
 
 namespace nerfreg {
 
@@ -31,6 +32,9 @@ struct ViewGraphOptions {
   // Images are enlarged by this factor (bilinear) before SIFT, and keypoints mapped back: more
   // keypoints, better localised, on small images. 1 = as they are.
   int upsample = 1;
+  // ... but only while the enlarged image's longer side stays within this many pixels (0: always):
+  // photo-sized images have features enough, and SIFT's cost grows with the pixel count.
+  int upsample_max_side = 0;
   void Check() const;                // throws std::invalid_argument
 };
 
@@ -61,10 +65,15 @@ struct ViewGraph {
   const ViewGraphEdge* FindEdge(int i, int j) const;
 };
 
+// The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
+int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
+
 // Builds the graph over all pairs. images: 8-bit-range float images (grey or colour) of equal size;
 // cameras: one per image (intrinsics only). Throws InputError naming the image when sizes differ
-// from the first image or from the camera.
+// from the first image or from the camera. times (optional): the stages "features", "matching"
+// (descriptors) and "geometry" (essential matrices) are recorded there.
 ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                         const std::vector<std::string>& names, const ViewGraphOptions& options);
+                         const std::vector<std::string>& names, const ViewGraphOptions& options,
+                         StageTimes* times = nullptr);
 
 }  // namespace nerfreg

@@ -101,5 +101,22 @@ TEST(ViewGraph, ImagesOfDifferentSizesAreNamed) {
   }
 }
 
+// Small renders are enlarged before SIFT, photo-sized images are not (upsample_max_side), and the
+// cap is off by default.
+TEST(ViewGraph, UpsampleOnlyImagesThatStaySmallEnlarged) {
+  ViewGraphOptions o;
+  o.upsample = 2;
+  EXPECT_EQ(EffectiveUpsample(o, 1008), 2);  // no cap
+  o.upsample_max_side = 1000;
+  EXPECT_EQ(EffectiveUpsample(o, 128), 2);
+  EXPECT_EQ(EffectiveUpsample(o, 500), 2);
+  EXPECT_EQ(EffectiveUpsample(o, 640), 1);
+  EXPECT_EQ(EffectiveUpsample(o, 1008), 1);
+  o.upsample = 1;
+  EXPECT_EQ(EffectiveUpsample(o, 128), 1);
+  o.upsample_max_side = -1;
+  EXPECT_THROW(o.Check(), InputError);
+}
+
 }  // namespace
 }  // namespace nerfreg
