@@ -7,9 +7,9 @@
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf/dbarf_scene.h"
-#include "nerfreg/sfm/pose_evaluation.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/stats.h"
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {

@@ -34,6 +34,4 @@ struct PoseEvaluation {
 PoseEvaluation EvaluatePoses(const std::vector<Rigid3d>& estimated, const std::vector<Rigid3d>& ground_truth,
                              PoseAlignment alignment);
 
-double Median(std::vector<double> values);
-
 }  // namespace nerfreg

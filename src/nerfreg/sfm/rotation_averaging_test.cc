@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "nerfreg/sfm/pose_evaluation.h"
 #include "nerfreg/sfm/synthetic_scene_test_util.h"
+#include "nerfreg/util/stats.h"
 
 namespace nerfreg {
 namespace {
