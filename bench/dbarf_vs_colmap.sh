@@ -4,7 +4,7 @@
 # Prints one table: posed images, median rotation error (deg) and median camera-centre error (% of
 # the widest ground-truth baseline) after a Sim(3) alignment, and wall time of the whole pipeline
 # (COLMAP: feature_extractor + exhaustive_matcher + mapper). Two alignments: rotations then
-# centres (R+c, as spec/landscape.md's COLMAP figures) and Umeyama on centres (c, as DBARF).
+# centres (R+c, `dbarf eval-poses --align rotations`) and Umeyama on centres (c, as DBARF).
 # Methods: nerfreg; colmap (the command line of issue 5); colmap-lo (the same with SIFT's peak
 # threshold lowered to nerfreg's, so both see as many features).
 # Usage: bench/dbarf_vs_colmap.sh [WORK_DIR]   (needs build/nerfreg and colmap)

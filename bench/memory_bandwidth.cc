@@ -1,5 +1,5 @@
 // The machine's streaming memory bandwidth (a STREAM-triad-like loop over 2 x 256 MB arrays), the
-// bound the hash-encoding benchmark is compared with (README, NeRF blocks).
+// bound the hash-encoding benchmark is compared with (results/nerf_blocks.md).
 #include <omp.h>
 
 #include <algorithm>

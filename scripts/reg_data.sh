@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Makes the DReg-NeRF training and held-out evaluation data used for the shipped weights
 # (models/dreg_cpu.pt). Resumable: re-running skips finished objects. Only the Debian test meshes
-# below and procedural objects are used (see README, Data).
+# below and procedural objects are used (docs/data.md).
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
 #          meshes (reg/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
@@ -29,8 +29,8 @@ common=(--grid-resolution "$RES" --quiet)
 # Training pairs: 4 per object (synthesised, different random frames).
 "$BIN" reg make-data --meshes "${TRAIN_MESHES[@]}" --procedural "$PROCEDURAL" --procedural-seed 1000 \
   --mesh-pairs 4 --split train --out "$OUT/train" "${common[@]}"
-# More training pairs: 100 further procedural objects (the third training stage of the shipped
-# weights, README).
+# More training pairs: 100 further procedural objects (from the third training stage of the
+# shipped weights on, docs/notes/2026-11-24-dreg-stages.md).
 "$BIN" reg make-data --procedural 100 --procedural-seed 2000 --mesh-pairs 4 --split train --out "$OUT/train2" "${common[@]}"
 # Held-out pairs, synthesised: 2 per object.
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 \
@@ -41,18 +41,18 @@ common=(--grid-resolution "$RES" --quiet)
 # Held-out pairs of real NeRF blocks (the slow part: ~3 min a block on 2 cores).
 [ "${SKIP_NERF:-0}" = 1 ] && exit 0
 # Real block pairs of two training meshes: the tuning set of the field refinement
-# (reg/field_alignment.h; README, "Fine registration on the fields").
+# (reg/field_alignment.h; docs/notes/2026-11-23-grids-icp-half-turn.md, "Field refinement tuning").
 "$BIN" reg make-data --meshes "$A/OBJ/WusonOBJ.obj" "$A/OBJ/regr01.obj" --mesh-pairs 0 --nerf-objects 2 --split train \
   --out "$OUT/train_nerf" "${common[@]}"
 # Real block pairs of 12 training procedural objects (1000-1011, the first of train): training pairs
-# from real fields (the fifth stage of the shipped weights tried them, README; 35 min).
+# from real fields (added in the fifth stage of the shipped weights, docs/notes/2026-11-24-dreg-stages.md).
 "$BIN" reg make-data --procedural 12 --procedural-seed 1000 --mesh-pairs 0 --nerf-objects 12 --split train \
   --out "$OUT/train_nerf_proc" "${common[@]}"
 # Real block pairs of 4-block splits of 86 more training procedural objects (1012-1090 and
 # 1200-1206; all 6 pairs of the 4 blocks, overlap 0.41-0.99): the low-overlap real training pairs of
 # the sixth stage (the first 20), the seventh and eighth (the first 40), the ninth (the first 51) and
-# stage 12c, shipped (all 86) (README; ~3.4-4 min an object; the two folders can be made side by side
-# with OMP_NUM_THREADS=1 each).
+# stage 12c, shipped (all 86) (docs/notes/2026-11-24-dreg-stages.md; minutes an object, docs/data.md;
+# the two folders can be made side by side with OMP_NUM_THREADS=1 each).
 "$BIN" reg make-data --procedural 79 --procedural-seed 1012 --mesh-pairs 0 --nerf-objects 79 --blocks 4 --split train \
   --out "$OUT/train_nerf_proc4" "${common[@]}"
 "$BIN" reg make-data --procedural 7 --procedural-seed 1200 --mesh-pairs 0 --nerf-objects 7 --blocks 4 --split train \

@@ -185,7 +185,8 @@ TEST(RegCli, BadWeightsAreClearErrors) {
 // reg register (default --refine field) and reg register-many on one trained block given twice
 // (three times): the true pose is the identity, which RANSAC + ICP finds and the field alignment
 // must keep; the outputs record the refinement. (AlignFields' recovery of a known move of a
-// trained block's field is in reg/grid_extraction_test.cc; measured accuracy in the README.)
+// trained block's field is in reg/grid_extraction_test.cc; measured accuracy in
+// results/registration.md.)
 TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   ScopedTempDir dir;
   ASSERT_EQ(RunNerfreg("render --procedural 4 --views 30 --size 24 --supersample 1 --test-every 6 --quiet --out " +

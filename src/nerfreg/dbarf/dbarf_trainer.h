@@ -89,7 +89,8 @@ struct DbarfTrainOptions {
   // image's held at zero: it fixes the frame), optimised by the RGB loss of the NeRF stages, whose
   // sources the cameras place (so it needs nerf_poses "cameras"). Its own Adam, lr_cameras with the
   // same step decay. The rendering loss pulls a camera that is a degree or more off towards the
-  // others; it does not sharpen cameras that are already within ~0.1 deg (README).
+  // others; it does not sharpen cameras already more exact than its noise floor at these image
+  // sizes (docs/notes/2026-11-23-dbarf-pose-network.md, "Camera refinement").
   bool refine_cameras = false;
   double lr_cameras = 3e-3;
   // Weight of the supervised pose loss (a departure from the original, which is self-supervised

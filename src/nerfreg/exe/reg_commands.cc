@@ -230,7 +230,8 @@ int RunRegEval(int argc, char** argv) {
   FieldAlignmentOptions eval_field_options;
   app.add_flag("--field-overlap-only", eval_field_options.overlap_only,
                "With --refine field: count only samples where the other block's cameras saw the surface (its grid's "
-               "mask; an experiment: no gain on the held-out real pairs, README)");
+               "mask; an experiment: no gain on the held-out real pairs, "
+               "docs/notes/2026-11-24-experiments-not-kept.md)");
   GridRegistrationOptions base;
   bool no_flips = false;
   AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);

@@ -71,7 +71,7 @@ int RunRegMakeData(int argc, char** argv) {
                   "OUT/pairs.json are skipped). Each object gives --mesh-pairs pairs synthesised from the mesh with "
                   "NeRF-like artefacts (cheap) and, for the first --nerf-objects objects, pairs of real NeRF blocks "
                   "(rendered, trained, grids extracted; ~3 min a block on 2 cores). Meshes reserved for independent "
-                  "evaluation (README, Data) must not be used.",
+                  "evaluation (docs/data.md) must not be used.",
                   "nerfreg reg make-data --meshes /usr/share/assimp/models/OBJ/spider.obj --procedural 20 --out data/reg");
   std::string out;
   MakeDataOptions o;

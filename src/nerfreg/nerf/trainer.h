@@ -25,9 +25,10 @@ struct NerfTrainOptions {
   int stop_after = 0;                     // > 0: checkpoint and return at this step (train in slices)
   bool random_background = true;          // for RGBA images; white at evaluation
   // The hash table by SparseAdam (tiny-cuda-nn's: untouched entries skipped, one fused pass)
-  // instead of torch Adam (nerfacc's, as DReg-NeRF trains). Off in both presets: on the spider
-  // block (fast, 500 iterations) it reached 30.4 dB against torch Adam's 31.4 dB, and the table
-  // step it saves is ~6 % of a fast iteration. A resumed run keeps its checkpoint's optimizer.
+  // instead of torch Adam (nerfacc's, as DReg-NeRF trains). Off in both presets: it trained a
+  // worse block and saves a small share of an iteration
+  // (docs/notes/2026-11-22-nerf-and-classical-defaults.md). A resumed run keeps its checkpoint's
+  // optimizer.
   bool sparse_table_adam = false;
   FieldOptions field;
   OccupancyGridOptions grid;

@@ -161,10 +161,10 @@ void OccupiedPoints::Extract() {
   done_ = true;
 }
 
-// ICP on the D = 32 grids, started at the true pose, drifts to a median 1 deg on 2-block pairs and
-// 4.4 deg on 4-block ones; on the finer occupied points it lands closer (README). It only polishes
-// a pose already in its basin. The recorded fitness is no overlap check (blocks of different
-// objects reach high fitness too).
+// ICP on the D = 32 grids drifts even from the true pose, most at low overlap; on the finer
+// occupied points it lands closer (docs/notes/2026-11-24-block-icp-and-agreement.md). It only
+// polishes a pose already in its basin. The recorded fitness is no overlap check (blocks of
+// different objects reach high fitness too).
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
                           Json* json) {
   if (src.cols() < 3 || tgt.cols() < 3) {
@@ -351,7 +351,8 @@ class BlockRegistration {
     if (!is_auto) return false;
     if (field) {
       // FPFH + RANSAC on the same grids too: on the surface points of a grid it registers pairs it
-      // fails on the blocks' occupied points, and the other way round (README).
+      // fails on the blocks' occupied points, and the other way round
+      // (docs/notes/2026-11-23-grids-icp-half-turn.md, "Two FPFH candidates").
       const GridRegistrationOptions rg = GridOptions("ransac");
       const GridRegistrationResult g = RegisterGrids(gs, gt, rg, nullptr);
       RegistrationCandidate cg = c;
@@ -459,8 +460,8 @@ class BlockRegistration {
                        c.agreement.confidence));
     }
     // How many other refined candidates ended at the kept pose. On real blocks this is the signal
-    // that tells: in 49 auto runs on held-out pairs (README) every pose another candidate shared
-    // was right; of those none shared, 5 of 11 were wrong.
+    // that tells right from wrong poses where the network's confidence and the field cost do not
+    // (docs/notes/2026-11-24-block-icp-and-agreement.md, "How to tell a wrong pose").
     if (o_.refine != RegistrationRefinement::kField || cs.size() < 2) return;
     int agreeing = 0;
     for (size_t k = 0; k < cs.size(); ++k) {

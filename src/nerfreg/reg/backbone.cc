@@ -16,9 +16,9 @@ nn::Conv3d Conv(int64_t in, int64_t out, int64_t k, int64_t stride = 1) {
 // grid per forward pass (batch 1, as the paper trains) that is exactly what BatchNorm computes in
 // training; BatchNorm's running averages, which it would use at inference, do not describe any
 // one grid (their occupied share and colours differ widely), and with them the first shipped
-// weights registered 72 of their own training pairs at a median 42 deg instead of 6.6 deg (measured,
-// 2026-11-23). The parameters keep BatchNorm's names (weight, bias), so weights trained with it
-// load; its running averages in such files are not read.
+// weights failed even on their own training pairs (docs/notes/2026-11-23-grids-icp-half-turn.md,
+// "Per-grid normalisation"). The parameters keep BatchNorm's names (weight, bias), so weights
+// trained with it load; its running averages in such files are not read.
 nn::InstanceNorm3d Norm(int64_t channels) {
   return nn::InstanceNorm3d(nn::InstanceNorm3dOptions(channels).affine(true).track_running_stats(false));
 }

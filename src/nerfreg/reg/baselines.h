@@ -1,6 +1,6 @@
 #pragma once
 // Classical point-cloud registration through Open3D, the baselines DReg-NeRF is measured against
-// (spec dreg-nerf.md 6, landscape.md): voxel downsample -> normals -> FPFH -> RANSAC or FGR, then
+// (spec dreg-nerf.md 6): voxel downsample -> normals -> FPFH -> RANSAC or FGR, then
 // optional point-to-plane ICP. Open3D stays behind this header: clouds are Eigen matrices.
 #include <Eigen/Core>
 #include <string>

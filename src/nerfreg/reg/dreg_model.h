@@ -165,8 +165,8 @@ struct DregSolveOptions {
   // pose the network outputs). "ransac": RANSAC over the same confidence-weighted
   // correspondences, both directions (geometry/alignment.h), then weighted Kabsch on its inliers.
   // RANSAC pays only when a consistent subset of matches is right; the shipped CPU weights' soft
-  // matches are spread (median 0.3-1 units from the truth on held-out pairs), and RANSAC over
-  // them was worse (README), so the paper's solve is the default.
+  // matches are spread, and once refined its poses lost held-out pairs that the paper's solve kept
+  // (docs/notes/2026-11-24-experiments-not-kept.md), so the paper's solve is the default.
   std::string solver = "procrustes";
   // Scene units: the confidence's agreement radius and RANSAC's inlier radius (e.g. 2 cells of
   // the coarsest cloud, ~0.1).
@@ -174,9 +174,9 @@ struct DregSolveOptions {
   int ransac_iterations = 2000;
   unsigned seed = 0;
   // Network passes: each pass after the first runs the network again on the source grid moved by
-  // the pose so far (TransformRegGrid) and composes the correction. The paper runs one. On the
-  // held-out synthesised pairs a second pass took the shipped weights from 23.9 to 15.7 deg
-  // median, and more passes gained nothing (README). SE(3) weights only: with estimate_scale the
+  // the pose so far (TransformRegGrid) and composes the correction. The paper runs one. A second
+  // pass sharpens the network's own pose a little but lost pairs once ICP refined it
+  // (docs/notes/2026-11-24-experiments-not-kept.md). SE(3) weights only: with estimate_scale the
   // extra passes are skipped.
   int passes = 1;
   void Check() const;  // throws InputError naming the option

@@ -42,8 +42,8 @@ struct DregTrainOptions {
   // rotation) and both recoloured alike (a random permutation of R, G, B and gains in [0.7, 1.3]),
   // each with this chance per step: a mirrored or recoloured object is another plausible object.
   // Not in the paper, which trains on ~1000 objects; here ~50 real objects are drawn hundreds of
-  // times each, and the network fits them (4.8 deg median alone on its training 4-block pairs
-  // against 45 deg on held-out ones, stage 7).
+  // times each, and the network fits them far better than held-out objects (stage 7 in
+  // docs/notes/2026-11-24-dreg-stages.md).
   double mirror_probability = 0, colour_probability = 0;
   double nerf_fraction = 0.0;       // chance per step of drawing a real-NeRF pair (when any): 0 = by count
   int val_every = 500;              // validation every n steps (0: only at the end)

@@ -2,9 +2,9 @@
 // Fine registration of two NeRF blocks on their density fields: the last step after a coarse
 // pose (DReg-NeRF or FPFH + RANSAC, then ICP).
 //
-// Why: ICP on the extracted grids cannot get below the grids' quantisation. On the synthesised
-// held-out pairs at D = 32, ICP started AT the true pose drifts to a median 1.2-1.5 deg (the
-// points are one jittered sample per 0.11-unit cell); the fields themselves are continuous and
+// Why: ICP on the extracted grids cannot get below the grids' quantisation: started AT the true
+// pose it drifts away (the points are one jittered sample per 0.11-unit cell at D = 32;
+// docs/notes/2026-11-23-grids-icp-half-turn.md); the fields themselves are continuous and
 // agree more closely than their grids.
 //
 // What: with occupancy o(x) = 1 - exp(-occupancy_scale * sigma(x)), find target_from_source T
@@ -57,7 +57,7 @@ std::function<torch::Tensor(const torch::Tensor&)> SeenFromGrid(const RegGrid& g
 struct FieldAlignmentOptions {
   // o = 1 - exp(-occupancy_scale * sigma). Larger: a sharper surface (more precise, smaller basin).
   // 0.05 had the best worst case of 0.02-1 on the tuning pairs (two real block pairs of training
-  // meshes; README).
+  // meshes; docs/notes/2026-11-23-grids-icp-half-turn.md, "Field refinement tuning").
   double occupancy_scale = 0.05;
   // Samples: each surface point gives two, offset by Gaussian noise of 0.25 and 0.5 x sample_spread
   // (a band across the surface, where o changes); at most max_samples per block.

@@ -74,8 +74,8 @@ namespace {
 ClassicalRegistrationOptions ClassicalOptionsFor(const RegGrid& source, const RegGrid& target,
                                                  const GridRegistrationOptions& o) {
   // The classical pipeline's voxel is at least the grid's cell: finer, the normals (2 voxels) and
-  // FPFH (5 voxels) find no neighbours among one point per cell (on the spider's real blocks at
-  // D = 32: RANSAC + ICP 171 deg off at 0.05, 1.9 deg at 0.12).
+  // FPFH (5 voxels) find no neighbours among one point per cell
+  // (docs/notes/2026-11-22-nerf-and-classical-defaults.md).
   const double voxel = std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize()));
   ClassicalRegistrationOptions c;
   c.voxel_size = voxel;

@@ -20,15 +20,15 @@ struct GridRegistrationOptions {
   // The points ICP aligns: "occupied" (every voxel over the density threshold) or "mask" (the
   // surface mask the network and the features see). The mask keeps the surface the block's
   // cameras saw; the occupied voxels add the thickness a trained field gives a surface and fix it
-  // better (6 held-out real block pairs: dreg + ICP median 2.5 deg on the mask, 1.0 deg on the
-  // occupied voxels, README).
+  // better on real blocks (on synthesised pairs, whose extra voxels are simulated blur, the mask
+  // does; docs/notes/2026-11-23-grids-icp-half-turn.md).
   std::string icp_points = "occupied";
   double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x); at least 1.1 x
                                 // the grids' cell is used
   // ICP's correspondence distance, in those voxels. Shorter fixes a converged pose more tightly
-  // (ICP started at the truth of 18 real 4-block pairs: median 4.4 deg at 2, 2.1 at 1) but narrows
-  // the basin the network's pose must land in: dreg + ICP on the held-out real procedural pairs fell
-  // from 100 % (2-block) and 50 % (4-block) at 2 to 67 % and 39 % at 1 (README).
+  // but narrows the basin the network's pose must land in, and on the held-out real pairs the
+  // narrower basin cost more registrations than the tighter fit gained
+  // (docs/notes/2026-11-23-grids-icp-half-turn.md, "ICP correspondence distance").
   static constexpr double kDefaultIcpDistance = 2.0;
   double icp_distance = kDefaultIcpDistance;
   double inlier_radius = 0.1;   // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)

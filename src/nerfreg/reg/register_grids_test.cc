@@ -103,9 +103,9 @@ TEST(RegisterGrids, IcpDistanceIsTheOneAskedFor) {
 
 // The shipped weights (models/dreg_cpu.pt) on held-out pairs (procedural objects of the
 // validation range 5000.., never trained on): with ICP they register most of them (97 % of 36
-// such pairs in the README's table); alone they are coarse (median 8.9 deg there), but within
-// reach of ICP, which a network normalising grids with BatchNorm's running averages at inference
-// was not (its median was 24 deg there).
+// such pairs with stage 5, docs/notes/2026-11-23-grids-icp-half-turn.md); alone they are coarse
+// (results/registration.md, `val_mesh`), but within reach of ICP, which a network normalising
+// grids with BatchNorm's running averages at inference was not (its median was 24 deg there).
 TEST(RegisterGrids, ShippedWeightsWithIcpRegisterMostHeldOutPairs) {
   torch::set_num_threads(2);
   const std::string weights = std::string(NERFREG_SOURCE_DIR) + "/models/dreg_cpu.pt";

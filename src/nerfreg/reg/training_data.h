@@ -7,7 +7,7 @@
 //   OUT/<object>/mesh_<k>_{source,target}.grid     synthesised pairs (reg/synthetic_grids.h)
 //   OUT/<object>/nerf/...                          rendered blocks, block checkpoints, their grids
 //
-// Objects are meshes (assimp-testmodels, openscad-testing-data; see README, Data, for the meshes
+// Objects are meshes (assimp-testmodels, openscad-testing-data; see docs/data.md for the meshes
 // reserved for independent evaluation) and procedural objects. Every pair of an object carries
 // the object's split, so held-out objects are never trained on.
 #include <string>
@@ -42,7 +42,7 @@ struct MakeDataOptions {
   unsigned procedural_seed = 1000;
   int mesh_pairs = 4;               // synthesised pairs per object (different random frames)
   int nerf_objects = 0;             // the first n objects also get real trained blocks
-  int blocks = 2;                   // blocks per object (4: fewer views per block; see README)
+  int blocks = 2;                   // blocks per object (4: fewer views per block; docs/data.md)
   double min_overlap = 0.05;        // pairs of blocks overlapping less are not written
   std::string split = "train";      // the split of every pair written
   int image_size = 100;             // NeRF renders (orbit), pixels

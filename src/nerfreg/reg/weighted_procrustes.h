@@ -6,8 +6,8 @@
 // Degenerate input (total weight ~0) is an expected outcome, not an error: that batch element
 // returns identity, scale 1 and valid = false, and all gradients stay finite (zero for it).
 // Rank-deficient covariances (collinear points, weight on <= 2 points) have repeated singular
-// values, where the SVD gradient is undefined (spec/landscape.md); a tiny, distinct diagonal
-// regulariser keeps them apart so the gradient is finite.
+// values, where the SVD gradient is undefined (its backward divides by the differences of their
+// squares); a tiny, distinct diagonal regulariser keeps them apart so the gradient is finite.
 #pragma once
 
 #include <torch/torch.h>
