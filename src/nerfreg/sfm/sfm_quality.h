@@ -1,7 +1,7 @@
 #pragma once
 // Whether a global SfM solution is constrained well enough to trust. Bundle adjustment can reach
 // a sub-pixel reprojection error on a wrong solution when the data cannot tell solutions apart:
-// on 12 images of 32x24 pixels it reported 0.2 px while the cameras were 21 deg off. Such
+// on 12 images of 32x24 pixels it reports a fraction of a pixel with the cameras degrees off. Such
 // solutions have few, short tracks seen under small angles, and pixels too coarse for the
 // reprojection error to mean anything; these are measured here.
 #include <string>
