@@ -134,8 +134,8 @@ IbrRenderOutput RenderIbrImage(ResUNet& feature_net, IbrNet& net, IbrSourceViews
   const IbrRays all = TargetRays(intrinsics, cam_from_world, height, width);
   const int64_t num_pixels = height * width;
   // On the CPU at most 256 rays a chunk whatever the cap: each chunk's per-view tensors (256 x S x V
-  // x 64 floats) then stay near the caches: after a first view, 512 took 5.1-5.5 s a 128x96 view and
-  // 256 3.2-4.4 s (bench/dbarf_bench.cc, 2 cores). On a GPU, larger chunks fill the device.
+  // x 64 floats) then stay near the caches, which made a view faster than 512-ray chunks
+  // (docs/threads.md, bench/dbarf_bench.cc). On a GPU, larger chunks fill the device.
   const int64_t chunk_rays = all.origins.is_cuda() ? options.chunk_rays : std::min<int64_t>(options.chunk_rays, 256);
   const int64_t num_chunks = (num_pixels + chunk_rays - 1) / chunk_rays;
   std::vector<torch::Tensor> rgb(num_chunks), depth(num_chunks), valid(num_chunks), weights(num_chunks);

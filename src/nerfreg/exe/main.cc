@@ -43,15 +43,15 @@ void PrintUsage() {
 
 }  // namespace
 
-// Threading environment, measured on 2 cores (bench/nerf_bench.cc, BM_FieldForwardBackward at
-// 65k samples): torch's OpenMP threads spinning after each parallel region while OpenBLAS runs
-// its own threads made a field forward+backward 1140 ms; with passive OpenMP waiting and
-// single-threaded OpenBLAS calls (torch parallelises around them) it is 262 ms. Both variables
-// are read when the libraries load, so the process re-executes itself once with them set.
+// Threading environment: torch's OpenMP threads spinning after each parallel region while
+// OpenBLAS runs its own threads made a field forward+backward several times slower than passive
+// OpenMP waiting with single-threaded OpenBLAS calls (torch parallelises around them); measured in
+// docs/threads.md. Both variables are read when the libraries load, so the process re-executes
+// itself once with them set.
 void EnsureThreadingEnvironment(char** argv) {
   if (std::getenv("NERFREG_ENV_SET") != nullptr) return;
-  // Already set (by the user or a script): nothing to change, so no second start-up (~1.5 s of
-  // library loading on 2 busy cores).
+  // Already set (by the user or a script): nothing to change, so no second start-up (loading the
+  // libraries again).
   if (std::getenv("OMP_WAIT_POLICY") != nullptr && std::getenv("OPENBLAS_NUM_THREADS") != nullptr) return;
   setenv("NERFREG_ENV_SET", "1", 1);
   setenv("OMP_WAIT_POLICY", "PASSIVE", 0);

@@ -23,9 +23,9 @@ using namespace nerfreg;
 
 namespace {
 
-// FPFH + RANSAC on the occupied points of a large block took 13 s (the milk truck: 16k points
-// after downsampling); capped at 5000 it takes 2.7 s. The other held-out pairs (2.5-2.7k points)
-// are under the cap.
+// FPFH + RANSAC's time grows quickly with the points of a large block; the cap keeps it a few
+// seconds without changing a pose on the held-out pairs
+// (docs/notes/2026-11-23-grids-icp-half-turn.md, "The --max-points cap").
 void AddMaxPointsOption(CLI::App& app, int* max_points) {
   app.add_option("--max-points", *max_points,
                  "ransac / fgr on the occupied points: above this many points after downsampling, the features and "

@@ -405,7 +405,7 @@ class BlockRegistration {
   }
 
   // Each candidate refined on the fields; a start that is the same answer as an earlier
-  // candidate's (SamePose) is refined once (0.06-0.9 s each on the held-out pairs).
+  // candidate's (SamePose) is refined once: the refinement is the costly step (refined_with).
   void RefineCandidatesOnFields() {
     auto& cs = result_.candidates;
     std::vector<Sim3d> starts;
