@@ -125,8 +125,9 @@ void BM_AdamTableStep(benchmark::State& state) {
 }
 BENCHMARK(BM_AdamTableStep)->Arg(17)->Arg(19)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// SparseAdam (the fast preset's table optimizer) on a realistic gradient: the encoding's backward
-// of 64 samples along each of 1024 rays, which touches a fraction of the fine levels' entries.
+// SparseAdam (NerfTrainOptions::sparse_table_adam, off in both presets) on a realistic gradient:
+// the encoding's backward of 64 samples along each of 1024 rays, which touches a fraction of the
+// fine levels' entries.
 void BM_SparseAdamTableStep(benchmark::State& state) {
   torch::set_num_threads(2);
   const auto o = PaperEncoding(static_cast<int>(state.range(0)));
