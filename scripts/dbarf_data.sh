@@ -1,39 +1,49 @@
 #!/usr/bin/env bash
 # Renders the DBARF pose-network data: procedural forward-facing scenes (20 views, 128x96, every 8th
-# a test view), with ground-truth cameras in each transforms.json.
-#   train: seeds TRAIN_FIRST .. TRAIN_FIRST + TRAIN_COUNT - 1 (default 2001-2300)
-#   val:   seeds VAL_FIRST .. VAL_FIRST + VAL_COUNT - 1 (default 3001-3012): choose models and
-#          settings on these
-#   test:  seeds 201-203 are the held-out test scenes (bench/dbarf_novel_views.sh): never rendered
-#          here, never trained or chosen on.
-# Writes DATA/train_SEED/, DATA/val_SEED/ and the lists DATA/train.txt, DATA/val.txt (one
-# transforms.json a line). Scenes already rendered are kept, so re-running extends or resumes.
+# a test view), with ground-truth cameras (and per-frame near / far) in each transforms.json.
+#   SETS   space-separated SPLIT:FIRST:COUNT:MATERIAL:SPREAD entries, SPLIT train or val, MATERIAL
+#          textured, low-texture or repetitive (render --material), SPREAD the camera spiral's
+#          half-extent (render --spread; 0.35 is the default, wider baselines above). Default:
+#            train 2001-2300 textured, 2301-2400 low-texture, 2401-2500 repetitive, 2501-2600
+#            textured at spread 0.7; val 3001-3012 textured (choose models and settings on these),
+#            3013-3016 low-texture, 3017-3020 repetitive, 3021-3024 spread 0.7.
+#   Seeds 201-203 are the held-out test scenes (bench/dbarf_novel_views.sh) and 5000 and above the
+#   benches' (bench/dbarf_poses_bench.sh): never rendered here, never trained or chosen on.
+# Writes DATA/SPLIT_SEED/ and the lists DATA/train.txt, DATA/val.txt (one transforms.json a line;
+# DATA/val_textured.txt the textured validation scenes alone). Scenes already rendered are kept, so
+# re-running extends or resumes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/nerfreg}
 DATA=${DATA:-data/dbarf_poses}
-TRAIN_FIRST=${TRAIN_FIRST:-2001}
-TRAIN_COUNT=${TRAIN_COUNT:-300}
-VAL_FIRST=${VAL_FIRST:-3001}
-VAL_COUNT=${VAL_COUNT:-12}
 VIEWS=${VIEWS:-20}
-TRAJECTORY=${TRAJECTORY:-forward}
-overlaps() { [ "$1" -le 203 ] && [ "$2" -ge 201 ]; }
-if overlaps "$TRAIN_FIRST" $((TRAIN_FIRST + TRAIN_COUNT - 1)) || overlaps "$VAL_FIRST" $((VAL_FIRST + VAL_COUNT - 1)); then
-  echo "error: seeds 201-203 are the test scenes: choose train / val ranges without them" >&2
-  exit 2
-fi
+SETS=${SETS:-"train:2001:300:textured:0.35 train:2301:100:low-texture:0.35 train:2401:100:repetitive:0.35 train:2501:100:textured:0.7 val:3001:12:textured:0.35 val:3013:4:low-texture:0.35 val:3017:4:repetitive:0.35 val:3021:4:textured:0.7"}
 mkdir -p "$DATA"
-render() {  # SPLIT SEED
-  local d=$DATA/$1_$2
-  [ -f "$d/transforms.json" ] || "$BIN" render --procedural "$2" --trajectory "$TRAJECTORY" --views "$VIEWS" \
-    --test-every 8 --quiet --out "$d" --force
-  echo "$d/transforms.json"
-}
-: > "$DATA/val.txt.tmp"
-for seed in $(seq "$VAL_FIRST" $((VAL_FIRST + VAL_COUNT - 1))); do render val "$seed" >> "$DATA/val.txt.tmp"; done
-mv "$DATA/val.txt.tmp" "$DATA/val.txt"
+for s in $SETS; do
+  IFS=: read -r split first count material spread <<< "$s"
+  last=$((first + count - 1))
+  if [ "$first" -le 203 ] && [ "$last" -ge 201 ] || [ "$last" -ge 5000 ]; then
+    echo "error: SETS: $s: expected seeds outside the test scenes 201-203 and the benches' 5000+" >&2
+    exit 2
+  fi
+  case "$split" in train|val) ;; *) echo "error: SETS: $s: expected SPLIT train or val" >&2; exit 2 ;; esac
+done
 : > "$DATA/train.txt.tmp"
-for seed in $(seq "$TRAIN_FIRST" $((TRAIN_FIRST + TRAIN_COUNT - 1))); do render train "$seed" >> "$DATA/train.txt.tmp"; done
+: > "$DATA/val.txt.tmp"
+: > "$DATA/val_textured.txt.tmp"
+for s in $SETS; do
+  IFS=: read -r split first count material spread <<< "$s"
+  for seed in $(seq "$first" $((first + count - 1))); do
+    d=$DATA/${split}_${seed}
+    [ -f "$d/transforms.json" ] || "$BIN" render --procedural "$seed" --trajectory forward --views "$VIEWS" \
+      --material "$material" --spread "$spread" --test-every 8 --quiet --out "$d" --force
+    echo "$d/transforms.json" >> "$DATA/$split.txt.tmp"
+    if [ "$split" = val ] && [ "$material" = textured ] && [ "$spread" = 0.35 ]; then
+      echo "$d/transforms.json" >> "$DATA/val_textured.txt.tmp"
+    fi
+  done
+done
 mv "$DATA/train.txt.tmp" "$DATA/train.txt"
+mv "$DATA/val.txt.tmp" "$DATA/val.txt"
+mv "$DATA/val_textured.txt.tmp" "$DATA/val_textured.txt"
 echo "$(wc -l < "$DATA/train.txt") train scenes, $(wc -l < "$DATA/val.txt") validation scenes in $DATA"

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <map>
 
 #include "nerfreg/data/convert.h"
@@ -145,6 +146,9 @@ Image InverseDepthImage(const torch::Tensor& depth, const torch::Tensor& valid, 
 
 void DbarfSceneOptions::Check() const {
   if (max_width < 0) throw InputError("--max-width: expected >= 0, got " + std::to_string(max_width));
+  if (cameras != "estimated" && cameras != "ground-truth") {
+    throw InputError("--scene-cameras: expected estimated or ground-truth, got " + cameras);
+  }
   sfm.Check();
 }
 
@@ -239,6 +243,55 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
           out.valid.reshape({height, width}).cpu()};
 }
 
+namespace {
+
+// DbarfSceneOptions::cameras == "ground-truth": the dataset's poses in the frame dbarf poses
+// writes, the nearest cameras as the view graph, the frames' near / far as the depth range.
+void UseGroundTruthCameras(const std::string& path, const Dataset& d, DbarfScene* scene) {
+  const int64_t v = static_cast<int64_t>(d.frames.size());
+  int reference = -1;
+  for (int64_t i = 0; i < v && reference < 0; ++i)
+    if (scene->usable[i]) reference = static_cast<int>(i);
+  if (reference < 0) ThrowInputError(path, "frames", "at least one training view");
+  const Rigid3d world_from_reference = d.frames[reference].cam_from_world.Inverse();
+  std::vector<Rigid3d> cam_from_reference;
+  double distance = 0;
+  int others = 0;
+  for (int64_t i = 0; i < v; ++i) {
+    cam_from_reference.push_back(d.frames[i].cam_from_world * world_from_reference);
+    if (i != reference && scene->usable[i]) {
+      distance += cam_from_reference.back().Inverse().translation.norm();
+      ++others;
+    }
+  }
+  if (others == 0 || !(distance > 1e-12)) ThrowInputError(path, "frames", "training views at distinct centres");
+  const double scale = others / distance;  // the mean distance to the reference becomes 1
+  double near = std::numeric_limits<double>::infinity(), far = 0;
+  std::vector<torch::Tensor> cameras;
+  for (int64_t i = 0; i < v; ++i) {
+    const Frame& f = d.frames[i];
+    if (!(f.near > 0 && f.far > f.near)) {
+      ThrowInputError(path, "frames[" + std::to_string(i) + "].near",
+                      "per-frame near and far depths (0 < near < far) with --scene-cameras ground-truth");
+    }
+    near = std::min(near, f.near * scale);
+    far = std::max(far, f.far * scale);
+    Rigid3d c = cam_from_reference[i];
+    c.translation *= scale;
+    cameras.push_back(Matrix4ToTensor(c.ToMatrix()));
+  }
+  scene->cam_from_world = torch::stack(cameras);
+  scene->near = near;
+  scene->far = far;
+  scene->neighbours.assign(v, {});
+  for (int64_t i = 0; i < v; ++i) {
+    for (int j : NearestViews(*scene, scene->cam_from_world[i], static_cast<int>(v)))
+      if (j != i) scene->neighbours[i].push_back(j);
+  }
+}
+
+}  // namespace
+
 LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions& options) {
   options.Check();
   LoadedDbarfScene out;
@@ -316,6 +369,10 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     }
     scene.near = posed.near;
     scene.far = posed.far;
+  } else if (options.cameras == "ground-truth") {
+    out.ground_truth = torch::stack(poses);
+    UseGroundTruthCameras(path, d, &scene);
+    out.ground_truth = scene.cam_from_world.clone();  // the same cameras, in the frame used
   } else {
     // The dataset's poses are ground truth: kept aside; estimate everything from the images.
     out.ground_truth = torch::stack(poses);

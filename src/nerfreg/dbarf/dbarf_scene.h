@@ -31,6 +31,15 @@ struct DbarfSceneOptions {
   // seconds rather than tens of minutes. An entry records neither the SfM options nor the code
   // version beyond kSfmCacheVersion: clear the folder after changing either.
   std::string sfm_cache_dir;
+  // Where a dataset's training cameras come from: "estimated" (from the images by the SfM, the
+  // dataset's poses kept for evaluation only) or "ground-truth" (the dataset's own poses, for
+  // training data only, as the original trains: its views are chosen by true camera distance).
+  // With "ground-truth" the poses are put in the frame `dbarf poses` writes (the first usable
+  // camera at the identity, the mean distance of the others to it 1), the view graph is the
+  // nearest cameras (centre distance plus viewing angle), and the depth range is the frames' own
+  // near / far in that frame; no SfM runs, so scenes the SfM cannot pose (low texture,
+  // repetition) can be trained on too.
+  std::string cameras = "estimated";
   void Check() const;  // throws InputError naming the option
 };
 

@@ -60,6 +60,10 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c) {
   app.add_option("--sfm-cache", c->scene.sfm_cache_dir,
                  "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
                  "changing the SfM)");
+  app.add_option("--scene-cameras", c->scene.cameras,
+                 "Training cameras: estimated (from the images) or ground-truth (the datasets' own poses; views chosen "
+                 "by true camera distance, as the original trains)")
+      ->check(CLI::IsMember({"estimated", "ground-truth"}));
   app.add_option("--seed", c->train.seed, "Seed");
 }
 
@@ -226,6 +230,9 @@ int RunDbarfEvalNet(int argc, char** argv) {
   app.add_option("--pose-init", pose_init, "network (from the identity) or cameras")->check(CLI::IsMember({"network", "cameras"}));
   app.add_option("--sources", num_sources, "Sources per target (view-graph neighbours, best first)");
   app.add_option("--json-out", json_out, "Also write the rows and means to this JSON file");
+  app.add_option("--scene-cameras", scene_options.cameras, "Views chosen by: estimated cameras or ground-truth")
+      ->check(CLI::IsMember({"estimated", "ground-truth"}));
+  app.add_option("--sfm-cache", scene_options.sfm_cache_dir, "Reuse the cameras estimated from each scene's images");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
   DbarfModel model = LoadDbarfWeights(weights);
