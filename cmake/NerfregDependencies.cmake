@@ -4,6 +4,21 @@
 find_package(Threads REQUIRED)
 find_package(OpenMP REQUIRED)
 if(NERFREG_WITH_TORCH)
+  # A LibTorch named by Torch_DIR (the CUDA build's wheel) must not be mixed with another one on
+  # the system's paths: its TorchConfig asks for Caffe2 and its libraries with PATHS, which CMake
+  # searches after the default paths, so on a machine with Debian's libtorch-dev the build took
+  # Debian's Caffe2 targets and libtorch 1.13 beside the wheel's headers and failed to link. Its
+  # package and library folders are fixed here first.
+  if(Torch_DIR AND EXISTS "${Torch_DIR}/../Caffe2/Caffe2Config.cmake")
+    get_filename_component(nerfreg_torch_lib "${Torch_DIR}/../../../lib" ABSOLUTE)
+    set(Caffe2_DIR "${Torch_DIR}/../Caffe2" CACHE PATH "Caffe2 config beside Torch_DIR" FORCE)
+    foreach(lib torch torch_cpu torch_cuda c10 c10_cuda kineto)
+      find_library(${lib}_LIBRARY ${lib} PATHS "${nerfreg_torch_lib}" NO_DEFAULT_PATH)
+    endforeach()
+    find_library(TORCH_LIBRARY torch PATHS "${nerfreg_torch_lib}" NO_DEFAULT_PATH)
+    find_library(C10_CUDA_LIBRARY c10_cuda PATHS "${nerfreg_torch_lib}" NO_DEFAULT_PATH)
+    find_library(CAFFE2_NVRTC_LIBRARY caffe2_nvrtc PATHS "${nerfreg_torch_lib}" NO_DEFAULT_PATH)
+  endif()
   find_package(Torch REQUIRED)
 endif()
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)

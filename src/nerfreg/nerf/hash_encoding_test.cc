@@ -127,7 +127,10 @@ TEST(HashEncoding, InstantNgpRuleLevelsAndWrappingDenseIndex) {
 // grid rules and at the paper's level count. CUDA cases skip where no GPU is present.
 class HashEncodingDevice : public ::testing::TestWithParam<std::tuple<std::string, std::string>> {
  protected:
-  torch::Device Device() const { return torch::Device(std::get<0>(GetParam())); }
+  // "cuda" as cuda:0: tensors report their device with its index, and so must the expectation.
+  torch::Device Device() const {
+    return std::get<0>(GetParam()) == "cuda" ? torch::Device(torch::kCUDA, 0) : torch::Device(torch::kCPU);
+  }
   void SetUp() override {
     if (std::get<0>(GetParam()) == "cuda" && !CudaAvailable()) {
       GTEST_SKIP() << "no CUDA device (this build's LibTorch has no CUDA or the machine has no GPU)";
