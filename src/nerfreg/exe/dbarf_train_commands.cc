@@ -109,8 +109,10 @@ int RunDbarfPretrain(int argc, char** argv) {
     throw InputError("--rotation-scale: expected > 0, got " + std::to_string(c.rotation_scale));
   }
   if (!c.weights.empty() && !c.run.resume) {
-    // The configuration is the starting weights'.
-    const DbarfOptions expected = DbarfOptions::Named(c.config);
+    // The configuration is the starting weights'. Their rotation scale is a scale of the pose
+    // heads' output, not of the architecture (--rotation-scale rescales it, keeping the function).
+    DbarfOptions expected = DbarfOptions::Named(c.config);
+    expected.pose.rotation_scale = LoadDbarfWeights(c.weights).options.pose.rotation_scale;
     LoadDbarfWeights(c.weights, &expected);
   }
   return RunTraining(c, common);
