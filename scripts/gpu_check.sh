@@ -92,6 +92,19 @@ else
 ctest --test-dir "${BUILD_DIR}" --output-on-failure -j 4 --timeout 900 >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
 fi
 tests_summary=$(grep -E "tests passed|tests failed" "${LOGS}/ctest.log" | tail -n 1 || true)
+# A backtrace of each failed test (cuda-gdb also debugs host code; the GPU images have no gdb), so
+# one GPU session is enough to see where a crash is.
+if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
+  : >"${LOGS}/backtraces.log"
+  grep -E "^[[:space:]]+[0-9]+ - .* \((Failed|Subprocess aborted|SEGFAULT|Exception)\)" "${LOGS}/ctest.log" |
+    sed -E 's/^[[:space:]]+[0-9]+ - (.*) \(.*\)$/\1/' | head -n 8 | while read -r name; do
+    binary=$(ctest --test-dir "${BUILD_DIR}" -N -V -R "^${name}\$" 2>/dev/null | sed -n 's/.*Test command: \([^ ]*\).*/\1/p' | head -n 1)
+    [ -n "${binary}" ] || continue
+    { echo "=== ${name}"; timeout 120 cuda-gdb -batch -ex run -ex bt --args "${binary}" --gtest_filter="${name}" 2>&1 | tail -n 40; } \
+      >>"${LOGS}/backtraces.log" || true
+  done
+  echo "gpu_check: backtraces of the failed tests in ${LOGS}/backtraces.log"
+fi
 echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
 cuda_rc=0
 "${BUILD_DIR}/src/nerfreg/nerf/nerfreg_nerf_kernels_test" --gtest_filter='*HashEncodingDevice*cuda_*' >"${LOGS}/cuda_tests.log" 2>&1 || cuda_rc=$?

@@ -14,6 +14,9 @@ ViewGraphOptions SfmViewGraphDefaults() {
   o.contrast_threshold = 0.005;
   o.min_inliers = 15;
   o.upsample = 2;
+  // Enlarging helps the small renders (128x96, 320x240) and costs photos most of the time: at
+  // 640x480 it made matching ~6x slower for the same rotations (docs/notes/2026-11-25-sift-upsample.md).
+  o.upsample_max_side = 1000;
   return o;
 }
 
