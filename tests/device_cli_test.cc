@@ -23,6 +23,12 @@ const std::vector<std::string>& Commands() {
       "reg train no_pairs.json --out no_dir/w.pt",
       "reg register no_a.ckpt no_b.ckpt --out no_dir/t.json",
       "reg eval --pairs no_pairs.json",
+      "dbarf pretrain no_scene --out no_dir/w.pt",
+      "dbarf finetune no_scene --out no_dir/w.pt",
+      "dbarf render no_posed --transforms no.json --out no_dir/r",
+      "dbarf eval no_dataset --out no_dir/e",
+      "dbarf poses no_images --focal 100 --out no_dir/p",
+      "dbarf eval-net no_dataset",
   };
   return commands;
 }

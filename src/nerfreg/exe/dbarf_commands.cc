@@ -14,6 +14,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 namespace fs = std::filesystem;
@@ -64,9 +65,12 @@ int RunDbarfPoses(int argc, char** argv) {
   app.add_option("--min-inliers", options.sfm.view_graph.min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
   app.add_option("--sift-contrast", options.sfm.view_graph.contrast_threshold, "SIFT contrast threshold (default 0.005)");
   app.add_option("--sift-upsample", options.sfm.view_graph.upsample, "Enlarge images by this factor before SIFT (default 2)");
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   app.add_option("--sift-upsample-max-side", options.sfm.view_graph.upsample_max_side,
                  "... only while the enlarged image's longer side stays within this (default 1000; 0: always)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  options.device = ParseDevice(device);
   job.force = common.force;
   PoseImageFolder(job);
   return 0;

@@ -15,6 +15,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
 
@@ -30,7 +31,8 @@ std::string DefaultDbarfPoseWeights() {
 
 namespace {
 
-void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c) {
+void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
+  AddDeviceOption(app, device);
   app.add_option("--out", c->run.out, "Output weights (OUT.train: the state --resume continues; OUT.log.jsonl)")->required();
   app.add_option("--steps", c->run.steps, "Total steps (a resumed run counts its earlier steps)");
   app.add_option("--checkpoint-every", c->run.checkpoint_every, "Steps between checkpoints (default 250)");
@@ -103,8 +105,10 @@ int RunDbarfPretrain(int argc, char** argv) {
   app.add_option("--rotation-scale", c.rotation_scale,
                  "Scale on the rotation half of the pose heads' twists (default: the config's or the weights', 0.01 "
                  "as in the original; --weights keep their function, rescaled; a resumed run must give the same)");
-  AddTrainOptions(app, &c);
+  std::string device = "cpu";
+  AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  c.run.device = ParseDevice(device);
   if (c.rotation_scale < 0 || !std::isfinite(c.rotation_scale)) {
     throw InputError("--rotation-scale: expected > 0, got " + std::to_string(c.rotation_scale));
   }
@@ -137,8 +141,10 @@ int RunDbarfFinetune(int argc, char** argv) {
                  "Also refine the scene's cameras (one SE(3) correction per image, by the RGB loss of the NeRF stages; "
                  "needs --nerf-poses cameras and a scene written by dbarf poses) and write them to this transforms.json");
   app.add_option("--lr-cameras", c.train.lr_cameras, "Camera-refinement learning rate");
-  AddTrainOptions(app, &c);
+  std::string device = "cpu";
+  AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  c.run.device = ParseDevice(device);
   c.scenes = {scene};
   c.train.refine_cameras = !c.cameras_out.empty();
   if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force, {scene, c.weights});
@@ -165,7 +171,10 @@ int RunDbarfRender(int argc, char** argv) {
   app.add_option("--out", job.out, "Output folder")->required();
   app.add_option("--weights", job.weights, "DBARF weights (default: the shipped ones)");
   app.add_option("--sources", job.num_sources, "Source views per rendered view (nearest cameras)");
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  job.device = ParseDevice(device);
   job.force = common.force;
   RenderDbarfViews(job);
   return 0;
@@ -193,7 +202,10 @@ int RunDbarfEval(int argc, char** argv) {
                  "Also score the network refining cameras perturbed by this rotation (deg, per-axis std)");
   app.add_option("--perturb-translation", o.perturb.translation,
                  "... and this translation (per-axis std, fraction of each baseline)");
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  o.device = ParseDevice(device);
   o.force = common.force;
   const DbarfEvaluation e = EvaluateDbarf(o);
   if (common.json) {
@@ -235,9 +247,13 @@ int RunDbarfEvalNet(int argc, char** argv) {
   app.add_option("--scene-cameras", scene_options.cameras, "Views chosen by: estimated cameras or ground-truth")
       ->check(CLI::IsMember({"estimated", "ground-truth"}));
   app.add_option("--sfm-cache", scene_options.sfm_cache_dir, "Reuse the cameras estimated from each scene's images");
+  std::string device = "cpu";
+  AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  const torch::Device dev = ParseDevice(device);
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
   DbarfModel model = LoadDbarfWeights(weights);
+  model.To(dev);
   Json rows = Json::array();
   double sum_rot = 0, sum_dir = 0, sum_start_rot = 0, sum_start_dir = 0;
   int n = 0;

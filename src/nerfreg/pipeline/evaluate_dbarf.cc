@@ -73,6 +73,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   o.Check();
   CheckCanWriteOutput(o.out, o.force, {o.dataset, o.weights});
   DbarfModel model = LoadDbarfWeights(o.weights);
+  model.To(o.device);
   const Timer timer;
   LoadedDbarfScene loaded = LoadDbarfScene(o.dataset, o.scene);
   if (!loaded.ground_truth.defined()) ThrowInputError(o.dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");

@@ -22,6 +22,7 @@ struct DbarfEvaluationOptions {
   DbarfSceneOptions scene;
   // Also score the network refining cameras perturbed by this much (inactive: zero).
   RelativePoseNoise perturb;
+  torch::Device device = torch::kCPU;  // where the networks run (`--device`)
   bool force = false;      // replace an existing output
   void Check() const;      // throws InputError naming the flag
 };

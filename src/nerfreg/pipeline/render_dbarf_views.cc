@@ -23,6 +23,7 @@ int RenderDbarfViews(const DbarfRenderJob& job) {
   job.Check();
   CheckCanWriteOutput(job.out, job.force, {job.posed, job.transforms, job.weights});
   DbarfModel model = LoadDbarfWeights(job.weights);
+  model.To(job.device);
   DbarfSceneOptions scene_options;
   scene_options.hold_out_test = false;
   LoadedDbarfScene loaded = LoadDbarfScene(job.posed, scene_options);

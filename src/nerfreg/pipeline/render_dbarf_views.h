@@ -2,6 +2,8 @@
 // `dbarf render`'s job: novel views with the generalizable NeRF from posed images (the output of
 // dbarf poses, dbarf/posed_images.h): one PNG per camera of a camera file, named as its frame, and
 // its inverse depth in OUT/depth/, all moved into place at once.
+#include <c10/core/Device.h>
+
 #include <string>
 
 namespace nerfreg {
@@ -12,6 +14,7 @@ struct DbarfRenderJob {
   std::string out;         // output folder
   std::string weights;     // DBARF weights
   int num_sources = 8;     // source views per rendered view (nearest cameras)
+  c10::Device device = c10::kCPU;  // where the networks run (`--device`); images are written from the CPU
   bool force = false;      // replace an existing output
   void Check() const;      // throws InputError naming the flag
 };
