@@ -2,11 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
+#include "nerfreg/data/convert.h"
 #include "nerfreg/render/procedural.h"
 #include "nerfreg/render/render_dataset.h"
+#include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
+#include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
 
 namespace nerfreg {
@@ -68,6 +72,71 @@ TEST(DbarfScene, SfmCacheGivesTheCamerasOfTheFirstEstimateAndMissesOnOtherImages
   const LoadedDbarfScene fourth = LoadDbarfScene(scene, options);
   EXPECT_TRUE(torch::allclose(first.scene.cam_from_world, fourth.scene.cam_from_world, 1e-6, 1e-6));
   EXPECT_DOUBLE_EQ(fourth.scene.near, first.scene.near);
+}
+
+// --scene-cameras ground-truth: the dataset's cameras in dbarf poses' frame, with their relative
+// poses kept up to the frame's scale, the nearest cameras as neighbours, the frames' depth range.
+TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
+  ScopedTempDir dir;
+  const std::string path = RenderForwardScene(dir, 7);
+  DbarfSceneOptions options;
+  options.cameras = "ground-truth";
+  const LoadedDbarfScene loaded = LoadDbarfScene(path, options);
+  const DbarfScene& s = loaded.scene;
+  const Dataset truth = ReadCameras(path);
+  ASSERT_EQ(s.NumViews(), 8);
+  // The frame's reference is the first training view (view 0 is the held-out test view here).
+  const int ref = static_cast<int>(std::find(s.usable.begin(), s.usable.end(), true) - s.usable.begin());
+  ASSERT_LT(ref, 8);
+  EXPECT_TRUE(torch::allclose(s.cam_from_world[ref], torch::eye(4), 1e-5, 1e-5));
+  // Mean distance of the other training views' centres to the reference: 1.
+  const auto centre = [](const Rigid3d& c) { return Eigen::Vector3d(c.Inverse().translation); };
+  double mean = 0, true_mean = 0;
+  int others = 0;
+  for (int v = 0; v < 8; ++v) {
+    if (v == ref || !s.usable[v]) continue;
+    mean += centre(Rigid3d::FromMatrix(TensorToMatrix4(s.cam_from_world[v]), 1e-3)).norm();
+    true_mean += (centre(truth.frames[v].cam_from_world) - centre(truth.frames[ref].cam_from_world)).norm();
+    ++others;
+  }
+  mean /= others, true_mean /= others;
+  EXPECT_NEAR(mean, 1.0, 1e-4);
+  // Relative poses are the truth's, translations scaled by 1 / true_mean; test views included.
+  for (int v = 0; v < 8; ++v) {
+    const Rigid3d rel_truth = truth.frames[v].cam_from_world * truth.frames[ref].cam_from_world.Inverse();
+    const Eigen::Matrix4d rel = TensorToMatrix4(s.cam_from_world[v]);
+    EXPECT_LT((rel.block<3, 3>(0, 0) - rel_truth.rotation.toRotationMatrix()).norm(), 1e-4);
+    EXPECT_LT((rel.block<3, 1>(0, 3) - rel_truth.translation / true_mean).norm(), 1e-4);
+  }
+  // The depth range is the frames' own, in the frame's units.
+  double near = 1e9, far = 0;
+  for (const Frame& f : truth.frames) near = std::min(near, f.near), far = std::max(far, f.far);
+  EXPECT_NEAR(s.near, near / true_mean, 1e-3 * s.near);
+  EXPECT_NEAR(s.far, far / true_mean, 1e-3 * s.far);
+  // Every view's neighbours: the other training views, the nearest first.
+  for (int v = 0; v < 8; ++v) {
+    EXPECT_EQ(s.neighbours[v], [&] {
+      auto n = NearestViews(s, s.cam_from_world[v], 8);
+      n.erase(std::remove(n.begin(), n.end(), v), n.end());
+      return n;
+    }());
+  }
+  // The supervision is these very cameras; nothing was estimated.
+  EXPECT_FALSE(loaded.estimated_here);
+  EXPECT_TRUE(torch::allclose(loaded.ground_truth, s.cam_from_world));
+
+  // A dataset without per-frame near / far cannot say its depth range.
+  Json json = ReadJsonFile(path + "/transforms.json");
+  for (auto& f : json["frames"]) f.erase("near"), f.erase("far");
+  WriteJsonFile(path + "/transforms.json", json);
+  try {
+    LoadDbarfScene(path, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("near"), std::string::npos) << e.what();
+  }
+  options.cameras = "both";
+  EXPECT_THROW(options.Check(), InputError);
 }
 
 }  // namespace
