@@ -77,6 +77,21 @@ TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
   EXPECT_LT((returned.position - s.position).cwiseAbs().maxCoeff(), 1e-6);
   EXPECT_LT((returned.rotation - s.rotation).cwiseAbs().maxCoeff(), 1e-6);
   EXPECT_LT((returned.log_scale - s.log_scale).cwiseAbs().maxCoeff(), 1e-6);
+
+  // register-many on the two captures: block 1 placed in block 0's frame, both merged there.
+  const CommandResult many = RunNerfreg("reg register-many " + a + " " + b + " --quiet --out " + dir.File("many.json") +
+                                        " --merged-splats " + dir.File("merged.ply"));
+  ASSERT_EQ(many.exit_code, 0) << many.output;
+  const Json m = ReadJsonFile(dir.File("many.json"));
+  const Sim3d world_from_1 = Sim3d::FromMatrix(JsonField(m, "many.json")["world_from_block"][1].Matrix(4, 4), 1e-3);
+  const Sim3d expected_1 = truth.Inverse();  // block 0's frame is the world
+  EXPECT_TRUE(RegistrationSucceeded(RotationErrorDeg(world_from_1.rotation, expected_1.rotation),
+                                    TranslationError(world_from_1.translation, expected_1.translation)))
+      << m.dump();
+  const Splats merged = ReadSplatPly(dir.File("merged.ply"));
+  EXPECT_EQ(merged.size(), s.size() + ReadSplatPly(b).size());
+  // Block 0's splats stay where they were.
+  EXPECT_LT((merged.position.leftCols(s.size()) - s.position).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 }  // namespace
