@@ -6,6 +6,7 @@
 
 #include "cli_test_util.h"
 #include "nerfreg/data/ground_truth.h"
+#include "nerfreg/data/splat_ply.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/pipeline/register_blocks.h"
@@ -17,15 +18,46 @@
 namespace nerfreg {
 namespace {
 
-TEST(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundTrip) {
-  ScopedTempDir dir;
-  ASSERT_EQ(RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 --quiet --out " +
-                       dir.File("data")).exit_code, 0);
-  for (int k = 0; k < 2; ++k) {
-    const std::string b = std::to_string(k);
-    ASSERT_EQ(RunNerfreg("nerf train " + dir.File("data/block_" + b) + " --out " + dir.File("b" + b + ".ckpt") +
-                         " --iters 400 --samples 8192 --quiet").exit_code, 0);
+// Two blocks trained once for every test here (a minute on 2 cores), with splats of the same
+// renders (render --splats) for the mixed inputs.
+class RegisterBlocksCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new ScopedTempDir();
+    ASSERT_EQ(RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 --splats "
+                         "--quiet --out " + File("data")).exit_code, 0);
+    for (int k = 0; k < 2; ++k) {
+      const std::string b = std::to_string(k);
+      ASSERT_EQ(RunNerfreg("nerf train " + File("data/block_" + b) + " --out " + File("b" + b + ".ckpt") +
+                           " --iters 400 --samples 8192 --quiet").exit_code, 0);
+    }
   }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static std::string File(const std::string& name) { return dir_->File(name); }
+  // reg register SOURCE TARGET (default method and refinement) and its error against the truth.
+  static void ExpectRegisters(const std::string& source, const std::string& target, const std::string& out,
+                              const std::string& label) {
+    const CommandResult reg = RunNerfreg("reg register " + source + " " + target + " --seed 0 --quiet --out " + out);
+    ASSERT_EQ(reg.exit_code, 0) << reg.output;
+    const Json t = ReadJsonFile(out);
+    const Sim3d est = Sim3d::FromMatrix(JsonField(t, out)["target_from_source"].Matrix(4, 4), 1e-3);
+    const Sim3d truth = GroundTruthFile(File("data/ground_truth.json")).TargetFromSource(0, 1);
+    const double rot = RotationErrorDeg(est.rotation, truth.rotation);
+    const double trans = TranslationError(est.translation, truth.translation);
+    EXPECT_TRUE(RegistrationSucceeded(rot, trans)) << label << ": " << rot << " deg, " << trans << "\n" << t.dump();
+    std::printf("%s (%s): %.3f deg, %.4f, confidence %.2f\n", label.c_str(), t["method"].get<std::string>().c_str(), rot,
+                trans, t["confidence"].get<double>());
+  }
+  static ScopedTempDir* dir_;
+};
+
+ScopedTempDir* RegisterBlocksCli::dir_ = nullptr;
+
+TEST_F(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundTrip) {
+  ScopedTempDir& dir = *dir_;
   // The default method (auto: dreg, FPFH + RANSAC on the grids and on the occupied points, the
   // candidate whose fields agree best on common samples kept): RANSAC alone lands 4-67 deg off on
   // blocks this small, depending on the run.
@@ -54,6 +86,41 @@ TEST(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundTri
   // The same up to rounding: threaded reductions may sum in another order.
   EXPECT_LT(RotationErrorDeg(second.rotation, est.rotation), 1e-6);
   EXPECT_LT((second.translation - est.translation).norm(), 1e-9);
+}
+
+// A block and a splat capture of the other half of the views, either way round; and a block
+// exported as splats (nerf export --splats) against the other block.
+TEST_F(RegisterBlocksCli, BlocksAndSplatsRegisterMixed) {
+  ExpectRegisters(File("b0.ckpt"), File("data/block_1/splats.ply"), File("mixed.json"), "block -> splats");
+  EXPECT_EQ(ReadJsonFile(File("mixed.json"))["target_kind"], "splats");
+  ExpectRegisters(File("data/block_0/splats.ply"), File("b1.ckpt"), File("mixed2.json"), "splats -> block");
+  const CommandResult exported = RunNerfreg("nerf export " + File("b0.ckpt") + " --splats " + File("b0.ply") + " --quiet");
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  ASSERT_TRUE(IsSplatPly(File("b0.ply")));
+  ExpectRegisters(File("b0.ply"), File("b1.ckpt"), File("exported.json"), "exported splats -> block");
+}
+
+// A block moved by reg apply (its frame, not its field) is where the truth puts it: registering it
+// to the other block's own frame gives the identity.
+TEST_F(RegisterBlocksCli, AppliedBlockLandsInTheOtherFrame) {
+  WriteJsonFile(File("truth.json"),
+                {{"target_from_source",
+                  MatrixToJson(GroundTruthFile(File("data/ground_truth.json")).TargetFromSource(0, 1).ToMatrix())}});
+  const CommandResult apply = RunNerfreg("reg apply " + File("truth.json") + " " + File("b0.ckpt") + " --quiet --out " +
+                                         File("b0_in_b1.ckpt"));
+  ASSERT_EQ(apply.exit_code, 0) << apply.output;
+  const CommandResult reg = RunNerfreg("reg register " + File("b0_in_b1.ckpt") + " " + File("b1.ckpt") +
+                                       " --method ransac --seed 0 --quiet --out " + File("identity.json"));
+  ASSERT_EQ(reg.exit_code, 0) << reg.output;
+  const Sim3d est = Sim3d::FromMatrix(JsonField(ReadJsonFile(File("identity.json")), "identity.json")["target_from_source"].Matrix(4, 4), 1e-3);
+  EXPECT_TRUE(RegistrationSucceeded(RotationErrorDeg(est.rotation, Eigen::Quaterniond::Identity()), est.translation.norm()))
+      << est.ToMatrix();
+  // Training refuses to resume a moved block.
+  const CommandResult resume = RunNerfreg("nerf train " + File("data/block_0") + " --out " + File("b0_in_b1.ckpt") +
+                                          " --resume --iters 500 --quiet");
+  EXPECT_EQ(resume.exit_code, 2) << resume.output;
+  EXPECT_NE(resume.output.find("b0_in_b1.ckpt: world_from_field: expected a block in the frame it was trained in"),
+            std::string::npos) << resume.output;
 }
 
 }  // namespace

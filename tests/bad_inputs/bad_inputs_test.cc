@@ -3,11 +3,14 @@
 // file (and field), leaves no output behind, and does not crash (exit 3 or a signal fails it).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <functional>
 
 #include "cli_test_util.h"
 #include "nerfreg/data/ngp_test_snapshot.h"
+#include "nerfreg/data/splat_ply.h"
+#include "nerfreg/data/splat_test_util.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/test_util.h"
@@ -168,6 +171,71 @@ const std::vector<BadInputCase>& Cases() {
        "error: --out: expected a path", ""},
       {"unknown_option", [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
        "no-such-option", "r.html"},
+      // 3D Gaussian splat PLYs (data/splat_ply.h), through reg register and reg apply.
+      {"splats_nan_opacity",
+       [](const std::string& d) {
+         Splats s = RandomSplats(4, 1, 1);
+         s.opacity(2) = std::nanf("");
+         WriteSplatPly(s, d + "/nan.ply");
+         WriteSplatPly(RandomSplats(4, 1, 2), d + "/good.ply");
+         return "reg register " + d + "/nan.ply " + d + "/good.ply --method ransac --out " + d + "/t.json";
+       },
+       "nan.ply: vertex[2].opacity: expected a finite number (not NaN or infinite)", "t.json"},
+      {"splats_zero_quaternion",
+       [](const std::string& d) {
+         Splats s = RandomSplats(4, 3, 3);
+         s.rotation.col(1).setZero();
+         WriteSplatPly(s, d + "/zero.ply", /*ascii=*/true);
+         WriteFileAtomic(d + "/t.json", R"({"target_from_source": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})");
+         return "reg apply " + d + "/t.json " + d + "/zero.ply --out " + d + "/out.ply";
+       },
+       "zero.ply: vertex[1].rot: expected a non-zero quaternion", "out.ply"},
+      {"splats_missing_property",
+       [](const std::string& d) {
+         std::string ply = SerializeSplatPly(RandomSplats(2, 0, 4));
+         ply.replace(ply.find("property float scale_2\n"), 23, "");
+         WriteFileAtomic(d + "/missing.ply", ply);
+         WriteFileAtomic(d + "/t.json", R"({"target_from_source": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})");
+         return "reg apply " + d + "/t.json " + d + "/missing.ply --out " + d + "/out.ply";
+       },
+       "missing.ply: property scale_2: expected a float property of the vertex element (it is missing)", "out.ply"},
+      {"splats_wrong_property_type",
+       [](const std::string& d) {
+         std::string ply = SerializeSplatPly(RandomSplats(2, 0, 5), /*ascii=*/true);
+         ply.replace(ply.find("property float opacity"), 22, "property int opacity");
+         WriteFileAtomic(d + "/typed.ply", ply);
+         return "reg register " + d + "/typed.ply " + d + "/typed.ply --method ransac --out " + d + "/t.json";
+       },
+       "typed.ply: property opacity: expected type float (got int)", "t.json"},
+      {"splats_header_claims_more_vertices",
+       [](const std::string& d) {
+         std::string ply = SerializeSplatPly(RandomSplats(3, 2, 6));
+         ply.replace(ply.find("element vertex 3"), 16, "element vertex 2000000000");
+         WriteFileAtomic(d + "/huge.ply", ply);
+         return "reg register " + d + "/huge.ply " + d + "/huge.ply --method ransac --out " + d + "/t.json";
+       },
+       "huge.ply: element vertex: expected at most 3 vertices", "t.json"},
+      {"reg_register_mesh_ply",
+       [](const std::string& d) {
+         WriteFileAtomic(d + "/m.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                                       "property float z\nend_header\n0 0 0\n");
+         return "reg register " + d + "/m.ply " + d + "/m.ply --method ransac --out " + d + "/t.json";
+       },
+       "m.ply: expected a NeRF block checkpoint or a 3D Gaussian splat PLY", "t.json"},
+      {"reg_apply_not_a_similarity",
+       [](const std::string& d) {
+         WriteSplatPly(RandomSplats(2, 0, 7), d + "/s.ply");
+         WriteFileAtomic(d + "/shear.json", R"({"target_from_source": [[1,0.5,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})");
+         return "reg apply " + d + "/shear.json " + d + "/s.ply --out " + d + "/out.ply";
+       },
+       "shear.json: target_from_source: expected a similarity transform", "out.ply"},
+      {"reg_apply_force_onto_its_input",
+       [](const std::string& d) {
+         WriteSplatPly(RandomSplats(2, 0, 8), d + "/s.ply");
+         WriteFileAtomic(d + "/t.json", R"({"target_from_source": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})");
+         return "reg apply " + d + "/t.json " + d + "/s.ply --out " + d + "/s.ply --force";
+       },
+       "s.ply: expected an output that is not an input", ""},
   };
   return cases;
 }

@@ -22,6 +22,8 @@ int RunNerfImport(int argc, char** argv);
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
 int RunRegRegisterMany(int argc, char** argv);
+// reg apply (exe/apply_command.cc)
+int RunRegApply(int argc, char** argv);
 // Registration data and training (exe/reg_data_commands.cc)
 int RunRegExtract(int argc, char** argv);
 int RunRegMakeData(int argc, char** argv);
@@ -55,7 +57,8 @@ int RunReport(int argc, char** argv);
   {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
   {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
   {"nerf import", RunNerfImport, "Import an instant-ngp snapshot (.msgpack / .ingp) as a NeRF block"}, \
-  {"reg register", RunRegRegister, "Register two NeRF blocks from their fields (target_from_source)"}, \
+  {"reg register", RunRegRegister, "Register two NeRF blocks or splat sets from their fields (target_from_source)"}, \
+  {"reg apply", RunRegApply, "Apply T.json's Sim(3) to splats, a PLY, cameras or a block checkpoint"}, \
   {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
   {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \
   {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"}, \

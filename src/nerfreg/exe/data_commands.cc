@@ -39,6 +39,7 @@ int RunRender(int argc, char** argv) {
   app.add_option("--test-every", options.test_every, "Every n-th view of a block is a test view (default 20)");
   app.add_option("--supersample", options.render.supersample, "Rays per pixel side (default 2)");
   app.add_flag("--depth", options.write_depth, "Also write z-depth maps as depth/r_XXX.npy");
+  app.add_flag("--splats", options.write_splats, "Also write 3D Gaussian splats of the seen surface: splats.ply, block_k/splats.ply");
   std::vector<double> distortion;
   app.add_option("--distortion", distortion, "K1[,K2]: radial lens distortion of the cameras (OpenCV; default 0)")->delimiter(',')->expected(1, 2);
   app.add_option("--noise", options.noise_sigma, "Gaussian pixel noise, standard deviation in [0, 1] units (default 0)");

@@ -10,6 +10,7 @@
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/mesh_export.h"
 #include "nerfreg/nerf/ngp_import.h"
+#include "nerfreg/nerf/splat_export.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -134,22 +135,37 @@ int RunNerfExport(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Export a block's occupied space as a coloured point cloud (--points) or its density iso-surface as "
-                  "a coloured triangle mesh (--mesh, marching cubes), both PLY.",
+                  "Export a block's occupied space as a coloured point cloud (--points), its density iso-surface as "
+                  "a coloured triangle mesh (--mesh, marching cubes), or 3D Gaussian splats (--splats: one isotropic "
+                  "Gaussian per occupied cell, the 3DGS PLY layout), all PLY.",
                   "nerfreg nerf export runs/block_0.ckpt --points block_0.ply");
-  std::string ckpt, points, mesh_path, device = "cpu";
+  std::string ckpt, points, mesh_path, splats_path, device = "cpu";
   AddDeviceOption(app, &device);
   double threshold = -1;
   MeshExportOptions mesh_options;
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
   auto* points_opt = app.add_option("--points", points, "Output PLY point cloud");
   auto* mesh_opt = app.add_option("--mesh", mesh_path, "Output PLY triangle mesh (marching cubes on the density)");
-  points_opt->excludes(mesh_opt);
+  auto* splats_opt = app.add_option("--splats", splats_path, "Output 3D Gaussian splat PLY");
+  points_opt->excludes(mesh_opt)->excludes(splats_opt);
+  mesh_opt->excludes(splats_opt);
   app.add_option("--density", threshold, "Density threshold (default 5 for points, 2.5 for the mesh)");
   app.add_option("--resolution", mesh_options.resolution, "Mesh: marching-cubes cells per axis (default 128)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  if (points.empty() && mesh_path.empty()) throw InputError("nerf export: give --points OUT.ply or --mesh OUT.ply");
+  if (points.empty() && mesh_path.empty() && splats_path.empty()) {
+    throw InputError("nerf export: give --points OUT.ply, --mesh OUT.ply or --splats OUT.ply");
+  }
   const torch::Device dev = ParseDevice(device);
+  if (!splats_path.empty()) {
+    const BlockSplatOptions so{threshold > 0 ? threshold : 5.0};
+    so.Check();
+    CheckCanWriteOutput(splats_path, common.force, {ckpt});
+    NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
+    const Splats splats = BlockToSplats(block, so);
+    WriteSplatPly(splats, splats_path);
+    LOG_INFO("wrote {} splats to {}", splats.size(), splats_path);
+    return 0;
+  }
   if (!mesh_path.empty()) {
     if (threshold > 0) mesh_options.density_threshold = threshold;
     mesh_options.Check();

@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "nerfreg/data/splat_ply.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/nerf/field_queries.h"
@@ -73,8 +74,8 @@ struct RegisterFlags {
 void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
   BlockRegistrationOptions& o = f->options;
   o.weights = DefaultDregWeights();
-  app.add_option("source", f->source, "Source block checkpoint")->required();
-  app.add_option("target", f->target, "Target block checkpoint")->required();
+  app.add_option("source", f->source, "Source: a NeRF block checkpoint or a 3D Gaussian splat PLY")->required();
+  app.add_option("target", f->target, "Target: a NeRF block checkpoint or a 3D Gaussian splat PLY")->required();
   AddDeviceOption(app, &f->device);
   app.add_option("--out", f->out, "Output JSON")->required();
   app.add_option("--method", f->method,
@@ -111,6 +112,10 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                  "dreg: network passes; each after the first re-runs the network on the source moved by the pose so "
                  "far (default 1, as the paper)")
       ->check(CLI::Range(1, 10));
+  app.add_option("--splat-density-scale", o.splats.density_scale,
+                 "Splat inputs: density per unit of summed opacity (default 20; docs/registration.md)");
+  app.add_option("--splat-blur", o.splats.blur,
+                 "Splat inputs: standard deviation added to every splat, scene units (default 0.01)");
   app.add_flag("--no-block-icp", f->no_block_icp,
                "Grids (dreg, auto): ICP on the grids only, not again on the blocks' occupied points (by default it "
                "runs after ICP on the grids, before --refine field)");
@@ -123,8 +128,8 @@ int RunRegRegister(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Register two NeRF blocks from their fields alone: target_from_source maps points of the source "
-                  "block's frame into the target's. Methods: ransac (FPFH + RANSAC), fgr (FPFH + fast global "
+                  "Register two NeRF blocks (or 3D Gaussian splat PLYs, or one of each) from their fields alone: "
+                  "target_from_source maps points of the source's frame into the target's. Methods: ransac (FPFH + RANSAC), fgr (FPFH + fast global "
                   "registration), dreg (the learned DReg-NeRF network; needs trained weights), auto (dreg and "
                   "ransac, the best on the fields kept). Refinement: icp (on the grids, then on the blocks' occupied "
                   "points), then by default field (the two density fields aligned). Writes T.json (with the options "
@@ -143,10 +148,11 @@ int RunRegRegister(int argc, char** argv) {
   o.block_icp = !f.no_block_icp;
   o.Check();
   Timer timer;
-  NerfBlock source = LoadNerfBlock(f.source, nullptr, o.device), target = LoadNerfBlock(f.target, nullptr, o.device);
+  const auto source = LoadRegistrationInput(f.source, o.splats, o.device);
+  const auto target = LoadRegistrationInput(f.target, o.splats, o.device);
   std::unique_ptr<DregNet> net;
   if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
-  RegistrationResult r = RegisterBlocks(source, target, o, net.get());
+  RegistrationResult r = RegisterBlocks(*source, *target, o, net.get());
   r.seconds = timer.Seconds();  // T.json's seconds: the whole command, loading included
   Json json = r.ToJson();
   json["source"] = f.source;  // the report finds the blocks' points by these names
@@ -263,8 +269,10 @@ int RunRegRegisterMany(int argc, char** argv) {
   std::vector<std::string> paths;
   std::string out, refine = "field";
   ManyBlockRegistrationOptions o;
-  app.add_option("blocks", paths, "Block checkpoints (the first defines the world frame)")->required()->expected(2, 1000);
+  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")->required()->expected(2, 1000);
   app.add_option("--out", out, "Output JSON")->required();
+  std::string merged;
+  app.add_option("--merged-splats", merged, "Also write the splat inputs moved into the world frame, merged, to this PLY");
   app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
   AddMaxPointsOption(app, &o.max_points);
@@ -274,9 +282,11 @@ int RunRegRegisterMany(int argc, char** argv) {
       ->check(CLI::IsMember({"icp", "field"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, paths);
+  if (!merged.empty()) CheckCanWriteOutput(merged, common.force, paths);
   o.refine = RegistrationRefinementFromName(refine);
   const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
   WriteJsonFile(out, r.json);
+  if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
   LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs, r.json["seconds"].get<double>());
   return 0;
 }

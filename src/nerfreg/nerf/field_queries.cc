@@ -14,18 +14,14 @@ void SurfaceFieldOptions::Check() const {
   if (mode == "window" && !(window > 0)) throw std::invalid_argument("SurfaceFieldOptions: mode window needs window > 0");
 }
 
-torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) {
-  torch::NoGradGuard no_grad;
-  std::vector<torch::Tensor> out;
-  for (std::int64_t s = 0; s < positions.size(0); s += 1 << 17) out.push_back(block.field->Density(positions.slice(0, s, s + (1 << 17))));
-  return out.empty() ? torch::zeros({0}) : torch::cat(out);
-}
+torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) { return BlockDensity(block, positions); }
 
-torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const SurfaceFieldOptions& options) {
-  options.Check();
-  TORCH_CHECK(points.dim() == 2 && points.size(1) == 3, "SurfaceField: points must be [N, 3]");
-  torch::NoGradGuard no_grad;
-  const auto train = block.cameras.IndicesOfSplit("train");
+namespace {
+
+// SurfaceField in the field's frame: `points` [N, 3] and `cameras` there, lengths in its units.
+torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras, const torch::Tensor& points,
+                                       const SurfaceFieldOptions& options) {
+  const auto train = cameras.IndicesOfSplit("train");
   const std::int64_t n = points.size(0);
   auto best = torch::zeros({n});
   if (train.empty() || n == 0) return best;
@@ -38,7 +34,7 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   const auto& occupied = block.grid->occupied();  // [G, G, G] bool
   const std::int64_t g = block.grid->resolution();
   for (size_t c = 0; c < train.size(); c += stride) {
-    const Frame& f = block.cameras.frames[train[c]];
+    const Frame& f = cameras.frames[train[c]];
     // Which points this camera sees (in front, inside the image).
     const Eigen::Matrix3f r = f.cam_from_world.RotationMatrix().cast<float>();
     const Eigen::Vector3f t = f.cam_from_world.translation.cast<float>();
@@ -77,7 +73,12 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
       const auto occ = occupied.index({cc.select(2, 0), cc.select(2, 1), cc.select(2, 2)});
       const auto query = (valid & in_box & occ).reshape(-1).nonzero().squeeze(1);
       auto sigma = torch::zeros({m * max_steps});
-      if (query.numel() > 0) sigma.index_copy_(0, query, QueryDensity(block, pos.reshape({-1, 3}).index_select(0, query)));
+      if (query.numel() > 0) {
+        const auto q = pos.reshape({-1, 3}).index_select(0, query);
+        std::vector<torch::Tensor> parts;
+        for (std::int64_t k = 0; k < q.size(0); k += 1 << 17) parts.push_back(block.field->Density(q.slice(0, k, k + (1 << 17))));
+        sigma.index_copy_(0, query, torch::cat(parts));
+      }
       sigma = sigma.view({m, max_steps});
       const auto alpha = 1 - torch::exp(-sigma * step);
       const auto trans = torch::cat({torch::ones({m, 1}), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
@@ -95,31 +96,56 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   return best;
 }
 
+}  // namespace
+
+torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const SurfaceFieldOptions& options) {
+  options.Check();
+  TORCH_CHECK(points.dim() == 2 && points.size(1) == 3, "SurfaceField: points must be [N, 3]");
+  torch::NoGradGuard no_grad;
+  if (!block.Moved()) return SurfaceFieldInFieldFrame(block, block.cameras, points, options);
+  // A moved block (reg apply): the cameras and lengths carried back into the field's frame, where
+  // its occupancy grid and box are.
+  const Sim3d field_from_world = block.world_from_field.Inverse();
+  Dataset cameras = block.cameras;
+  for (Frame& f : cameras.frames) f.cam_from_world = field_from_world.TransformCamera(f.cam_from_world);
+  SurfaceFieldOptions o = options;
+  const double s = block.world_from_field.scale;
+  o.step_size /= s;
+  o.stop_before /= s;
+  o.window /= s;
+  return SurfaceFieldInFieldFrame(block, cameras, ToFieldFrame(block, points), o);
+}
+
 BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned seed) {
   torch::NoGradGuard no_grad;
   torch::Generator gen = at::detail::createCPUGenerator(seed);
+  // Cells of the occupancy grid, in the field's frame; the points returned are in the block's.
   const auto centres = block.grid->CellCenters();
   const auto cand = centres.index_select(0, block.grid->occupied().reshape(-1).nonzero().squeeze(1));
   const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
-  const auto pts = cand + (torch::rand(cand.sizes(), gen) - 0.5) * cell;
+  const auto pts = FromFieldFrame(block, cand + (torch::rand(cand.sizes(), gen) - 0.5) * cell);
   const auto sigma = QueryDensity(block, pts);
   const auto keep = (sigma > min_density).nonzero().squeeze(1);
   BlockPoints out;
   out.xyz = pts.index_select(0, keep);
   out.sigma = sigma.index_select(0, keep);
   out.alpha = (1 - torch::exp(-0.01 * out.sigma)).clamp(0, 1);
-  // View-averaged colour: the six axis directions.
-  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  out.rgb = torch::zeros({out.xyz.size(0), 3});
-  for (const auto& d : dirs) {
-    const auto dd = torch::tensor(d).expand({out.xyz.size(0), 3}).contiguous();
-    std::vector<torch::Tensor> parts;
-    for (std::int64_t s = 0; s < out.xyz.size(0); s += 1 << 16) {
-      parts.push_back(block.field->Forward(out.xyz.slice(0, s, s + (1 << 16)), dd.slice(0, s, s + (1 << 16))).second);
-    }
-    if (!parts.empty()) out.rgb += torch::cat(parts) / 6.0;
-  }
+  out.rgb = ViewAveragedColor(block, out.xyz);
   return out;
+}
+
+torch::Tensor ViewAveragedColor(NerfBlock& block, const torch::Tensor& positions) {
+  torch::NoGradGuard no_grad;
+  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  auto rgb = torch::zeros({positions.size(0), 3});
+  for (const auto& d : dirs) {
+    for (std::int64_t s = 0; s < positions.size(0); s += 1 << 16) {
+      const auto p = positions.slice(0, s, s + (1 << 16));
+      const auto dd = torch::tensor(d).expand({p.size(0), 3}).contiguous();
+      rgb.slice(0, s, s + (1 << 16)) += BlockForward(block, p, dd).second.to(torch::kCPU) / 6.0;
+    }
+  }
+  return rgb;
 }
 
 }  // namespace nerfreg

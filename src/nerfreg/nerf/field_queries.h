@@ -48,6 +48,9 @@ struct BlockPoints {
   torch::Tensor alpha;    // [N] clip(1 - exp(-0.01 sigma), 0, 1) (spec section 3)
 };
 
+// Colour averaged over the six axis directions at positions [N, 3] (block frame) -> [N, 3].
+torch::Tensor ViewAveragedColor(NerfBlock& block, const torch::Tensor& positions);
+
 // One jittered point per occupied cell of the block's grid whose density exceeds
 // `min_density` (spec: 0.7).
 BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density = 0.7, unsigned seed = 0);

@@ -94,7 +94,10 @@ ColoredMesh ExtractMesh(NerfBlock& block, const MeshExportOptions& options) {
   constexpr std::int64_t kChunk = 1 << 16;
   std::vector<torch::Tensor> sigma;
   for (std::int64_t s = 0; s < points.size(0); s += kChunk) sigma.push_back(block.field->Density(points.slice(0, s, s + kChunk)));
-  ColoredMesh m = MarchingCubes(torch::cat(sigma).view({G + 1, G + 1, G + 1}), options.density_threshold, mn, mx);
+  // Marched in the field's frame, where its box is; a moved block's threshold is per unit length
+  // of its own frame (BlockDensity).
+  ColoredMesh m = MarchingCubes(torch::cat(sigma).view({G + 1, G + 1, G + 1}),
+                                options.density_threshold * block.world_from_field.scale, mn, mx);
   m.normals = VertexNormals(m.vertices, m.triangles);
   std::vector<torch::Tensor> rgb;
   for (std::int64_t s = 0; s < m.vertices.size(0); s += kChunk) {
@@ -102,6 +105,10 @@ ColoredMesh ExtractMesh(NerfBlock& block, const MeshExportOptions& options) {
     rgb.push_back(block.field->Forward(m.vertices.slice(0, s, s + kChunk), -m.normals.slice(0, s, s + kChunk)).second);
   }
   m.colors = rgb.empty() ? torch::zeros({0, 3}) : torch::cat(rgb);
+  if (block.Moved()) {
+    m.vertices = FromFieldFrame(block, m.vertices);
+    m.normals = VertexNormals(m.vertices, m.triangles);
+  }
   return m;
 }
 

@@ -27,9 +27,62 @@ void CameraRays(const Camera& camera, const Rigid3d& cam_from_world, torch::Tens
   *dirs = torch::from_blob(const_cast<float*>(df.data()), {df.cols(), 3}, torch::kFloat32).clone();
 }
 
-RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& origins, const torch::Tensor& dirs,
+bool NerfBlock::Moved() const { return world_from_field.ToMatrix() != Eigen::Matrix4d::Identity(); }
+
+namespace {
+
+// world_from_field's rotation [3, 3] (row-major) and translation [3] as float32 tensors on `like`'s device.
+std::pair<torch::Tensor, torch::Tensor> FrameTensors(const NerfBlock& block, const torch::Tensor& like) {
+  const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> r = block.world_from_field.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f t = block.world_from_field.translation.cast<float>();
+  const auto opts = torch::TensorOptions().dtype(torch::kFloat32).device(like.device());
+  return {torch::from_blob(const_cast<float*>(r.data()), {3, 3}, torch::kFloat32).clone().to(opts),
+          torch::tensor({t.x(), t.y(), t.z()}).to(opts)};
+}
+
+}  // namespace
+
+// Row vectors: (R^T v)^T = v^T R.
+torch::Tensor ToFieldFrame(const NerfBlock& block, const torch::Tensor& positions) {
+  if (!block.Moved()) return positions;
+  const auto [r, t] = FrameTensors(block, positions);
+  return (positions.to(torch::kFloat32) - t).matmul(r) / block.world_from_field.scale;
+}
+
+torch::Tensor DirectionsToFieldFrame(const NerfBlock& block, const torch::Tensor& dirs) {
+  if (!block.Moved()) return dirs;
+  return dirs.to(torch::kFloat32).matmul(FrameTensors(block, dirs).first);
+}
+
+torch::Tensor FromFieldFrame(const NerfBlock& block, const torch::Tensor& positions) {
+  if (!block.Moved()) return positions;
+  const auto [r, t] = FrameTensors(block, positions);
+  return block.world_from_field.scale * positions.to(torch::kFloat32).matmul(r.t()) + t;
+}
+
+torch::Tensor BlockDensity(NerfBlock& block, const torch::Tensor& positions) {
+  torch::NoGradGuard no_grad;
+  const torch::Tensor p = ToFieldFrame(block, positions);
+  std::vector<torch::Tensor> out;
+  for (std::int64_t s = 0; s < p.size(0); s += 1 << 17) out.push_back(block.field->Density(p.slice(0, s, s + (1 << 17))));
+  const torch::Tensor sigma = out.empty() ? torch::zeros({0}) : torch::cat(out);
+  // A length of the block's frame is `scale` lengths of the field's: the density per unit length shrinks.
+  return block.Moved() ? sigma / block.world_from_field.scale : sigma;
+}
+
+std::pair<torch::Tensor, torch::Tensor> BlockForward(NerfBlock& block, const torch::Tensor& positions,
+                                                     const torch::Tensor& dirs) {
+  torch::NoGradGuard no_grad;
+  auto [sigma, rgb] = block.field->Forward(ToFieldFrame(block, positions), DirectionsToFieldFrame(block, dirs));
+  if (block.Moved()) sigma = sigma / block.world_from_field.scale;
+  return {sigma, rgb};
+}
+
+RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& block_origins, const torch::Tensor& block_dirs,
                         const torch::Tensor& background, std::int64_t chunk) {
   torch::NoGradGuard no_grad;
+  // Marched in the field's frame (its occupancy grid and box live there); only depth changes units.
+  const torch::Tensor origins = ToFieldFrame(block, block_origins), dirs = DirectionsToFieldFrame(block, block_dirs);
   MarchOptions march = block.march;
   march.perturb = false;
   std::vector<torch::Tensor> rgbs, opacities, depths;
@@ -49,7 +102,8 @@ RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& origins, const to
     const auto comp = Composite(sigma, rgb, samples.t_starts, samples.t_ends, samples.offsets);
     rgbs.push_back(comp.rgb + (1 - comp.opacity).unsqueeze(1) * background);
     opacities.push_back(comp.opacity);
-    depths.push_back(torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)));
+    depths.push_back(torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)) *
+                     block.world_from_field.scale);
   }
   return {torch::cat(rgbs), torch::cat(opacities), torch::cat(depths)};
 }
@@ -61,6 +115,32 @@ Image RenderImage(NerfBlock& block, const Camera& camera, const Rigid3d& cam_fro
   Image im(camera.width, camera.height, 3);
   std::memcpy(im.data.data(), out.data_ptr<float>(), im.data.size() * sizeof(float));
   return im;
+}
+
+void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old) {
+  block->world_from_field = new_from_old * block->world_from_field;
+  if ((block->world_from_field.ToMatrix() - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff() < 1e-12) {
+    block->world_from_field = Sim3d();
+  }
+  Dataset& cams = block->cameras;
+  for (Frame& f : cams.frames) {
+    f.cam_from_world = new_from_old.TransformCamera(f.cam_from_world);
+    f.near *= new_from_old.scale;
+    f.far *= new_from_old.scale;
+  }
+  if (cams.aabb_min && cams.aabb_max) {
+    Eigen::AlignedBox3d moved;
+    const Eigen::AlignedBox3d box(*cams.aabb_min, *cams.aabb_max);
+    for (int k = 0; k < 8; ++k) moved.extend(new_from_old * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
+    cams.aabb_min = moved.min();
+    cams.aabb_max = moved.max();
+  }
+  if (cams.applied_transform) {
+    Eigen::Matrix4d a = Eigen::Matrix4d::Identity();
+    a.topRows(3) = *cams.applied_transform;
+    cams.applied_transform = (new_from_old.ToMatrix() * a).topRows(3);
+  }
+  if (cams.trained_from_data) cams.trained_from_data = *cams.trained_from_data * new_from_old.Inverse();
 }
 
 namespace {
@@ -117,6 +197,7 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                {"march", {{"step_size", block.march.step_size}, {"near", block.march.near},
                           {"max_samples_per_ray", block.march.max_samples_per_ray}}},
                {"cameras", TransformsJsonFromDataset(block.cameras)},
+               {"world_from_field", MatrixToJson(block.world_from_field.ToMatrix())},
                {"train_options", block.train_options}};
   torch::serialize::OutputArchive archive;
   archive.write("meta", StringTensor(meta.dump()));
@@ -146,6 +227,17 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   b.march.max_samples_per_ray = m["march"]["max_samples_per_ray"].Int();
   b.step = m["step"].Int();
   b.train_options = meta.value("train_options", Json::object());
+  // Absent in checkpoints written before `reg apply`: the identity.
+  if (m.Has("world_from_field")) {
+    try {
+      b.world_from_field = Sim3d::FromMatrix(Eigen::Matrix4d(m["world_from_field"].Matrix(4, 4)), 1e-6);
+    } catch (const std::invalid_argument& e) {
+      m["world_from_field"].Fail(std::string("a similarity transform (") + e.what() + ")");
+    }
+    if (!(b.world_from_field.scale > 1e-6 && b.world_from_field.scale < 1e6)) {
+      m["world_from_field"].Fail("a scale in (1e-6, 1e6)");
+    }
+  }
   try {
     b.grid_options.Check();
     b.march.Check();

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "nerfreg/data/dataset.h"
+#include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/nerf/field.h"
 #include "nerfreg/nerf/occupancy_grid.h"
 #include "nerfreg/nerf/volume_rendering.h"
@@ -28,6 +29,15 @@ struct NerfBlock {
   Dataset cameras;  // the block's cameras (frames with splits), in the block's frame
   int step = 0;     // training iterations done
   Json train_options;
+  // The block's frame relative to the one its field was trained in: x = world_from_field * x_field.
+  // Identity for a trained or imported block; `reg apply` moves a block by changing it (and the
+  // cameras), not by resampling the field. Every query below (density, colour, rendering, the
+  // surface field, occupied points, meshes, grids) takes and returns points of the block's frame;
+  // densities are per unit length of that frame (sigma_field / scale).
+  Sim3d world_from_field;
+
+  // Whether world_from_field is not the identity (training refuses such a block).
+  bool Moved() const;
 
   // Builds an untrained block (field initialised from `seed`).
   static NerfBlock Create(const FieldOptions& field_options, const OccupancyGridOptions& grid_options,
@@ -40,6 +50,17 @@ struct RenderedRays {
   torch::Tensor depth;    // [R] expected distance along the ray where opacity > 0, else 0
 };
 
+// Density and colour at points of the block's frame (world_from_field applied): positions [N, 3]
+// float32 -> sigma [N]; dirs [N, 3] unit viewing directions -> rgb [N, 3]. No gradients.
+torch::Tensor BlockDensity(NerfBlock& block, const torch::Tensor& positions);
+std::pair<torch::Tensor, torch::Tensor> BlockForward(NerfBlock& block, const torch::Tensor& positions,
+                                                     const torch::Tensor& dirs);
+// Positions [N, 3] of the block's frame in the field's frame, and directions rotated there.
+torch::Tensor ToFieldFrame(const NerfBlock& block, const torch::Tensor& positions);
+torch::Tensor DirectionsToFieldFrame(const NerfBlock& block, const torch::Tensor& dirs);
+// Positions [N, 3] of the field's frame in the block's frame.
+torch::Tensor FromFieldFrame(const NerfBlock& block, const torch::Tensor& positions);
+
 // Renders rays without gradients, in chunks. origins, dirs: [R, 3]; background: [3].
 RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& origins, const torch::Tensor& dirs,
                         const torch::Tensor& background, std::int64_t chunk = 1 << 14);
@@ -49,6 +70,12 @@ Image RenderImage(NerfBlock& block, const Camera& camera, const Rigid3d& cam_fro
 
 // origins / directions for all pixels of a camera: [H*W, 3] each, float32.
 void CameraRays(const Camera& camera, const Rigid3d& cam_from_world, torch::Tensor* origins, torch::Tensor* dirs);
+
+// Moves a block into another frame without resampling its field: world_from_field becomes
+// new_from_old * world_from_field (exactly the identity again when that is within 1e-12 of it,
+// so T then T^-1 gives back a block training accepts), the cameras move as Sim3d::TransformCamera
+// moves them, their near / far bounds scale, and the cameras' aabb becomes the box around the moved one.
+void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old);
 
 // Checkpoints. `extra` archives (optimizer state, RNG) may be added by the trainer.
 void SaveNerfBlock(const NerfBlock& block, const std::string& path,

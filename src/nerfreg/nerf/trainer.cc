@@ -160,6 +160,10 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   if (resume) {
     torch::Tensor gen_state, rays_tensor, seconds_tensor;
     std::unique_ptr<torch::serialize::InputArchive> opt_archive, table_archive;
+    // Checked before the training state is read: reg apply writes a moved block without one.
+    if (LoadNerfBlock(ckpt).Moved()) {
+      ThrowInputError(ckpt, "world_from_field", "a block in the frame it was trained in (reg apply moved this one)");
+    }
     block = LoadNerfBlock(ckpt, [&](torch::serialize::InputArchive& ar) {
       opt_archive = std::make_unique<torch::serialize::InputArchive>();
       ar.read("optimizer", *opt_archive);

@@ -91,6 +91,7 @@ void BlockRegistrationOptions::Check() const {
   if (icp_points != "occupied" && icp_points != "mask") ThrowInputError("--icp-points", "", "occupied or mask");
   if (!(icp_distance > 0)) ThrowInputError("--icp-distance", "", "> 0 (ICP voxels)");
   if (dreg_passes < 1 || dreg_passes > 10) ThrowInputError("--dreg-passes", "", "1..10");
+  splats.Check();
 }
 
 Json BlockRegistrationOptions::ToJson() const {
@@ -112,7 +113,9 @@ Json BlockRegistrationOptions::ToJson() const {
           {"seed", seed},
           {"dreg_solver", DregSolverName(dreg_solver)},
           {"dreg_passes", dreg_passes},
-          {"block_icp", block_icp}};
+          {"block_icp", block_icp},
+          {"splat_density_scale", splats.density_scale},
+          {"splat_blur", splats.blur}};
 }
 
 BlockRegistrationOptions BlockRegistrationOptions::FromJson(const Json& json, const std::string& file) {
@@ -139,6 +142,9 @@ BlockRegistrationOptions BlockRegistrationOptions::FromJson(const Json& json, co
   o.dreg_solver = DregSolverFromName(j["dreg_solver"].String(), file + ": dreg_solver");
   o.dreg_passes = j["dreg_passes"].Int();
   o.block_icp = j["block_icp"].Bool();
+  // Absent in T.json files written before splat inputs.
+  o.splats.density_scale = j.DoubleOr("splat_density_scale", o.splats.density_scale);
+  o.splats.blur = j.DoubleOr("splat_blur", o.splats.blur);
   return o;
 }
 
@@ -155,8 +161,8 @@ const Eigen::Matrix3Xd& OccupiedPoints::Target() {
 void OccupiedPoints::Extract() {
   if (done_) return;
   Timer timer;
-  src_ = PointsToEigen(ExtractOccupiedPoints(source_, min_density_, seed_).xyz);
-  tgt_ = PointsToEigen(ExtractOccupiedPoints(target_, min_density_, seed_).xyz);
+  src_ = source_->OccupiedPoints(min_density_, seed_);
+  tgt_ = target_->OccupiedPoints(min_density_, seed_);
   seconds_ = timer.Seconds();
   done_ = true;
 }
@@ -185,12 +191,18 @@ Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& t
 Sim3d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
                      const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options, double spread,
                      Json* json, const RegGrid* src_grid, const RegGrid* tgt_grid) {
-  options.sample_spread = spread;
   DensityField src_field = BlockDensityField(source), tgt_field = BlockDensityField(target);
   if (src_grid && tgt_grid) {
     src_field.seen = SeenFromGrid(*src_grid);
     tgt_field.seen = SeenFromGrid(*tgt_grid);
   }
+  return RefineOnFields(src_field, tgt_field, src_points, tgt_points, start, options, spread, json);
+}
+
+Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_field, const Eigen::Matrix3Xd& src_points,
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options, double spread,
+                     Json* json) {
+  options.sample_spread = spread;
   const FieldAlignmentResult f =
       AlignFields(src_field, tgt_field, src_points, tgt_points, start.ToRigid(), options, start.scale);
   if (f.iterations == 0) LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
@@ -278,7 +290,8 @@ namespace {
 // classical methods and the scoring) and the candidates found so far.
 class BlockRegistration {
  public:
-  BlockRegistration(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options, DregNet* net)
+  BlockRegistration(RegistrationInput& source, RegistrationInput& target, const BlockRegistrationOptions& options,
+                    DregNet* net)
       : source_(source), target_(target), o_(options), net_(net), occupied_(source, target, options.min_density, options.seed) {
     grid_cell_ = o_.grid.side / o_.grid.resolution;
   }
@@ -286,6 +299,8 @@ class BlockRegistration {
   RegistrationResult Run() {
     Timer timer;
     result_.options = o_;
+    result_.source_kind = source_.Kind();
+    result_.target_kind = target_.Kind();
     bool run_classical = o_.method == RegistrationMethod::kRansac || o_.method == RegistrationMethod::kFgr;
     if (o_.UsesNetwork()) run_classical = RunOnGrids();
     if (run_classical) RunClassical();
@@ -327,7 +342,7 @@ class BlockRegistration {
     Timer t_grid;
     GridExtractionOptions go = o_.grid;
     go.seed = o_.seed;
-    const RegGrid gs = ExtractRegGrid(source_, go), gt = ExtractRegGrid(target_, go);
+    const RegGrid gs = source_.ExtractGrid(go), gt = target_.ExtractGrid(go);
     const double grid_seconds = t_grid.Seconds();
     const GridRegistrationOptions ro = GridOptions("dreg");
     const GridRegistrationResult r = RegisterGrids(gs, gt, ro, net_);
@@ -421,8 +436,8 @@ class BlockRegistration {
         c.field = cs[same].field;
         c.field["refined_with"] = cs[same].method;
       } else {
-        c.target_from_source = RefineOnFields(source_, target_, c.source_points, c.target_points, c.target_from_source,
-                                              o_.field, grid_cell_, &c.field);
+        c.target_from_source = RefineOnFields(source_.Field(), target_.Field(), c.source_points, c.target_points,
+                                              c.target_from_source, o_.field, grid_cell_, &c.field);
       }
       c.method += "+field";
     }
@@ -435,7 +450,7 @@ class BlockRegistration {
     auto& cs = result_.candidates;
     const FieldAgreementSamples samples =
         DrawFieldAgreementSamples(occupied_.Source(), occupied_.Target(), grid_cell_, o_.field.max_samples, o_.seed);
-    const DensityField src = BlockDensityField(source_), tgt = BlockDensityField(target_);
+    const DensityField src = source_.Field(), tgt = target_.Field();
     std::vector<Sim3d> poses;
     for (const auto& c : cs) poses.push_back(c.target_from_source);
     std::vector<FieldAgreement> scores;
@@ -473,8 +488,8 @@ class BlockRegistration {
     }
   }
 
-  NerfBlock& source_;
-  NerfBlock& target_;
+  RegistrationInput& source_;
+  RegistrationInput& target_;
   const BlockRegistrationOptions& o_;
   DregNet* net_;
   OccupiedPoints occupied_;
@@ -484,11 +499,17 @@ class BlockRegistration {
 
 }  // namespace
 
-RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
-                                  DregNet* net) {
+RegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+                                  const BlockRegistrationOptions& options, DregNet* net) {
   options.Check();
   if (options.UsesNetwork() && !net) throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
   return BlockRegistration(source, target, options, net).Run();
+}
+
+RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
+                                  DregNet* net) {
+  NerfBlockInput s(source), t(target);
+  return RegisterBlocks(s, t, options, net);
 }
 
 namespace {
@@ -520,7 +541,9 @@ Json RegistrationResult::ToJson() const {
             {"fallback_from", fallback.is_null() ? Json() : fallback},
             {"not_chosen", others},
             {"agreeing_candidates", agreeing_candidates >= 0 ? Json(agreeing_candidates) : Json()},
-            {"warnings", warnings}};
+            {"warnings", warnings},
+            {"source_kind", source_kind},
+            {"target_kind", target_kind}};
   j.update(c.extra);
   j["options"] = options.ToJson();
   return j;

@@ -9,6 +9,7 @@
 // blocks' occupied points ("block ICP") and, with `kField`, by aligning the two density fields.
 // Then one candidate is kept and the result says how far to trust it.
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,8 @@
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg/registration_input.h"
+#include "nerfreg/reg/splat_field.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
@@ -65,6 +68,8 @@ struct BlockRegistrationOptions {
   int dreg_passes = 1;                                                 // --dreg-passes, 1..10
   bool block_icp = true;                                               // not --no-block-icp
   torch::Device device = torch::kCPU;  // --device: where the caller puts the blocks' fields and the network
+  // --splat-density-scale, --splat-blur: how a splat PLY input becomes a density field.
+  SplatFieldOptions splats;
 
   bool UsesNetwork() const { return method == RegistrationMethod::kAuto || method == RegistrationMethod::kDreg; }
   // Throws InputError naming the flag ("--field-iterations: expected >= 0").
@@ -132,6 +137,7 @@ struct RegistrationResult {
   std::vector<std::string> warnings;
   double seconds = 0;
   BlockRegistrationOptions options;
+  std::string source_kind = "nerf", target_kind = "nerf";  // RegistrationInput::Kind()
 
   const RegistrationCandidate& Chosen() const { return candidates.at(chosen); }
   // T.json: target_from_source, scale, method, confidence, method_score, field, not_chosen,
@@ -149,6 +155,9 @@ DregNet LoadCheckedDregNet(const BlockRegistrationOptions& options);
 // chosen candidate's source points in orange, target in blue, from three fixed viewpoints.
 void WriteRegistrationOverlays(const std::string& out, const RegistrationResult& result);
 
+// Any two inputs: NeRF blocks, splat sets, or one of each (reg/registration_input.h).
+RegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+                                  const BlockRegistrationOptions& options, DregNet* net);
 RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
                                   DregNet* net);
 
@@ -165,20 +174,28 @@ Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& t
 Sim3d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
                      const Eigen::Matrix3Xd& tgt_points, const Sim3d& target_from_source, FieldAlignmentOptions options,
                      double spread, Json* json, const RegGrid* src_grid = nullptr, const RegGrid* tgt_grid = nullptr);
+// The same on any two density fields (RegistrationInput::Field).
+Sim3d RefineOnFields(const DensityField& source, const DensityField& target, const Eigen::Matrix3Xd& src_points,
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& target_from_source, FieldAlignmentOptions options,
+                     double spread, Json* json);
 
-// A pair of blocks' occupied points (ExtractOccupiedPoints), extracted on first use.
+// A pair of inputs' occupied points (RegistrationInput::OccupiedPoints), extracted on first use.
 class OccupiedPoints {
  public:
+  OccupiedPoints(RegistrationInput& source, RegistrationInput& target, double min_density, unsigned seed)
+      : source_(&source), target_(&target), min_density_(min_density), seed_(seed) {}
   OccupiedPoints(NerfBlock& source, NerfBlock& target, double min_density, unsigned seed)
-      : source_(source), target_(target), min_density_(min_density), seed_(seed) {}
+      : owned_source_(std::make_unique<NerfBlockInput>(source)), owned_target_(std::make_unique<NerfBlockInput>(target)),
+        source_(owned_source_.get()), target_(owned_target_.get()), min_density_(min_density), seed_(seed) {}
   const Eigen::Matrix3Xd& Source();  // [3, N]
   const Eigen::Matrix3Xd& Target();  // [3, M]
   double Seconds() const { return seconds_; }
 
  private:
   void Extract();
-  NerfBlock& source_;
-  NerfBlock& target_;
+  std::unique_ptr<NerfBlockInput> owned_source_, owned_target_;
+  RegistrationInput* source_;
+  RegistrationInput* target_;
   double min_density_;
   unsigned seed_;
   bool done_ = false;

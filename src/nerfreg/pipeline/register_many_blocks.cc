@@ -2,12 +2,17 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
+#include "nerfreg/data/sim3_apply.h"
+#include "nerfreg/data/splat_ply.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/baselines.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg/reg_grid.h"
+#include "nerfreg/reg/registration_input.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
@@ -21,11 +26,13 @@ void ManyBlockRegistrationOptions::Check() const {
   if (refine != RegistrationRefinement::kIcp && refine != RegistrationRefinement::kField) {
     ThrowInputError("--refine", "", "icp or field");
   }
+  splats.Check();
 }
 
 Json ManyBlockRegistrationOptions::ToJson() const {
   return {{"min_density", min_density}, {"voxel", voxel}, {"max_points", max_points}, {"min_confidence", min_confidence},
-          {"seed", seed}, {"refine", RegistrationRefinementName(refine)}};
+          {"seed", seed}, {"refine", RegistrationRefinementName(refine)},
+          {"splat_density_scale", splats.density_scale}, {"splat_blur", splats.blur}};
 }
 
 ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
@@ -41,10 +48,10 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   };
   const int n = static_cast<int>(paths.size());
   std::vector<Eigen::Matrix3Xd> clouds;
-  std::vector<NerfBlock> blocks;  // kept for --refine field only
+  std::vector<std::unique_ptr<RegistrationInput>> blocks;  // kept for --refine field only
   for (const auto& p : paths) {
-    NerfBlock b = LoadNerfBlock(p);
-    clouds.push_back(PointsToEigen(ExtractOccupiedPoints(b, options.min_density, options.seed).xyz));
+    std::unique_ptr<RegistrationInput> b = LoadRegistrationInput(p, options.splats);
+    clouds.push_back(b->OccupiedPoints(options.min_density, options.seed));
     if (clouds.back().cols() < 100) warn("{}: only {} occupied points", p, clouds.back().cols());
     if (options.refine == RegistrationRefinement::kField) blocks.push_back(std::move(b));
   }
@@ -64,7 +71,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       const bool used = r.fitness >= options.min_confidence;
       Json field = nullptr;
       if (used && options.refine == RegistrationRefinement::kField) {
-        r.target_from_source = RefineOnFields(blocks[i], blocks[j], clouds[i], clouds[j], Sim3d(r.target_from_source),
+        r.target_from_source = RefineOnFields(blocks[i]->Field(), blocks[j]->Field(), clouds[i], clouds[j], Sim3d(r.target_from_source),
                                               FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
                                    .ToRigid();
       }
@@ -121,9 +128,55 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   result.json = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
                        {"seconds", timer.Seconds()}, {"blocks", paths}};
   result.json["options"] = options.ToJson();
+  for (int k = 0; k < n; ++k) result.world_from_block.push_back(Sim3d(g.world_from_node[k]));
   result.used_edges = static_cast<int>(used);
   result.pairs = static_cast<int>(edges_json.size());
   return result;
+}
+
+Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result) {
+  std::vector<Splats> moved;
+  for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
+    if (IsSplatPly(paths[k])) moved.push_back(TransformSplats(ReadSplatPly(paths[k]), result.world_from_block[k]));
+  }
+  if (moved.empty()) ThrowInputError("--merged-splats", "", "at least one splat PLY among the inputs");
+  int degree = 0;
+  std::int64_t total = 0;
+  bool normals = true, same_extras = true;
+  for (const Splats& s : moved) {
+    degree = std::max(degree, s.sh_degree);
+    total += s.size();
+    normals = normals && s.has_normals();
+    same_extras = same_extras && s.extras.size() == moved[0].extras.size();
+    for (size_t e = 0; same_extras && e < s.extras.size(); ++e) {
+      same_extras = s.extras[e].name == moved[0].extras[e].name && s.extras[e].type == moved[0].extras[e].type;
+    }
+  }
+  Splats out;
+  out.Resize(total, degree, normals);
+  out.f_rest.setZero();
+  if (same_extras) {
+    for (const auto& e : moved[0].extras) out.extras.push_back({e.name, e.type, {}});
+  }
+  const int rest = ShCoefficientCount(degree) - 1;
+  std::int64_t at = 0;
+  for (const Splats& s : moved) {
+    const std::int64_t n = s.size();
+    out.position.middleCols(at, n) = s.position;
+    if (normals) out.normal.middleCols(at, n) = s.normal;
+    out.f_dc.middleCols(at, n) = s.f_dc;
+    // Channel c's coefficients 1..K_s - 1 go to the first slots of its block of `rest`.
+    const int own = ShCoefficientCount(s.sh_degree) - 1;
+    for (int c = 0; c < 3 && own > 0; ++c) out.f_rest.block(c * rest, at, own, n) = s.f_rest.middleRows(c * own, own);
+    out.opacity.segment(at, n) = s.opacity;
+    out.log_scale.middleCols(at, n) = s.log_scale;
+    out.rotation.middleCols(at, n) = s.rotation;
+    for (size_t e = 0; e < out.extras.size(); ++e) {
+      out.extras[e].values.insert(out.extras[e].values.end(), s.extras[e].values.begin(), s.extras[e].values.end());
+    }
+    at += n;
+  }
+  return out;
 }
 
 }  // namespace nerfreg

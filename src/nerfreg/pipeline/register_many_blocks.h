@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "nerfreg/data/splat_ply.h"
+#include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/util/json_util.h"
 
@@ -19,6 +21,7 @@ struct ManyBlockRegistrationOptions {
   double min_confidence = 0.3;  // --min-confidence: pairs below this RANSAC fitness are not edges
   unsigned seed = 0;            // --seed
   RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine: kIcp or kField
+  SplatFieldOptions splats;  // --splat-density-scale, --splat-blur: splat PLY inputs as fields
   void Check() const;  // throws InputError naming the flag
   Json ToJson() const;
 };
@@ -30,11 +33,18 @@ struct ManyBlockRegistrationResult {
   Json json;
   int used_edges = 0;   // pairs kept in the graph
   int pairs = 0;        // pairs tried
+  std::vector<Sim3d> world_from_block;  // as in json, one per input
   std::vector<std::string> warnings;
 };
 
-// `paths`: block checkpoints (the first defines the world frame), loaded here.
+// `paths`: block checkpoints or splat PLYs (the first defines the world frame), loaded here.
 ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
                                                const ManyBlockRegistrationOptions& options);
+
+// Every splat PLY among `paths` moved into the world frame (result.world_from_block) and merged
+// into one splat set (the highest SH degree of them; lower-degree splats get zero coefficients;
+// extra properties dropped unless every input has the same ones). Throws InputError when no
+// input is a splat PLY.
+Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result);
 
 }  // namespace nerfreg

@@ -27,8 +27,13 @@ DensityField BlockDensityField(NerfBlock& block) {
   DensityField f;
   f.density = [&block](const torch::Tensor& x) { return QueryDensity(block, x); };
   const auto& o = block.field_options;
-  f.box = Eigen::AlignedBox3d(Eigen::Vector3d(o.aabb_min[0], o.aabb_min[1], o.aabb_min[2]),
-                              Eigen::Vector3d(o.aabb_max[0], o.aabb_max[1], o.aabb_max[2]));
+  const Eigen::AlignedBox3d field_box(Eigen::Vector3d(o.aabb_min[0], o.aabb_min[1], o.aabb_min[2]),
+                                      Eigen::Vector3d(o.aabb_max[0], o.aabb_max[1], o.aabb_max[2]));
+  // A moved block's box is rotated in its frame: the axis-aligned box around it (density is 0
+  // outside the field's own box anyway).
+  for (int corner = 0; corner < 8; ++corner) {
+    f.box.extend(block.world_from_field * field_box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner)));
+  }
   return f;
 }
 

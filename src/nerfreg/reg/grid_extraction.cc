@@ -23,15 +23,13 @@ SurfaceFieldOptions GridExtractionOptions::ResolvedSurface() const {
   return s;
 }
 
-RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
+RegGrid ExtractRegGridFromField(const GridFieldQueries& field, const Eigen::Vector3d& centre,
+                                const GridExtractionOptions& options) {
   options.Check();
   torch::NoGradGuard no_grad;
   const int d = options.resolution;
-  const auto& fmin = block.field_options.aabb_min;
-  const auto& fmax = block.field_options.aabb_max;
-  const Eigen::Vector3d centre(0.5 * (fmin[0] + fmax[0]), 0.5 * (fmin[1] + fmax[1]), 0.5 * (fmin[2] + fmax[2]));
   RegGrid g;
-  g.source = "nerf";
+  g.source = field.source;
   g.variant = options.variant;
   g.aabb_min = centre - Eigen::Vector3d::Constant(0.5 * options.side);
   g.aabb_max = centre + Eigen::Vector3d::Constant(0.5 * options.side);
@@ -45,7 +43,7 @@ RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
   // k jittered samples per voxel; the densest is the voxel's point.
   const int k = options.samples_per_voxel;
   const auto cand = corner.unsqueeze(1) + torch::rand({d * d * d, k, 3}, gen) * cell;           // [D^3, k, 3]
-  const auto cand_sigma = QueryDensity(block, cand.reshape({-1, 3})).view({d * d * d, k});       // [D^3, k]
+  const auto cand_sigma = field.density(cand.reshape({-1, 3})).view({d * d * d, k});            // [D^3, k]
   const auto best = cand_sigma.argmax(1);                                                        // [D^3]
   const auto points = cand.gather(1, best.view({-1, 1, 1}).expand({-1, 1, 3})).squeeze(1);        // [D^3, 3]
   const auto sigma = cand_sigma.gather(1, best.view({-1, 1})).squeeze(1);                       // [D^3]
@@ -54,16 +52,8 @@ RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
   const auto dense_idx = dense.nonzero().squeeze(1);
   const auto dense_pts = points.index_select(0, dense_idx);
 
-  // Colour averaged over the six axis directions, at the dense points only.
-  auto rgb = torch::zeros({dense_pts.size(0), 3});
-  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  for (const auto& dir : dirs) {
-    for (std::int64_t s = 0; s < dense_pts.size(0); s += 1 << 16) {
-      const auto p = dense_pts.slice(0, s, s + (1 << 16));
-      const auto dd = torch::tensor(dir).expand({p.size(0), 3}).contiguous();
-      rgb.slice(0, s, s + (1 << 16)) += block.field->Forward(p, dd).second / 6.0;
-    }
-  }
+  // Colour (view-averaged) at the dense points only.
+  const auto rgb = field.color(dense_pts);
   auto rgba = torch::zeros({d * d * d, 4});
   rgba.index_copy_(0, dense_idx,
                    torch::cat({rgb, (1 - torch::exp(-0.01 * sigma.index_select(0, dense_idx))).clamp(0, 1).unsqueeze(1)}, 1));
@@ -71,15 +61,33 @@ RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
 
   auto surface = torch::zeros({d * d * d});
   if (dense_pts.size(0) > 0) {
-    if (block.cameras.IndicesOfSplit("train").empty()) {
-      ThrowInputError("block", "cameras", "training cameras in the checkpoint (the surface field marches from them)");
-    }
-    surface.index_copy_(0, dense_idx, SurfaceField(block, dense_pts, options.ResolvedSurface()));
+    surface.index_copy_(0, dense_idx, field.surface ? field.surface(dense_pts) : torch::ones({dense_pts.size(0)}));
   }
   g.surface = surface.reshape({d, d, d});
   g.mask = options.variant == "df" ? dense.reshape({d, d, d}) : (dense & (surface >= options.surface_threshold)).reshape({d, d, d});
   g.Check();
   return g;
+}
+
+RegGrid ExtractRegGrid(NerfBlock& block, const GridExtractionOptions& options) {
+  const auto& fmin = block.field_options.aabb_min;
+  const auto& fmax = block.field_options.aabb_max;
+  // The field box's centre in the block's frame (a moved block's box is rotated there).
+  const Eigen::Vector3d centre =
+      block.world_from_field *
+      Eigen::Vector3d(0.5 * (fmin[0] + fmax[0]), 0.5 * (fmin[1] + fmax[1]), 0.5 * (fmin[2] + fmax[2]));
+  GridFieldQueries q;
+  q.source = "nerf";
+  q.density = [&block](const torch::Tensor& x) { return QueryDensity(block, x); };
+  q.color = [&block](const torch::Tensor& x) { return ViewAveragedColor(block, x); };
+  const SurfaceFieldOptions surface = options.ResolvedSurface();
+  q.surface = [&block, surface](const torch::Tensor& x) {
+    if (block.cameras.IndicesOfSplit("train").empty()) {
+      ThrowInputError("block", "cameras", "training cameras in the checkpoint (the surface field marches from them)");
+    }
+    return SurfaceField(block, x, surface);
+  };
+  return ExtractRegGridFromField(q, centre, options);
 }
 
 }  // namespace nerfreg

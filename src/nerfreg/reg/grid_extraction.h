@@ -10,6 +10,7 @@
 //  4. channels: view-averaged RGB and alpha = clip(1 - exp(-0.01 sigma), 0, 1);
 //     mask = density AND S >= 0.5 (variant "surface"), or density alone (variant "df"); S is the
 //     ray weight within one cell of the point by default (GridExtractionOptions::surface).
+#include <functional>
 #include <string>
 
 #include "nerfreg/nerf/field_queries.h"
@@ -45,6 +46,19 @@ struct GridExtractionOptions {
   unsigned seed = 0;                // the jitter
   void Check() const;               // throws InputError naming the option
 };
+
+// What grid extraction asks of a field (a NeRF block's, a splat set's): positions [N, 3] float32 of
+// its frame -> density [N], view-averaged colour [N, 3] in [0, 1], and the surface field S [N] in
+// [0, 1] (empty: 1, every dense voxel is surface: splats are surfaces already and have no cameras
+// to march from).
+struct GridFieldQueries {
+  std::string source = "nerf";  // RegGrid::source
+  std::function<torch::Tensor(const torch::Tensor&)> density, color, surface;
+};
+
+// The grid over a cube of options.side centred at `centre` (the field's frame).
+RegGrid ExtractRegGridFromField(const GridFieldQueries& field, const Eigen::Vector3d& centre,
+                                const GridExtractionOptions& options);
 
 // Throws InputError when the block has no training cameras and the variant needs the surface
 // field. An empty occupancy grid gives an empty mask (the caller warns), not an error.

@@ -31,6 +31,7 @@ void RenderDatasetOptions::Check() const {
   if (!(std::abs(k1) < 1) || !(std::abs(k2) < 1)) ThrowInputError("--distortion", "", "K1[,K2] each in (-1, 1)");
   if (!(noise_sigma >= 0 && noise_sigma < 1)) ThrowInputError("--noise", "", "a standard deviation in [0, 1)");
   if (jpeg_quality < 0 || jpeg_quality > 100) ThrowInputError("--jpeg", "", "a quality in 1..100 (0: PNG)");
+  if (write_splats) splats.Check();
   try {
     block_frame.Check();
     render.Check();
@@ -44,7 +45,8 @@ Json RenderDatasetOptions::ToJson() const {
           {"test_every", test_every}, {"seed", seed}, {"forward_spread", forward_spread}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
           {"block_max_translation", block_frame.max_translation}, {"block_min_scale", block_frame.min_scale},
           {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth},
-          {"k1", k1}, {"k2", k2}, {"noise_sigma", noise_sigma}, {"jpeg_quality", jpeg_quality}};
+          {"k1", k1}, {"k2", k2}, {"noise_sigma", noise_sigma}, {"jpeg_quality", jpeg_quality},
+          {"write_splats", write_splats}, {"splat_voxel", splats.voxel}};
 }
 
 RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options, const std::string& out_dir) {
@@ -76,6 +78,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
   const std::string& tmp = output.tmp();
   {
     RayCaster caster(mesh);
+    SurfaceSplatter splatter(caster, options.splats);
     Dataset world;
     world.root = tmp;
     ProgressBar bar("render", n, "view");
@@ -91,6 +94,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
       char name[32];
       std::snprintf(name, sizeof(name), options.jpeg_quality > 0 ? "r_%03d.jpg" : "r_%03d.png", i);
       const RenderResult r = RenderView(caster, mesh, cams[i].camera, cams[i].cam_from_world, options.render);
+      if (options.write_splats) splatter.AddView(i, cams[i].camera, cams[i].cam_from_world, r.rgba);
       Frame f;
       f.name = name;
       f.file_path = std::string("images/") + name;
@@ -138,6 +142,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     world.aabb_min = mn.cast<double>();
     world.aabb_max = mx.cast<double>();
     WriteTransformsJson(world, JoinPaths(tmp, "transforms.json"));
+    if (options.write_splats) WriteSplatPly(splatter.Build({}), JoinPaths(tmp, "splats.ply"));
 
     if (options.blocks >= 2) {
       std::mt19937 rng(options.seed * 7919u + 1u);
@@ -169,6 +174,12 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
         block.aabb_min = bmn;
         block.aabb_max = bmx;
         WriteTransformsJson(block, JoinPaths(block_dir, "transforms.json"));
+        if (options.write_splats) {
+          std::vector<int> views;
+          for (int i = 0; i < n; ++i)
+            if (label[i] == k) views.push_back(i);
+          WriteSplatPly(splatter.Build(views, block_from_world), JoinPaths(block_dir, "splats.ply"));
+        }
         gt_blocks.push_back({{"block_from_world", MatrixToJson(block_from_world.ToMatrix())},
                              {"scale", block_from_world.scale},
                              {"frames", names}});

@@ -5,6 +5,7 @@
 //   DIR/block_k/transforms.json, DIR/block_k/images/   block k's views in block k's frame
 //   DIR/ground_truth.json                               {"blocks": [{"block_from_world", "scale", ...}]}
 //   DIR/render_options.json                             the effective options
+//   DIR/splats.ply, DIR/block_k/splats.ply              with write_splats (3DGS PLY)
 // The dataset is written into a temporary folder renamed into place at the end, so an
 // interrupted run leaves nothing half-written.
 #include <string>
@@ -12,6 +13,7 @@
 #include "nerfreg/render/blocks.h"
 #include "nerfreg/render/mesh.h"
 #include "nerfreg/render/renderer.h"
+#include "nerfreg/render/surface_splats.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
@@ -34,6 +36,10 @@ struct RenderDatasetOptions {
   double noise_sigma = 0;
   int jpeg_quality = 0;
   bool write_depth = false;          // depth maps as DIR/depth/r_XXX.npy (z-depth, 0 = no surface)
+  // 3D Gaussian splats of the surface the views saw (render/surface_splats.h): DIR/splats.ply from
+  // every view (world frame) and, with blocks, DIR/block_k/splats.ply from block k's views in its frame.
+  bool write_splats = false;
+  SurfaceSplatOptions splats;
   bool force = false;                // replace an existing DIR
   void Check() const;                // throws InputError naming the option
   Json ToJson() const;

@@ -1,0 +1,74 @@
+#pragma once
+// What registration asks of each of its two inputs, whatever the input is, so `reg register`
+// takes NeRF block checkpoints and 3D Gaussian splat PLYs alike (and one of each):
+//  - a density field (DensityField: sigma at points of the input's frame, and the box it is known
+//    in) for the field refinement and the confidence;
+//  - DReg-NeRF's voxel grid (the network, FPFH + RANSAC on grids, grid ICP);
+//  - occupied points (FPFH + RANSAC / FGR, block ICP, the overlays).
+// A NeRF block answers from its field (nerf/field_queries.h); a splat set from its SplatField.
+#include <torch/torch.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/reg/field_alignment.h"
+#include "nerfreg/reg/grid_extraction.h"
+#include "nerfreg/reg/splat_field.h"
+
+namespace nerfreg {
+
+class RegistrationInput {
+ public:
+  virtual ~RegistrationInput() = default;
+  // "nerf" or "splats" (written into T.json).
+  virtual std::string Kind() const = 0;
+  virtual DensityField Field() = 0;
+  virtual RegGrid ExtractGrid(const GridExtractionOptions& options) = 0;
+  // One jittered point per occupied cell whose density exceeds min_density: [3, N], input frame.
+  virtual Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) = 0;
+};
+
+// A NeRF block, borrowed or owned.
+class NerfBlockInput : public RegistrationInput {
+ public:
+  explicit NerfBlockInput(NerfBlock& block) : block_(&block) {}
+  explicit NerfBlockInput(NerfBlock&& block) : owned_(std::make_unique<NerfBlock>(std::move(block))), block_(owned_.get()) {}
+  std::string Kind() const override { return "nerf"; }
+  DensityField Field() override { return BlockDensityField(*block_); }
+  RegGrid ExtractGrid(const GridExtractionOptions& options) override { return ExtractRegGrid(*block_, options); }
+  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) override;
+  NerfBlock& block() { return *block_; }
+
+ private:
+  std::unique_ptr<NerfBlock> owned_;
+  NerfBlock* block_;
+};
+
+// A splat set. Its occupied points come from a grid over the splats' bounds with cells of
+// 1/kSplatOccupancyResolution of its longest side, as a NeRF block's come from its 128^3
+// occupancy grid; its registration grid is centred on those bounds.
+class SplatInput : public RegistrationInput {
+ public:
+  static constexpr int kSplatOccupancyResolution = 128;
+  SplatInput(const Splats& splats, const SplatFieldOptions& options) : field_(splats, options) {}
+  std::string Kind() const override { return "splats"; }
+  DensityField Field() override;
+  RegGrid ExtractGrid(const GridExtractionOptions& options) override;
+  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) override;
+  const SplatField& field() const { return field_; }
+
+ private:
+  SplatField field_;
+};
+
+// positions [N, 3] (any float dtype) -> sigma [N] float32, and rgb [N, 3] with `rgb`.
+torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positions, torch::Tensor* rgb = nullptr);
+
+// A splat PLY (data/splat_ply.h: IsSplatPly) or else a NeRF block checkpoint, loaded; InputError
+// naming the file when it is neither. The block's field goes to `device`.
+std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path, const SplatFieldOptions& splat_options,
+                                                         const torch::Device& device = torch::kCPU);
+
+}  // namespace nerfreg
