@@ -40,7 +40,7 @@ Json PoseDepthNetOptionsToJson(const PoseDepthNetOptions& o) {
           {"motion_channels", o.motion_channels},   {"state_channels", o.state_channels},
           {"head_channels", o.head_channels},       {"mask_channels", o.mask_channels},
           {"outer_iterations", o.outer_iterations}, {"inner_iterations", o.inner_iterations},
-          {"rotation_scale", o.rotation_scale}};
+          {"rotation_scale", o.rotation_scale},     {"batch_statistics", o.batch_statistics}};
 }
 
 PoseDepthNetOptions PoseDepthNetOptionsFromJson(const JsonField& j) {
@@ -58,6 +58,9 @@ PoseDepthNetOptions PoseDepthNetOptionsFromJson(const JsonField& j) {
   o.outer_iterations = j["outer_iterations"].Int();
   o.inner_iterations = j["inner_iterations"].Int();
   o.rotation_scale = j["rotation_scale"].Double();
+  // Files written before the option normalised with running statistics in inference; they are
+  // read with the default, batch statistics (what they were trained with).
+  o.batch_statistics = j.Has("batch_statistics") ? j["batch_statistics"].Bool() : true;
   if (!o.Check()) j.Fail("valid pose/depth network options (see the log)");
   return o;
 }

@@ -281,8 +281,11 @@ void UseGroundTruthCameras(const std::string& path, const Dataset& d, DbarfScene
     cameras.push_back(Matrix4ToTensor(c.ToMatrix()));
   }
   scene->cam_from_world = torch::stack(cameras);
-  scene->near = near;
-  scene->far = far;
+  // The frames' bounds are the seen depths padded by 0.9 / 1.1 (LLFF's habit, and our renders');
+  // the estimated range the network meets in inference is the SfM points' widened by 0.7 / 1.4
+  // (DepthRangeFromPoints). Widened alike, training sees the ranges inference gives.
+  scene->near = near * (0.7 / 0.9);
+  scene->far = far * (1.4 / 1.1);
   scene->neighbours.assign(v, {});
   for (int64_t i = 0; i < v; ++i) {
     for (int j : NearestViews(*scene, scene->cam_from_world[i], static_cast<int>(v)))

@@ -16,16 +16,22 @@ nn::Conv2d Conv(int64_t in, int64_t out, int64_t kh, int64_t kw, int64_t stride 
   return nn::Conv2d(nn::Conv2dOptions(in, out, {kh, kw}).stride(stride).padding({kh / 2, kw / 2}).bias(bias));
 }
 
+// BatchNorm with running statistics for inference, or (batch_statistics) without: then it
+// normalises with the statistics of the images it is given, in training and inference alike.
+nn::BatchNorm2d Bn(int64_t channels, bool batch_statistics) {
+  return nn::BatchNorm2d(nn::BatchNorm2dOptions(channels).track_running_stats(!batch_statistics));
+}
+
 // ResNet BasicBlock: 3x3 (stride) -> BN -> ReLU -> 3x3 -> BN, residual (projected when needed).
 class BasicBlockImpl : public nn::Module {
  public:
-  BasicBlockImpl(int64_t in, int64_t out, int64_t stride) {
-    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, 3, stride, false), nn::BatchNorm2d(out),
+  BasicBlockImpl(int64_t in, int64_t out, int64_t stride, bool batch_statistics) {
+    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, 3, stride, false), Bn(out, batch_statistics),
                                                    nn::ReLU(), Conv(out, out, 3, 3, 1, false),
-                                                   nn::BatchNorm2d(out)));
+                                                   Bn(out, batch_statistics)));
     if (stride != 1 || in != out) {
-      shortcut_ = register_module("shortcut",
-                                  nn::Sequential(Conv(in, out, 1, 1, stride, false), nn::BatchNorm2d(out)));
+      shortcut_ = register_module(
+          "shortcut", nn::Sequential(Conv(in, out, 1, 1, stride, false), Bn(out, batch_statistics)));
     }
   }
   torch::Tensor forward(const torch::Tensor& x) {
@@ -37,9 +43,11 @@ class BasicBlockImpl : public nn::Module {
 };
 TORCH_MODULE(BasicBlock);
 
-nn::Sequential Stage(int64_t in, int64_t out, int64_t stride, int64_t blocks) {
+nn::Sequential Stage(int64_t in, int64_t out, int64_t stride, int64_t blocks, bool batch_statistics) {
   nn::Sequential s;
-  for (int64_t b = 0; b < blocks; ++b) s->push_back(BasicBlock(b == 0 ? in : out, out, b == 0 ? stride : 1));
+  for (int64_t b = 0; b < blocks; ++b) {
+    s->push_back(BasicBlock(b == 0 ? in : out, out, b == 0 ? stride : 1, batch_statistics));
+  }
   return s;
 }
 
@@ -138,11 +146,12 @@ torch::Tensor ConvexUpsample(const torch::Tensor& x, const torch::Tensor& mask, 
 ResNetEncoderImpl::ResNetEncoderImpl(int64_t in_channels, int64_t out_channels,
                                      const PoseDepthNetOptions& options) {
   const auto& w = options.encoder_widths;
-  stem_ = register_module("stem", nn::Sequential(Conv(in_channels, w[0], 7, 7, 2, false), nn::BatchNorm2d(w[0]),
-                                                 nn::ReLU(), nn::MaxPool2d(nn::MaxPool2dOptions(3).stride(2).padding(1))));
-  layer1_ = register_module("layer1", Stage(w[0], w[0], 1, options.blocks_per_stage));
-  layer2_ = register_module("layer2", Stage(w[0], w[1], 2, options.blocks_per_stage));
-  layer3_ = register_module("layer3", Stage(w[1], w[2], 2, options.blocks_per_stage));
+  const bool batch = options.batch_statistics;
+  stem_ = register_module("stem", nn::Sequential(Conv(in_channels, w[0], 7, 7, 2, false), Bn(w[0], batch), nn::ReLU(),
+                                                 nn::MaxPool2d(nn::MaxPool2dOptions(3).stride(2).padding(1))));
+  layer1_ = register_module("layer1", Stage(w[0], w[0], 1, options.blocks_per_stage, batch));
+  layer2_ = register_module("layer2", Stage(w[0], w[1], 2, options.blocks_per_stage, batch));
+  layer3_ = register_module("layer3", Stage(w[1], w[2], 2, options.blocks_per_stage, batch));
   up_conv_ = register_module("up_conv", Conv(w[2], options.fuse_channels, 3, 3));
   fuse_conv_ = register_module("fuse_conv", Conv(options.fuse_channels + w[1], options.fuse_channels, 3, 3));
   out_conv_ = register_module("out_conv", Conv(options.fuse_channels, out_channels, 1, 1));

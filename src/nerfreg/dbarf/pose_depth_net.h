@@ -57,6 +57,12 @@ struct PoseDepthNetOptions {
   double far = 100.0;
   // Scale on the rotation half of every predicted twist (keeps early rotations small). Paper 0.01.
   double rotation_scale = 0.01;
+  // The encoders' BatchNorm normalises with the statistics of the images it is given (a target and
+  // its sources, one scene) in inference too, as in training, instead of the running statistics
+  // (the original's), which average over every scene trained on and so fit no one scene; the
+  // training step never used them (docs/notes/2026-11-25-pose-network-batch-norm.md). Weights
+  // files written with running statistics load either way (the statistics are then unused).
+  bool batch_statistics = true;
 
   // The original sizes, and a small CPU configuration (channels / 4, 2 outer x 2 inner).
   static PoseDepthNetOptions Paper();
