@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/stats.h"
@@ -38,6 +40,7 @@ void ImagePosesOptions::Check() const {
   if (method != "classical" && weights.empty()) throw InputError("--weights: expected a DBARF weights file");
   if (!(low_confidence_deg > 0)) throw InputError("--low-confidence-deg: expected > 0");
   if (!(auto_graph_edge_weight >= 0)) throw InputError("--graph-edge-weight: expected >= 0");
+  if (!(auto_doubt_fraction > 0 && auto_doubt_fraction <= 1)) throw InputError("--auto-doubt: expected in (0, 1]");
   try {
     sfm.Check();
   } catch (const std::invalid_argument& e) {
@@ -400,10 +403,19 @@ void PhotometricRefine(const torch::Tensor& images, const torch::Tensor& intrins
            ba.initial_loss, ba.final_loss, ba.iterations, ba.seconds);
 }
 
+// What a network run over all images leaves for scoring cameras: per target its sources and last
+// inverse depth [1, 1, H, W] (network units), and the scale from network units to the output frame.
+struct NetworkRunState {
+  std::vector<std::vector<int>> sources;
+  std::vector<torch::Tensor> inv_depths;
+  double scale = 1;
+};
+
 // Method network over all images: one network pass per target from the identity, averaging of
 // the edges; then refine_passes more, each starting from the relative poses of the last cameras.
 void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const torch::Tensor& intrinsics,
-                        const ViewGraph& graph, const NetworkPosesOptions& options, ImagePosesResult* result) {
+                        const ViewGraph& graph, const NetworkPosesOptions& options, ImagePosesResult* result,
+                        NetworkRunState* state = nullptr) {
   const int n = static_cast<int>(images.size(0));
   const Timer timer;
   const std::vector<std::vector<int>> appearance = AppearanceNeighbours(images);
@@ -454,7 +466,37 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     result->posed_by[k] = "network";
     result->confidence[k] = average.confidence[k];
   }
+  if (state != nullptr) *state = {sources, inv_depths, average.scale};
   result->seconds_network += timer.Seconds();
+}
+
+// How well cameras explain the images: the photometric error (DBARF's SfM loss) of warping every
+// network pair through the network's depths, each depth map given its best smooth correction
+// with the cameras held. One measure for any method's cameras, so auto can compare them. Lower is
+// better; infinity when no pair has both images posed.
+double PhotometricCameraScore(const torch::Tensor& images, const torch::Tensor& intrinsics, const NetworkRunState& net,
+                              const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                              const PhotometricBundleAdjustmentOptions& base) {
+  const int n = static_cast<int>(images.size(0));
+  int fixed = -1;
+  std::vector<std::pair<int, int>> pairs;
+  std::vector<torch::Tensor> depth_maps, cams;
+  for (int t = 0; t < n; ++t) {
+    const bool have_depth = net.inv_depths[t].defined();
+    depth_maps.push_back(have_depth ? net.inv_depths[t][0] / net.scale : torch::ones({1, images.size(2), images.size(3)}));
+    cams.push_back(Matrix4ToTensor(cam_from_world[t].ToMatrix()).to(torch::kDouble));
+    if (posed[t] && fixed < 0) fixed = t;
+    if (!have_depth || !posed[t]) continue;
+    for (int src : net.sources[t])
+      if (posed[src]) pairs.push_back({t, src});
+  }
+  if (fixed < 0 || pairs.empty()) return std::numeric_limits<double>::infinity();
+  PhotometricBundleAdjustmentOptions o = base;
+  o.optimize_poses = false;
+  o.optimize_depth = true;
+  o.levels = 2;
+  o.iterations_per_level = 30;
+  return PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, o).final_loss;
 }
 
 // Method auto: the images the SfM left out, each registered against posed sources.
@@ -490,6 +532,21 @@ void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, 
              reg.pair_direction_error_deg);
   }
   result->seconds_network += timer.Seconds();
+}
+
+// The share of the posed images whose own measurements disagree with their poses (the
+// low-confidence rule of EstimateImagePoses, the pixels' problems aside).
+double DoubtedFraction(const ImagePosesResult& result, const ImagePosesOptions& options) {
+  int posed = 0, doubted = 0;
+  for (size_t k = 0; k < result.posed.size(); ++k) {
+    if (!result.posed[k]) continue;
+    ++posed;
+    const ImagePoseConfidence& c = result.confidence[k];
+    doubted += c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
+               c.direction_residual_deg > options.low_confidence_direction_deg ||
+               (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+  }
+  return posed > 0 ? static_cast<double>(doubted) / posed : 0.0;
 }
 
 }  // namespace
@@ -571,6 +628,46 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                num_posed, n);
       run_network_on_all = true;
       result.method_used = "network";
+    }
+  }
+  if (options.method == "auto" && !run_network_on_all && model != nullptr) {
+    // Only a solution the SfM itself calls not well constrained is put to the test: on
+    // low-texture images the photometric comparison is weak, and a well-constrained SfM there was
+    // right where the network's cameras scored better (docs/poses_and_views.md).
+    const double doubted = DoubtedFraction(result, options);
+    if (doubted >= options.auto_doubt_fraction && !AssessSfm(result.sfm, cameras).WellConstrained()) {
+      LOG_WARN("the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
+               "that explain the images better", 100 * doubted);
+      const Timer check;
+      ImagePosesResult net = result;
+      net.posed.assign(n, false);
+      net.posed_by.assign(n, "");
+      net.confidence.assign(n, ImagePoseConfidence());
+      net.network_pairs.clear();
+      NetworkRunState state;
+      const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, options.network.max_width);
+      PoseAllWithNetwork(*model, net_images, net_intrinsics, result.sfm.view_graph, options.network, &net, &state);
+      result.auto_sfm_score = PhotometricCameraScore(net_images, net_intrinsics, state, result.cam_from_world,
+                                                     result.posed, options.network.photometric_ba);
+      result.auto_network_score = PhotometricCameraScore(net_images, net_intrinsics, state, net.cam_from_world,
+                                                         net.posed, options.network.photometric_ba);
+      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}", result.auto_sfm_score,
+               result.auto_network_score);
+      result.seconds_network = net.seconds_network;
+      result.num_network_edges = net.num_network_edges;
+      if (result.auto_network_score < result.auto_sfm_score) {
+        const SfmResult sfm = std::move(result.sfm);
+        const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;
+        result = std::move(net);
+        result.sfm = SfmResult();
+        result.sfm.view_graph = sfm.view_graph;
+        result.sfm.seconds_view_graph = sfm.seconds_view_graph;
+        result.auto_sfm_score = sfm_score;
+        result.auto_network_score = network_score;
+        result.method_used = "network";
+      }
+      result.auto_choice = result.method_used == "network" ? "network" : "sfm";
+      result.times.Record("auto check", check.Seconds());
     }
   }
   if (run_network_on_all) {

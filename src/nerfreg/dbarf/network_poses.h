@@ -94,6 +94,12 @@ struct ImagePosesOptions {
   // Method auto, where the SfM poses too few images to register against: the weight of the view
   // graph's essential-matrix edges averaged with the network's (NetworkPosesOptions::graph_edge_weight).
   double auto_graph_edge_weight = 10.0;
+  // Method auto, where the SfM posed (nearly) everything but calls its solution not well
+  // constrained (sfm/sfm_quality.h) and at least this share of its images are low-confidence
+  // (their own measurements disagree with their poses; repetition does this): the network poses
+  // all images as well, and the cameras with the lower photometric error over the network's pairs
+  // are kept (PhotometricCameraScore). 1 turns the check off.
+  double auto_doubt_fraction = 0.25;
   double low_confidence_deg = 5.0;             // rotation residual
   double low_confidence_direction_deg = 30.0;  // direction residual
   int low_confidence_observations = 10;
@@ -125,6 +131,11 @@ struct ImagePosesResult {
   // the final ones); network: the view graph only (keypoints empty when images were not matched).
   SfmResult sfm;
   std::string method_used;              // classical | network | auto (auto may fall back to network)
+  // Auto's check of a doubtful SfM (ImagePosesOptions::auto_doubt_fraction): the photometric error
+  // of the SfM's and of the network's cameras, and which were kept ("sfm" / "network"); empty and
+  // -1 where the check did not run.
+  std::string auto_choice;
+  double auto_sfm_score = -1, auto_network_score = -1;
   int num_network_edges = 0;            // relative poses predicted by the network
   // The (target, source) pairs the network was run on (once each, whatever the passes): neighbours
   // for dbarf finetune / render where the view graph has none (images without matches).

@@ -116,7 +116,7 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
 
   const int64_t gh = (height + options.depth_grid_stride - 1) / options.depth_grid_stride;
   const int64_t gw = (width + options.depth_grid_stride - 1) / options.depth_grid_stride;
-  torch::Tensor delta = torch::zeros({v, 6}, torch::kFloat).requires_grad_(true);
+  torch::Tensor delta = torch::zeros({v, 6}, torch::kFloat).requires_grad_(options.optimize_poses);
   torch::Tensor grid = torch::zeros({v, 1, gh, gw}, torch::kFloat).requires_grad_(options.optimize_depth);
   torch::Tensor mask = torch::ones({v, 1}, torch::kFloat);
   mask[fixed_camera] = 0;
@@ -140,17 +140,23 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
     const Problem p = make_problem(level);
     // Finer levels take smaller steps: their basin is narrower and the coarse level did the rest.
     const double scale = std::pow(0.5, options.levels - 1 - level);
+    // One Adam group per optimised block: the pose twists, the depth grid; their step sizes.
     std::vector<torch::optim::OptimizerParamGroup> groups;
-    groups.emplace_back(std::vector<torch::Tensor>{delta}, std::make_unique<torch::optim::AdamOptions>(options.pose_step * scale));
+    std::vector<double> steps;
+    if (options.optimize_poses) {
+      groups.emplace_back(std::vector<torch::Tensor>{delta}, std::make_unique<torch::optim::AdamOptions>(options.pose_step * scale));
+      steps.push_back(options.pose_step * scale);
+    }
     if (options.optimize_depth) {
       groups.emplace_back(std::vector<torch::Tensor>{grid}, std::make_unique<torch::optim::AdamOptions>(options.depth_step * scale));
+      steps.push_back(options.depth_step * scale);
     }
-    torch::optim::Adam adam(groups, torch::optim::AdamOptions(options.pose_step * scale));
+    if (groups.empty()) break;
+    torch::optim::Adam adam(groups, torch::optim::AdamOptions(steps[0]));
     for (int it = 0; it < options.iterations_per_level; ++it) {
       // Cosine decay to 5 % within the level, so the last steps settle instead of dithering at lr.
       const double decay = 0.05 + 0.95 * 0.5 * (1 + std::cos(M_PI * it / std::max(1, options.iterations_per_level)));
-      adam.param_groups()[0].options().set_lr(options.pose_step * scale * decay);
-      if (options.optimize_depth) adam.param_groups()[1].options().set_lr(options.depth_step * scale * decay);
+      for (size_t g = 0; g < steps.size(); ++g) adam.param_groups()[g].options().set_lr(steps[g] * decay);
       torch::AutoGradMode grad(true);
       adam.zero_grad();
       torch::Tensor loss = PhotometricTerm(p, cameras(), grid);

@@ -34,6 +34,7 @@ struct PhotometricBundleAdjustmentOptions {
   double depth_step = 1e-2;      // Adam learning rate of the log inverse-depth grid
   int depth_grid_stride = 8;     // the depth correction's grid: 1 cell per stride x stride pixels
   bool optimize_depth = true;    // false: the depths are held as given (poses only)
+  bool optimize_poses = true;    // false: the cameras are held (depths only: how well they explain the images)
   double smoothness_weight = 0.05;  // on the squared first differences of the log-depth grid
   double ssim_weight = 0.85;     // SSIM vs L1 in the per-pixel error (sfm_loss.h)
   double clip_std_factor = 1.0;  // robust clipping per pair; < 0 disables

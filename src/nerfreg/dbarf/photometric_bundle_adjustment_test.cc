@@ -139,6 +139,29 @@ TEST(PhotometricBundleAdjustment, WithoutStepsOrPairsTheCamerasStayAsGiven) {
   EXPECT_TRUE(torch::allclose(none.cam_from_world, c.perturbed, 1e-5, 1e-6));
 }
 
+// Cameras held, depths free (what dbarf poses --method auto compares two methods' cameras by): the
+// cameras stay as given, and the true ones explain the images better than ones a few degrees off,
+// whose depths cannot make up for them.
+TEST(PhotometricBundleAdjustment, WithTheCamerasHeldTheTruthScoresBetterThanWrongCameras) {
+  const Case c = MakeCase();
+  PhotometricBundleAdjustmentOptions options;
+  options.optimize_poses = false;
+  options.levels = 2;
+  options.iterations_per_level = 30;
+  // Three times the perturbation of MakeCase: perturbed = Exp(noise) * truth.
+  const torch::Tensor noise = Se3Log(torch::matmul(c.perturbed, Se3Inverse(c.truth)));
+  const torch::Tensor wrong = Se3Update(3.0 * noise, c.truth);
+  ASSERT_GT(MedianRotationDeg(wrong, c.truth), 2.0);
+  const PhotometricBundleAdjustmentResult truth =
+      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.truth, c.pairs, 0, options);
+  const PhotometricBundleAdjustmentResult off =
+      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, wrong, c.pairs, 0, options);
+  EXPECT_TRUE(torch::allclose(truth.cam_from_world, c.truth.to(torch::kDouble), 1e-5, 1e-6));
+  EXPECT_TRUE(torch::allclose(off.cam_from_world, wrong.to(torch::kDouble), 1e-5, 1e-6));
+  EXPECT_LT(truth.final_loss, truth.initial_loss);  // the depths (10 % too far) were corrected
+  EXPECT_LT(truth.final_loss, 0.7 * off.final_loss) << truth.final_loss << " vs " << off.final_loss;
+}
+
 TEST(PhotometricBundleAdjustment, RejectsBadInput) {
   const Case c = MakeCase();
   PhotometricBundleAdjustmentOptions options;

@@ -59,6 +59,9 @@ int RunDbarfPoses(int argc, char** argv) {
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
   app.add_option("--bundle-adjust", options.network.bundle_adjust,
                  "Network method: 1 refines the averaged cameras by photometric bundle adjustment with the network's depths, 0 not");
+  app.add_option("--auto-doubt", options.auto_doubt_fraction,
+                 "Auto: share of low-confidence SfM images at which the network poses all images too and the "
+                 "photometrically better cameras are kept (default 0.25; 1: off)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");

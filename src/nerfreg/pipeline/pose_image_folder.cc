@@ -172,6 +172,11 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                 {"frame", "first posed camera at the identity; mean distance of the others to it = 1"},
                 {"well_constrained", quality.WellConstrained()},
                 {"problems", quality.problems}};
+  if (!result.auto_choice.empty()) {
+    posed.info["auto_check"] = {{"kept", result.auto_choice},
+                                {"sfm_photometric_error", result.auto_sfm_score},
+                                {"network_photometric_error", result.auto_network_score}};
+  }
   if (any_sfm) {
     posed.info["quality"] = {{"min_image_side_px", quality.min_image_side_px},
                              {"min_points_per_image", quality.min_points_per_image},
