@@ -16,7 +16,7 @@
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg/test_grids.h"
 
 namespace nerfreg {

@@ -3,7 +3,7 @@
 # (models/dreg_cpu.pt). Resumable: re-running skips finished objects. Only the Debian test meshes
 # below and procedural objects are used (docs/data.md).
 #   train: procedural objects 1000.. and the Debian test meshes below, pairs synthesised from the
-#          meshes (reg/synthetic_grids.h);
+#          meshes (reg_data/synthetic_grids.h);
 #   train_nerf: real block pairs of two training meshes (tuning the field refinement);
 #   train_nerf_proc: real block pairs of 12 training procedural objects;
 #   train_nerf_proc4, train_nerf_proc4b: real block pairs of 4-block splits of 86 more training procedural objects;

@@ -4,7 +4,7 @@
 #include <map>
 
 #include "nerfreg/data/transforms_json.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/pose_image_folder.h"

@@ -5,7 +5,7 @@
 #include <cstdlib>
 
 #include "nerfreg/dbarf/dbarf_model.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/evaluate_dbarf.h"

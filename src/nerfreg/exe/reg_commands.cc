@@ -11,7 +11,7 @@
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg/registration_success.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"

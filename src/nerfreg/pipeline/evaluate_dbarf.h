@@ -7,7 +7,7 @@
 // OUT/views/ (renders, inverse depth) and OUT/compare.png, all moved into place at once.
 #include <string>
 
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/dbarf/dbarf_trainer.h"
 #include "nerfreg/sfm/pose_evaluation.h"
 #include "nerfreg/util/json_util.h"

@@ -7,8 +7,8 @@
 
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
-#include "nerfreg/dbarf/posed_images.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/render/camera_plot.h"
 #include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/sfm_quality.h"

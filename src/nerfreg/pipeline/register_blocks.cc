@@ -10,7 +10,7 @@
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
-#include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg_baselines/baselines.h"
 #include "nerfreg/reg/reg_grid.h"
 #include "nerfreg/render/point_splat.h"
 #include "nerfreg/util/file_util.h"

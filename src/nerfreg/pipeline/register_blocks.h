@@ -17,7 +17,7 @@
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/grid_extraction.h"
-#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg/registration_input.h"
 #include "nerfreg/reg/splat_field.h"
 #include "nerfreg/util/json_util.h"

@@ -9,7 +9,7 @@
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/posegraph/pose_graph.h"
-#include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg_baselines/baselines.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg/reg_grid.h"
 #include "nerfreg/reg/registration_input.h"

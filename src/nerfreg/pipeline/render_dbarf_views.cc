@@ -4,7 +4,7 @@
 
 #include "nerfreg/data/convert.h"
 #include "nerfreg/dbarf/dbarf_model.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"

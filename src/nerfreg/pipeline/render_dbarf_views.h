@@ -1,6 +1,6 @@
 #pragma once
 // `dbarf render`'s job: novel views with the generalizable NeRF from posed images (the output of
-// dbarf poses, dbarf/posed_images.h): one PNG per camera of a camera file, named as its frame, and
+// dbarf poses, dbarf_data/posed_images.h): one PNG per camera of a camera file, named as its frame, and
 // its inverse depth in OUT/depth/, all moved into place at once.
 #include <c10/core/Device.h>
 

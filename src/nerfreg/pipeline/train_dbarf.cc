@@ -1,7 +1,7 @@
 #include "nerfreg/pipeline/train_dbarf.h"
 
 #include "nerfreg/dbarf/dbarf_model.h"
-#include "nerfreg/dbarf/posed_images.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"

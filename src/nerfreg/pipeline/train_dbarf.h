@@ -2,11 +2,11 @@
 // `dbarf pretrain` / `dbarf finetune`'s job: the scenes loaded (cameras, depth range and view graph
 // estimated where a dataset's poses are ground truth), the weights started or resumed, DBARF trained
 // (dbarf/dbarf_trainer.h), a summary written beside the weights and, with refined cameras, the
-// scene's posed images written again with them (dbarf/posed_images.h).
+// scene's posed images written again with them (dbarf_data/posed_images.h).
 #include <string>
 #include <vector>
 
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/dbarf/dbarf_trainer.h"
 #include "nerfreg/util/json_util.h"
 

@@ -8,7 +8,7 @@
 #include "nerfreg/nerf/test_train_options.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg/synthetic_grids.h"
+#include "nerfreg/reg_data/synthetic_grids.h"
 #include "nerfreg/render/procedural.h"
 #include "nerfreg/render/render_dataset.h"
 #include "nerfreg/util/test_util.h"

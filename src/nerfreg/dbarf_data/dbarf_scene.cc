@@ -1,4 +1,4 @@
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <map>
 
 #include "nerfreg/data/convert.h"
-#include "nerfreg/dbarf/posed_images.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"

@@ -1,9 +1,9 @@
-#include "nerfreg/dbarf/network_poses.h"
+#include "nerfreg/dbarf_data/network_poses.h"
 
 #include <gtest/gtest.h>
 
 #include "nerfreg/dbarf/dbarf_model.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/dbarf/test_scene.h"
 #include "nerfreg/util/test_util.h"
 

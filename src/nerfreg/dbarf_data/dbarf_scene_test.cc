@@ -1,4 +1,4 @@
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 
 #include <gtest/gtest.h>
 

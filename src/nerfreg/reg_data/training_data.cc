@@ -1,4 +1,4 @@
-#include "nerfreg/reg/training_data.h"
+#include "nerfreg/reg_data/training_data.h"
 
 #include <filesystem>
 #include <set>

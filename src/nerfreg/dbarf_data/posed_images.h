@@ -3,14 +3,14 @@
 // file's folder) plus what DBARF needs beside the cameras: the view graph (neighbours for
 // training and rendering), the depth range and how each image was posed. The top-level key
 // "dbarf_poses" marks such a file; any other transforms.json is a dataset whose poses are ground
-// truth (dbarf/dbarf_scene.h).
+// truth (dbarf_data/dbarf_scene.h).
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "nerfreg/data/dataset.h"
-#include "nerfreg/dbarf/network_poses.h"
+#include "nerfreg/dbarf_data/network_poses.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {

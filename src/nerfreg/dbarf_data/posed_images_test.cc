@@ -1,4 +1,4 @@
-#include "nerfreg/dbarf/posed_images.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 
 #include <gtest/gtest.h>
 

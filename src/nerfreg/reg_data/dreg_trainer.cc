@@ -1,4 +1,4 @@
-#include "nerfreg/reg/dreg_trainer.h"
+#include "nerfreg/reg_data/dreg_trainer.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -9,7 +9,7 @@
 
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/reg/registration_success.h"
-#include "nerfreg/reg/training_data.h"
+#include "nerfreg/reg_data/training_data.h"
 #include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"

@@ -1,4 +1,4 @@
-#include "nerfreg/reg/synthetic_grids.h"
+#include "nerfreg/reg_data/synthetic_grids.h"
 
 #include <gtest/gtest.h>
 

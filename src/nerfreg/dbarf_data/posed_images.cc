@@ -1,9 +1,9 @@
-#include "nerfreg/dbarf/posed_images.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 
 #include <filesystem>
 
 #include "nerfreg/data/transforms_json.h"
-#include "nerfreg/dbarf/dbarf_scene.h"
+#include "nerfreg/dbarf_data/dbarf_scene.h"
 
 namespace nerfreg {
 

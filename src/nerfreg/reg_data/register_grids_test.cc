@@ -1,4 +1,4 @@
-#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg_data/register_grids.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "nerfreg/geometry/rigid3.h"
-#include "nerfreg/reg/synthetic_grids.h"
+#include "nerfreg/reg_data/synthetic_grids.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/render/mesh.h"
 #include "nerfreg/render/procedural.h"

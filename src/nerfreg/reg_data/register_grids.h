@@ -2,7 +2,7 @@
 // One registration of two extracted grids by any method, with one result type, so `reg register`,
 // `reg eval --pairs` and the benchmarks compare methods on exactly the same input:
 //  - "dreg": the DReg-NeRF network (reg/dreg_model.h) on the grids;
-//  - "ransac" / "fgr": Open3D FPFH + RANSAC / FGR (reg/baselines.h) on the grids' masked points,
+//  - "ransac" / "fgr": Open3D FPFH + RANSAC / FGR (reg_baselines/baselines.h) on the grids' masked points,
 //    with the spec's parameters scaled by `voxel`;
 // each optionally refined by point-to-plane ICP (on the occupied or the masked points), the pose
 // also checked against its half-turns about the object's axes (`flips`).

@@ -1,4 +1,4 @@
-#include "nerfreg/reg/register_grids.h"
+#include "nerfreg/reg_data/register_grids.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg_baselines/baselines.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/timer.h"
 

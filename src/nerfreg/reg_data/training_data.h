@@ -4,7 +4,7 @@
 //
 //   OUT/pairs.json            {"pairs": [PairRecord...], "objects": {name: {"seconds", "pairs", ...}},
 //                              "options": {...}}
-//   OUT/<object>/mesh_<k>_{source,target}.grid     synthesised pairs (reg/synthetic_grids.h)
+//   OUT/<object>/mesh_<k>_{source,target}.grid     synthesised pairs (reg_data/synthetic_grids.h)
 //   OUT/<object>/nerf/...                          rendered blocks, block checkpoints, their grids
 //
 // Objects are meshes (assimp-testmodels, openscad-testing-data; see docs/data.md for the meshes
@@ -15,7 +15,7 @@
 
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/grid_extraction.h"
-#include "nerfreg/reg/synthetic_grids.h"
+#include "nerfreg/reg_data/synthetic_grids.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {

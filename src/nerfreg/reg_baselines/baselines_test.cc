@@ -1,4 +1,4 @@
-#include "nerfreg/reg/baselines.h"
+#include "nerfreg/reg_baselines/baselines.h"
 
 #include <gtest/gtest.h>
 
