@@ -24,8 +24,10 @@ torch::Tensor SourcePoses(int64_t n) {
   std::vector<torch::Tensor> poses;
   for (int64_t i = 0; i < n; ++i) {
     const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(n);
-    poses.push_back(Se3Exp(torch::tensor({0.15 * std::cos(a), 0.1 * std::sin(a), 0.0, 0.01 * std::sin(a),
-                                          -0.01 * std::cos(a), 0.0}, torch::kFloat).unsqueeze(0)));
+    poses.push_back(
+        Se3Exp(torch::tensor({0.15 * std::cos(a), 0.1 * std::sin(a), 0.0, 0.01 * std::sin(a), -0.01 * std::cos(a), 0.0},
+                             torch::kFloat)
+                   .unsqueeze(0)));
   }
   return torch::cat(poses, 0);
 }

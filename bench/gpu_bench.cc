@@ -52,7 +52,8 @@ Json HashEncodingTiming(const torch::Device& device, std::int64_t n, int iterati
     Sync(device);
     if (i >= 0) seconds += Since(t0);
   }
-  return {{"points", n}, {"ms_per_forward_backward", 1e3 * seconds / iterations},
+  return {{"points", n},
+          {"ms_per_forward_backward", 1e3 * seconds / iterations},
           {"points_per_second", double(n) * iterations / seconds}};
 }
 
@@ -98,8 +99,8 @@ Dataset SphereDataset(const std::string& dir, int views, int size) {
 
 // Trains a block of the paper's preset on the sphere; returns the seconds to the first evaluation
 // at or above `target_psnr` (or -1) and the steps per second.
-Json NerfTiming(const torch::Device& device, const std::string& dir, int views, int size, int iterations, int eval_every,
-                double target_psnr) {
+Json NerfTiming(const torch::Device& device, const std::string& dir, int views, int size, int iterations,
+                int eval_every, double target_psnr) {
   const Dataset d = SphereDataset(dir, views, size);
   NerfTrainOptions o = NerfTrainOptions::Preset("default");
   o.iterations = iterations;
@@ -117,9 +118,14 @@ Json NerfTiming(const torch::Device& device, const std::string& dir, int views, 
       seconds_to_target = j["seconds"].get<double>();
     }
   }
-  return {{"views", views}, {"size", size}, {"iterations", r.iterations}, {"seconds", r.seconds},
-          {"steps_per_second", r.iterations / r.seconds}, {"psnr_test", r.psnr_test},
-          {"target_psnr", target_psnr}, {"seconds_to_target", seconds_to_target}};
+  return {{"views", views},
+          {"size", size},
+          {"iterations", r.iterations},
+          {"seconds", r.seconds},
+          {"steps_per_second", r.iterations / r.seconds},
+          {"psnr_test", r.psnr_test},
+          {"target_psnr", target_psnr},
+          {"seconds_to_target", seconds_to_target}};
 }
 
 // DReg-NeRF training steps (forward, loss, backward, AdamW) of the paper's network on a grid pair.
@@ -145,7 +151,8 @@ Json RegTiming(const torch::Device& device, int resolution, int steps) {
     Sync(device);
     if (i >= 0) seconds += Since(t0);
   }
-  return {{"config", "paper"}, {"grid_resolution", resolution}, {"steps", steps}, {"steps_per_second", steps / seconds}};
+  return {
+      {"config", "paper"}, {"grid_resolution", resolution}, {"steps", steps}, {"steps_per_second", steps / seconds}};
 }
 
 // DBARF pretraining steps of the paper's networks on an analytic ridge scene (tests' scene).
@@ -182,7 +189,10 @@ Json DbarfTiming(const torch::Device& device, int steps) {
   const auto t0 = Clock::now();
   for (int i = 0; i < steps; ++i) trainer.Step();
   Sync(device);
-  return {{"config", "paper"}, {"image_size", "320x240"}, {"views", views}, {"steps", steps},
+  return {{"config", "paper"},
+          {"image_size", "320x240"},
+          {"views", views},
+          {"steps", steps},
           {"steps_per_second", steps / Since(t0)}};
 }
 
@@ -202,13 +212,20 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--device") device_name = next();
-    else if (a == "--out") out = next();
-    else if (a == "--work") work = next();
-    else if (a == "--only") only = next();
-    else if (a == "--quick") quick = true;
+    if (a == "--device")
+      device_name = next();
+    else if (a == "--out")
+      out = next();
+    else if (a == "--work")
+      work = next();
+    else if (a == "--only")
+      only = next();
+    else if (a == "--quick")
+      quick = true;
     else {
-      std::fprintf(stderr, "usage: nerfreg_gpu_bench [--device D] [--out FILE] [--work DIR] [--only hash,nerf100,nerf800,reg,dbarf] [--quick]\n");
+      std::fprintf(stderr,
+                   "usage: nerfreg_gpu_bench [--device D] [--out FILE] [--work DIR] [--only "
+                   "hash,nerf100,nerf800,reg,dbarf] [--quick]\n");
       return 2;
     }
   }

@@ -51,7 +51,8 @@ void BM_HashEncodeForward(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(HashEncode(x, table, o));
   state.counters["points/s"] = benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
   // Bytes touched: 8 corners x L levels x F floats read + the output written.
-  state.counters["GB/s"] = benchmark::Counter(double(n) * state.iterations() * (8 * 16 * 2 + 32) * 4 / 1e9, benchmark::Counter::kIsRate);
+  state.counters["GB/s"] =
+      benchmark::Counter(double(n) * state.iterations() * (8 * 16 * 2 + 32) * 4 / 1e9, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_HashEncodeForward)->Arg(1 << 16)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -88,7 +89,6 @@ void BM_Composite(benchmark::State& state) {
 BENCHMARK_TEMPLATE(BM_Composite, true)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_Composite, false)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-
 // The encoding on ray-ordered points as training sees them (64 consecutive samples along each of
 // 1024 random rays through the box) rather than uniformly random ones: neighbouring samples share
 // table cache lines. Arg: log2 table size.
@@ -98,8 +98,9 @@ void BM_HashEncodeRaysForwardBackward(benchmark::State& state) {
   const auto o = PaperEncoding(static_cast<int>(state.range(0)));
   auto table = InitHashTable(o).requires_grad_(true);
   const std::int64_t rays = 1024, per = 64;
-  const auto start = torch::rand({rays, 1, 3}), dir = torch::nn::functional::normalize(torch::randn({rays, 1, 3}),
-                                                          torch::nn::functional::NormalizeFuncOptions().dim(2));
+  const auto start = torch::rand({rays, 1, 3}),
+             dir = torch::nn::functional::normalize(torch::randn({rays, 1, 3}),
+                                                    torch::nn::functional::NormalizeFuncOptions().dim(2));
   const auto t = torch::arange(per, torch::kFloat32).view({1, per, 1}) * (1.0f / 256);
   const auto x = (start + dir * t).clamp(0, 1).reshape({-1, 3}).contiguous();
   for (auto _ : state) {
@@ -109,7 +110,11 @@ void BM_HashEncodeRaysForwardBackward(benchmark::State& state) {
   }
   state.counters["points/s"] = benchmark::Counter(double(x.size(0)) * state.iterations(), benchmark::Counter::kIsRate);
 }
-BENCHMARK_TEMPLATE(BM_HashEncodeRaysForwardBackward, true)->Arg(17)->Arg(19)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_HashEncodeRaysForwardBackward, true)
+    ->Arg(17)
+    ->Arg(19)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK_TEMPLATE(BM_HashEncodeRaysForwardBackward, false)->Arg(17)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One torch Adam step over the whole hash table (the trainer's optimizer; instant-NGP's tcnn Adam
@@ -121,7 +126,8 @@ void BM_AdamTableStep(benchmark::State& state) {
   table.mutable_grad() = torch::randn_like(table);
   torch::optim::Adam adam({table}, torch::optim::AdamOptions(1e-2).eps(1e-15));
   for (auto _ : state) adam.step();
-  state.counters["params/s"] = benchmark::Counter(double(table.numel()) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["params/s"] =
+      benchmark::Counter(double(table.numel()) * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_AdamTableStep)->Arg(17)->Arg(19)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -132,13 +138,15 @@ void BM_SparseAdamTableStep(benchmark::State& state) {
   torch::set_num_threads(2);
   const auto o = PaperEncoding(static_cast<int>(state.range(0)));
   auto table = InitHashTable(o).requires_grad_(true);
-  const auto start = torch::rand({1024, 1, 3}), dir = torch::nn::functional::normalize(torch::randn({1024, 1, 3}),
-                                                         torch::nn::functional::NormalizeFuncOptions().dim(2));
+  const auto start = torch::rand({1024, 1, 3}),
+             dir = torch::nn::functional::normalize(torch::randn({1024, 1, 3}),
+                                                    torch::nn::functional::NormalizeFuncOptions().dim(2));
   const auto x = (start + dir * torch::arange(64, torch::kFloat32).view({1, 64, 1}) / 256).clamp(0, 1).reshape({-1, 3});
   HashEncode(x.contiguous(), table, o).sum().backward();
   SparseAdam adam(table, SparseAdamOptions{});
   for (auto _ : state) adam.Step(1e-2);
-  state.counters["params/s"] = benchmark::Counter(double(table.numel()) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["params/s"] =
+      benchmark::Counter(double(table.numel()) * state.iterations(), benchmark::Counter::kIsRate);
   state.counters["touched"] = (table.grad() != 0).to(torch::kFloat32).mean().item<double>();
 }
 BENCHMARK(BM_SparseAdamTableStep)->Arg(17)->Arg(19)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -187,7 +195,13 @@ void BM_TrainIterations(benchmark::State& state) {
   }
   state.counters["it/s"] = benchmark::Counter(double(iters) * state.iterations() / seconds);
 }
-BENCHMARK(BM_TrainIterations)->Args({1, 16})->Args({1, 14})->Args({0, 14})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_TrainIterations)
+    ->Args({1, 16})
+    ->Args({1, 14})
+    ->Args({0, 14})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace nerfreg

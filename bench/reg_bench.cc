@@ -83,7 +83,8 @@ void BM_FieldAlignment(benchmark::State& state) {
   o.max_samples = static_cast<int>(state.range(0));
   o.iterations = 10;
   o.tolerance_deg = 0;
-  const Sim3d start(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero());
+  const Sim3d start(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())),
+                    Eigen::Vector3d::Zero());
   int iterations = 0;
   double seconds = 0;
   for (auto _ : state) {

@@ -199,7 +199,8 @@ void WriteSeeds(const std::string& dir) {
     archive.load_from(tmp);
     torch::Tensor meta;
     archive.read("meta", meta);
-    WriteFileAtomic(JoinPaths(dir, std::string("meta_") + names[k]), std::string(1, selector(k, 4)) + TensorString(meta));
+    WriteFileAtomic(JoinPaths(dir, std::string("meta_") + names[k]),
+                    std::string(1, selector(k, 4)) + TensorString(meta));
   }
   std::filesystem::remove(tmp);
 }

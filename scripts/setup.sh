@@ -6,6 +6,8 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config
+  # the format check of make test (scripts/check_format.sh)
+  clang-format
   # learned core
   libtorch-dev libopenblas0-pthread libeigen3-dev
   # torch c10d's ProcessGroupGloo headers include Gloo's (data-parallel training, dist/)

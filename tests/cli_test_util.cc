@@ -19,12 +19,8 @@ CommandResult RunShell(const std::string& command) {
   return result;
 }
 
-CommandResult RunNerfreg(const std::string& args) {
-  return RunShell(std::string(NERFREG_BINARY) + " " + args);
-}
+CommandResult RunNerfreg(const std::string& args) { return RunShell(std::string(NERFREG_BINARY) + " " + args); }
 
-bool HaveProgram(const std::string& name) {
-  return RunShell("command -v " + name + " >/dev/null").exit_code == 0;
-}
+bool HaveProgram(const std::string& name) { return RunShell("command -v " + name + " >/dev/null").exit_code == 0; }
 
 }  // namespace nerfreg

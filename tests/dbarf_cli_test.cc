@@ -37,7 +37,8 @@ int CountColor(const Image& png, float r, float g, float b) {
 TEST(DbarfCli, TinyImagesAreReportedAsNotWellConstrained) {
   ScopedTempDir dir;
   const std::string data = dir.File("scene"), out = dir.File("poses");
-  CommandResult r = RunNerfreg("render --procedural 101 --trajectory forward --views 12 --size 32x24 --quiet --out " + data);
+  CommandResult r =
+      RunNerfreg("render --procedural 101 --trajectory forward --views 12 --size 32x24 --quiet --out " + data);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -90,7 +91,8 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
 
   // Aligned on rotations then centres: with centres this close, a centre-only Umeyama fit adds
   // ~1 deg of its own (measured here: 0.08 deg after the rotation fit, 1.1 deg after Umeyama).
-  r = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data + "/transforms.json --align rotations --json");
+  r = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data +
+                 "/transforms.json --align rotations --json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json e = Json::parse(r.output.substr(r.output.find('{')));
   EXPECT_EQ(e["posed"].get<int>(), 10);
@@ -99,7 +101,8 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
 
   // --png: the aligned estimate (red) against the ground truth (blue), seen from above.
   const std::string png = dir.File("eval.png");
-  r = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data + "/transforms.json --png " + png);
+  r = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data + "/transforms.json --png " +
+                 png);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("scale bar"), std::string::npos) << r.output;
   const Image eval_png = ReadImage(png, 3);
@@ -130,7 +133,9 @@ TEST(DbarfCli, TooFewImagesIsAOneLineErrorNamingTheFolder) {
 TEST(DbarfCli, MissingIntrinsicsAndAnImageOfAnotherSizeAreOneLineErrors) {
   ScopedTempDir dir;
   const std::string data = dir.File("scene");
-  ASSERT_EQ(RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data).exit_code, 0);
+  ASSERT_EQ(
+      RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data).exit_code,
+      0);
   CommandResult r = RunNerfreg("dbarf poses " + data + "/images --out " + dir.File("o"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--intrinsics"), std::string::npos) << r.output;
@@ -152,7 +157,6 @@ TEST(DbarfCli, MissingIntrinsicsAndAnImageOfAnotherSizeAreOneLineErrors) {
   EXPECT_NE(r.output.find("size"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.File("e")));
 }
-
 
 // A box blur of radius `r`, `passes` times (about a Gaussian of sigma r * sqrt(passes / 3)): what a
 // badly focused photo looks like, with too little texture left for SIFT.
@@ -245,9 +249,11 @@ TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
     const Eigen::Quaterniond g = pose_of(gt, "r_004.png").rotation * pose_of(gt, other).rotation.conjugate();
     EXPECT_LT(RotationErrorDeg(e, g), 3.0) << other;
   }
-  const Eigen::Vector3d c3 = pose_of(est, "r_003.png").Inverse().translation, c4 = pose_of(est, "r_004.png").Inverse().translation,
+  const Eigen::Vector3d c3 = pose_of(est, "r_003.png").Inverse().translation,
+                        c4 = pose_of(est, "r_004.png").Inverse().translation,
                         c5 = pose_of(est, "r_005.png").Inverse().translation;
-  EXPECT_LT((c4 - 0.5 * (c3 + c5)).norm(), 0.5 * (c5 - c3).norm()) << c3.transpose() << " | " << c4.transpose() << " | " << c5.transpose();
+  EXPECT_LT((c4 - 0.5 * (c3 + c5)).norm(), 0.5 * (c5 - c3).norm())
+      << c3.transpose() << " | " << c4.transpose() << " | " << c5.transpose();
 }
 
 // Images no method can pose with confidence (a flat grey one, two identical, one of another scene
@@ -257,24 +263,31 @@ TEST(DbarfCli, TexturelessIdenticalAndUnrelatedImagesAreNamedInAWarningNeverConf
   ScopedTempDir dir;
   const std::string data = dir.File("scene"), other = dir.File("other");
   ASSERT_EQ(RunNerfreg("render --procedural 5011 --trajectory forward --views 8 --quiet --out " + data).exit_code, 0);
-  ASSERT_EQ(RunNerfreg("render --procedural 5012 --trajectory forward --views 1 --material repetitive --quiet --out " + other).exit_code, 0);
+  ASSERT_EQ(
+      RunNerfreg("render --procedural 5012 --trajectory forward --views 1 --material repetitive --quiet --out " + other)
+          .exit_code,
+      0);
   Image grey = ReadImage(data + "/images/r_002.png", 3);
   for (float& v : grey.data) v = 0.5f;
   WriteImage(data + "/images/r_002.png", grey);
-  std::filesystem::copy_file(data + "/images/r_004.png", data + "/images/r_005.png", std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(data + "/images/r_004.png", data + "/images/r_005.png",
+                             std::filesystem::copy_options::overwrite_existing);
   const Image unrelated = ReadImage(other + "/images/r_000.png", 3);
   Image flipped = unrelated;
   for (int y = 0; y < unrelated.height; ++y)
     for (int x = 0; x < unrelated.width; ++x)
-      for (int c = 0; c < 3; ++c) flipped.at(x, y, c) = unrelated.at(unrelated.width - 1 - x, unrelated.height - 1 - y, c);
+      for (int c = 0; c < 3; ++c)
+        flipped.at(x, y, c) = unrelated.at(unrelated.width - 1 - x, unrelated.height - 1 - y, c);
   WriteImage(data + "/images/r_007.png", flipped);
 
-  const CommandResult r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --out " + dir.File("o"));
+  const CommandResult r =
+      RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --out " + dir.File("o"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json j = ReadJsonFile(dir.File("o") + "/transforms.json");
-  const std::map<std::string, std::string> expected = {
-      {"r_002.png", "textureless"}, {"r_004.png", "identical to r_005.png"}, {"r_005.png", "identical to r_004.png"},
-      {"r_007.png", "unrelated"}};
+  const std::map<std::string, std::string> expected = {{"r_002.png", "textureless"},
+                                                       {"r_004.png", "identical to r_005.png"},
+                                                       {"r_005.png", "identical to r_004.png"},
+                                                       {"r_007.png", "unrelated"}};
   for (const auto& [name, problem] : expected) {
     const Json* f = FrameNamed(j, name);
     if (f == nullptr) {  // not posed at all: listed as such
@@ -291,8 +304,9 @@ TEST(DbarfCli, TexturelessIdenticalAndUnrelatedImagesAreNamedInAWarningNeverConf
   EXPECT_NE(r.output.find("low-confidence poses"), std::string::npos) << r.output;
 
   // Weights that are not DBARF weights (here a transforms.json) are a one-line error naming the file.
-  const CommandResult w = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --method network --weights " +
-                                     data + "/transforms.json --out " + dir.File("w"));
+  const CommandResult w =
+      RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data +
+                 "/transforms.json --method network --weights " + data + "/transforms.json --out " + dir.File("w"));
   EXPECT_EQ(w.exit_code, 2) << w.output;
   EXPECT_NE(w.output.find("error: " + data + "/transforms.json"), std::string::npos) << w.output;
   EXPECT_FALSE(std::filesystem::exists(dir.File("w")));

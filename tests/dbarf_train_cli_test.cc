@@ -31,7 +31,8 @@ struct PosedScene {
   std::string data = dir.File("scene"), posed = dir.File("posed");
   Json poses;
   void Make() {
-    CommandResult r = RunNerfreg("render --procedural 7 --trajectory forward --views 10 --test-every 5 --quiet --out " + data);
+    CommandResult r =
+        RunNerfreg("render --procedural 7 --trajectory forward --views 10 --test-every 5 --quiet --out " + data);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --quiet --out " + posed);
     ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -75,8 +76,9 @@ TEST(DbarfTrainCli, SupervisedPosesFromTheIdentityAndEvalNet) {
   ASSERT_NO_FATAL_FAILURE(s.Make());
   const std::string w = s.dir.File("sup.pt");
   // The dataset (ground truth kept aside, cameras estimated), pose stage from the identity.
-  CommandResult r = RunNerfreg("dbarf pretrain " + s.data + "/transforms.json --pose-init network --supervise-poses 1 " +
-                               "--rotation-scale 1 --steps 2 --out " + w + kTinyTraining);
+  CommandResult r =
+      RunNerfreg("dbarf pretrain " + s.data + "/transforms.json --pose-init network --supervise-poses 1 " +
+                 "--rotation-scale 1 --steps 2 --out " + w + kTinyTraining);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream log(w + ".log.jsonl");
   std::string line;
@@ -109,7 +111,8 @@ constexpr double kPoseDirectionBelow = 15.0;
 TEST(DbarfTrainCli, ShippedPoseWeightsPoseFromTheIdentity) {
   ScopedTempDir dir;
   const std::string data = dir.File("scene");
-  CommandResult r = RunNerfreg("render --procedural 4001 --trajectory forward --views 20 --test-every 8 --quiet --out " + data);
+  CommandResult r =
+      RunNerfreg("render --procedural 4001 --trajectory forward --views 20 --test-every 8 --quiet --out " + data);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto eval = [&](const std::string& weights) {
     const CommandResult e = RunNerfreg("dbarf eval-net " + data + "/transforms.json --json --weights " +
@@ -158,7 +161,8 @@ TEST(DbarfTrainCli, FinetuneRenderAndEval) {
   // The perturbed rows: the same worse initialisation for the cameras and the network.
   const Json& rel = e["relative_poses"];
   EXPECT_GT(rel["perturbed"]["cameras"]["rotation_deg"].get<double>(),
-            rel["cameras"]["rotation_deg"].get<double>() + 1.0) << rel.dump();
+            rel["cameras"]["rotation_deg"].get<double>() + 1.0)
+      << rel.dump();
   EXPECT_EQ(rel["perturbed"]["network"]["pairs"], rel["network"]["pairs"]);
   EXPECT_EQ(e["posed"].get<int>(), 10);
   EXPECT_EQ(e["rendered"].get<int>(), 2);
@@ -194,9 +198,13 @@ TEST(DbarfTrainCli, ShortFinetuneLowersThePoseErrorOfPerturbedCameras) {
   };
   const double before = rotation_error(s.posed + "/perturbed.json");
   const std::string refined = s.dir.File("refined.json");
-  const CommandResult r = RunNerfreg("dbarf finetune " + s.posed + "/perturbed.json --schedule nerf --nerf-poses cameras "
-                                     "--refine-cameras " + refined + " --steps 40 --rays 300 --sources 3 "
-                                     "--checkpoint-every 40 --quiet --out " + s.dir.File("ft.pt"));
+  const CommandResult r = RunNerfreg("dbarf finetune " + s.posed +
+                                     "/perturbed.json --schedule nerf --nerf-poses cameras "
+                                     "--refine-cameras " +
+                                     refined +
+                                     " --steps 40 --rays 300 --sources 3 "
+                                     "--checkpoint-every 40 --quiet --out " +
+                                     s.dir.File("ft.pt"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const double after = rotation_error(refined);
   EXPECT_GT(before, 1.5);
@@ -220,11 +228,13 @@ TEST(DbarfTrainCli, WeightsOfAnotherKindOrMissingAreOneLineErrors) {
     std::ofstream f(dir.File("junk.pt"));
     f << "not a torch archive";
   }
-  CommandResult r = RunNerfreg("dbarf eval " + data + "/transforms.json --weights " + dir.File("junk.pt") + " --out " + dir.File("e"));
+  CommandResult r = RunNerfreg("dbarf eval " + data + "/transforms.json --weights " + dir.File("junk.pt") + " --out " +
+                               dir.File("e"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find(dir.File("junk.pt")), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.File("e")));
-  r = RunNerfreg("dbarf finetune " + data + "/transforms.json --weights " + dir.File("missing.pt") + " --out " + dir.File("f.pt"));
+  r = RunNerfreg("dbarf finetune " + data + "/transforms.json --weights " + dir.File("missing.pt") + " --out " +
+                 dir.File("f.pt"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("missing.pt"), std::string::npos) << r.output;
   r = RunNerfreg("dbarf pretrain " + data + "/transforms.json --resume --out " + dir.File("none.pt"));
@@ -263,7 +273,9 @@ TEST(DbarfTrainCli, ShippedWeightsRenderHeldOutViewsAtTheirEstimatedCameras) {
   ASSERT_TRUE(std::filesystem::exists(weights)) << weights;
   ScopedTempDir dir;
   const std::string data = dir.File("scene");
-  ASSERT_EQ(RunNerfreg("render --procedural 301 --trajectory forward --views 12 --test-every 6 --quiet --out " + data).exit_code, 0);
+  ASSERT_EQ(RunNerfreg("render --procedural 301 --trajectory forward --views 12 --test-every 6 --quiet --out " + data)
+                .exit_code,
+            0);
   const CommandResult r = RunNerfreg("dbarf eval " + data + "/transforms.json --weights " + weights +
                                      " --sources 5 --quiet --out " + dir.File("eval"));
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -37,7 +37,8 @@ void ExpectDeviceError(const std::string& command, const std::string& device, co
   const CommandResult r = RunNerfreg(command + " --device " + device);
   EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
   EXPECT_NE(r.output.find("error: --device: " + device + ": expected " + expected), std::string::npos)
-      << command << "\n" << r.output;
+      << command << "\n"
+      << r.output;
   EXPECT_FALSE(std::filesystem::exists("no_dir")) << command;
 }
 

@@ -26,8 +26,8 @@ double MaxWeightDifference(const std::string& a, const std::string& b) {
 }
 
 std::string MakeData(const ScopedTempDir& dir) {
-  const CommandResult made = RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --quiet --out " +
-                                        dir.File("data"));
+  const CommandResult made =
+      RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --quiet --out " + dir.File("data"));
   EXPECT_EQ(made.exit_code, 0) << made.output;
   return dir.File("data/pairs.json");
 }
@@ -36,7 +36,8 @@ TEST(DistCli, TwoProcessesMatchOneWithTheSameBatch) {
   ScopedTempDir dir;
   const std::string data = MakeData(dir);
   // Every augmentation on, so the pairs' draws must be split consistently across the ranks.
-  const std::string common = "reg train " + data + " --iters 3 --val-every 0 --mirror 0.5 --recolour 0.5 --lr 1e-3 --quiet";
+  const std::string common =
+      "reg train " + data + " --iters 3 --val-every 0 --mirror 0.5 --recolour 0.5 --lr 1e-3 --quiet";
   const CommandResult one = RunShell("OMP_NUM_THREADS=1 " + std::string(NERFREG_BINARY) + " " + common +
                                      " --batch 2 --out " + dir.File("one.pt"));
   ASSERT_EQ(one.exit_code, 0) << one.output;
@@ -67,11 +68,11 @@ TEST(DistCli, AKilledRankEndsTheJobWithANamedErrorAndResumeContinues) {
                             " --val-every 0 --checkpoint-every 1 --quiet --nproc 2";
   // Start the job, wait for its first checkpoint, SIGKILL rank 1 and time the launcher's end.
   const std::string script =
-      train + " --iters 100000 > " + dir.File("job.txt") + " 2>&1 & L=$!\n" +
-      "i=0; while [ ! -f " + dir.File("w.pt.train") + " ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i+1)); done\n" +
-      "for c in $(pgrep -P $L); do if tr '\\0' '\\n' < /proc/$c/environ | grep -qx RANK=1; then kill -9 $c; fi; done\n" +
-      "s=$(date +%s%N); wait $L; rc=$?; e=$(date +%s%N)\n" +
-      "echo \"rc=$rc ms=$(( (e - s) / 1000000 ))\"\n";
+      train + " --iters 100000 > " + dir.File("job.txt") + " 2>&1 & L=$!\n" + "i=0; while [ ! -f " +
+      dir.File("w.pt.train") + " ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i+1)); done\n" +
+      "for c in $(pgrep -P $L); do if tr '\\0' '\\n' < /proc/$c/environ | grep -qx RANK=1; then kill -9 $c; fi; "
+      "done\n" +
+      "s=$(date +%s%N); wait $L; rc=$?; e=$(date +%s%N)\n" + "echo \"rc=$rc ms=$(( (e - s) / 1000000 ))\"\n";
   WriteFileAtomic(dir.File("kill.sh"), script);
   const CommandResult killed = RunShell("sh " + dir.File("kill.sh"));
   const std::string job = RunShell("cat " + dir.File("job.txt")).output;

@@ -46,7 +46,8 @@ TEST(LogCli, JsonMakesEveryStderrLineAJsonObjectWithProgressRateAndEta) {
     if (j.contains("progress")) {
       ++progress_lines;
       EXPECT_EQ(j["progress"], "render") << line;
-      for (const char* key : {"done", "total", "rate", "elapsed_s"}) ASSERT_TRUE(j[key].is_number()) << key << ": " << line;
+      for (const char* key : {"done", "total", "rate", "elapsed_s"})
+        ASSERT_TRUE(j[key].is_number()) << key << ": " << line;
       EXPECT_EQ(j["total"].get<int>(), 4) << line;
       EXPECT_GE(j["rate"].get<double>(), 0) << line;
       if (j["done"].get<int>() == 4) {

@@ -15,7 +15,9 @@ namespace {
 TEST(NerfCli, SigkillMidRunThenResume) {
   ScopedTempDir dir;
   ASSERT_EQ(RunNerfreg("render --procedural 4 --views 30 --size 24 --supersample 1 --test-every 6 --quiet --out " +
-                       dir.File("data")).exit_code, 0);
+                       dir.File("data"))
+                .exit_code,
+            0);
   const std::string train = "nerf train " + dir.File("data") + " --out " + dir.File("b.ckpt") +
                             " --iters 100000 --samples 4096 --checkpoint-every 5 --quiet";
   // Killed without warning after a few seconds, mid-run.
@@ -39,7 +41,8 @@ TEST(NerfCli, SigkillMidRunThenResume) {
     EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
   }
   // A new run over an existing checkpoint is refused without --force.
-  const CommandResult again = RunNerfreg("nerf train " + dir.File("data") + " --out " + dir.File("b.ckpt") + " --iters 5 --quiet");
+  const CommandResult again =
+      RunNerfreg("nerf train " + dir.File("data") + " --out " + dir.File("b.ckpt") + " --iters 5 --quiet");
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.output.find("exists; pass --force"), std::string::npos);
 }

@@ -23,7 +23,8 @@ const char* kFisheye = R"({
 TEST(NerfstudioCli, ConvertsToColmapAndBackKeepingTheFisheyeAndTheTransforms) {
   ScopedTempDir dir;
   WriteFileAtomic(dir.File("ns/transforms.json"), kFisheye);
-  WriteFileAtomic(dir.File("ns/dataparser_transforms.json"), R"({"transform": [[1,0,0,0.5],[0,1,0,0],[0,0,1,0]], "scale": 0.25})");
+  WriteFileAtomic(dir.File("ns/dataparser_transforms.json"),
+                  R"({"transform": [[1,0,0,0.5],[0,1,0,0],[0,0,1,0]], "scale": 0.25})");
   CommandResult r = RunNerfreg("convert " + dir.File("ns") + " --to nerfstudio --out " + dir.File("copy"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json copy = ReadJsonFile(dir.File("copy/transforms.json"));

@@ -36,8 +36,8 @@ TEST(NgpImportCli, ImportThenRender) {
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.output.find("exists; pass --force"), std::string::npos);
 
-  const CommandResult render = RunNerfreg("nerf render " + dir.File("b.ckpt") + " --transforms " + dir.File("transforms.json") +
-                                          " --out " + dir.File("renders") + " --quiet");
+  const CommandResult render = RunNerfreg("nerf render " + dir.File("b.ckpt") + " --transforms " +
+                                          dir.File("transforms.json") + " --out " + dir.File("renders") + " --quiet");
   ASSERT_EQ(render.exit_code, 0) << render.output;
   int non_white = 0;
   for (const char* name : {"a.png", "b.png"}) {

@@ -40,9 +40,12 @@ class OutputSafetyCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new ScopedTempDir();
-    ASSERT_EQ(RunNerfreg("render --procedural 4 --views 12 --size 24 --supersample 1 --test-every 6 --quiet --out " +
-                         Data()).exit_code, 0);
-    const CommandResult r = RunNerfreg("nerf train " + Data() + " --out " + Block() + " --iters 10 --samples 4096 --quiet");
+    ASSERT_EQ(
+        RunNerfreg("render --procedural 4 --views 12 --size 24 --supersample 1 --test-every 6 --quiet --out " + Data())
+            .exit_code,
+        0);
+    const CommandResult r =
+        RunNerfreg("nerf train " + Data() + " --out " + Block() + " --iters 10 --samples 4096 --quiet");
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   static void TearDownTestSuite() { delete dir_; }
@@ -63,7 +66,8 @@ TEST_F(OutputSafetyCli, FullDiskIsAnErrorForEveryWriterFamily) {
       // A torch archive (registration grid).
       {"reg extract " + Block() + " --grid-resolution 8 --out " + dir.File("g.grid"), "g.grid"},
       // PNGs into an output folder (they used to be left truncated, exit 0).
-      {"nerf render " + Block() + " --transforms " + Data() + "/transforms.json --out " + dir.File("renders"), "renders"},
+      {"nerf render " + Block() + " --transforms " + Data() + "/transforms.json --out " + dir.File("renders"),
+       "renders"},
       // A dataset folder of PNGs and JSON (errors name the file by its final path).
       {"render --procedural 2 --views 3 --size 16 --supersample 1 --out " + dir.File("rendered"), "rendered"},
       // JSON and PLY files.
@@ -86,7 +90,8 @@ TEST_F(OutputSafetyCli, FullDiskIsAnErrorForEveryWriterFamily) {
 TEST_F(OutputSafetyCli, FailedCheckpointWriteKeepsTheLastCheckpoint) {
   ScopedTempDir dir;
   const std::string ckpt = dir.File("b.ckpt");
-  CommandResult r = RunNerfreg("nerf train " + Data() + " --out " + ckpt + " --iters 10 --stop-after 5 --samples 4096 --quiet");
+  CommandResult r =
+      RunNerfreg("nerf train " + Data() + " --out " + ckpt + " --iters 10 --stop-after 5 --samples 4096 --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   ASSERT_EQ(LoadNerfBlock(ckpt).step, 5);
   r = RunNerfregOnFullDisk("nerf train " + Data() + " --out " + ckpt + " --iters 10 --samples 4096 --resume --quiet");
@@ -110,7 +115,8 @@ TEST_F(OutputSafetyCli, ForceReplacesOnlyWhatNerfregWroteAndNeverAnInput) {
   // A folder of the user's: --force must not delete it.
   const std::string mine = dir.File("mine");
   WriteFileAtomic(mine + "/notes.txt", "keep me");
-  CommandResult r = RunNerfreg("render --procedural 2 --views 3 --size 16 --supersample 1 --quiet --force --out " + mine);
+  CommandResult r =
+      RunNerfreg("render --procedural 2 --views 3 --size 16 --supersample 1 --quiet --force --out " + mine);
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("mine: expected a folder written by nerfreg"), std::string::npos) << r.output;
   EXPECT_EQ(ReadFileToString(mine + "/notes.txt"), "keep me");
@@ -128,7 +134,8 @@ TEST_F(OutputSafetyCli, ForceReplacesOnlyWhatNerfregWroteAndNeverAnInput) {
   EXPECT_NE(r.output.find("transforms.json: expected an output that is not an input"), std::string::npos) << r.output;
   EXPECT_EQ(ReadFileToString(Data() + "/transforms.json"), before);
   // An output folder that holds the inputs.
-  r = RunNerfreg("nerf render " + Block() + " --transforms " + Data() + "/transforms.json --force --quiet --out " + Data());
+  r = RunNerfreg("nerf render " + Block() + " --transforms " + Data() + "/transforms.json --force --quiet --out " +
+                 Data());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_EQ(ReadFileToString(Data() + "/transforms.json"), before);
   EXPECT_EQ(Leftovers(dir.path()), std::vector<std::string>{});
@@ -154,9 +161,10 @@ TEST_F(OutputSafetyCli, UserMistakesAreNamedErrorsBeforeAnyWork) {
 // second fails (at the start, or at the end if both started before either finished).
 TEST_F(OutputSafetyCli, TwoConcurrentRunsToOneOutputCannotBothSucceed) {
   ScopedTempDir dir;
-  const std::string run = std::string(NERFREG_BINARY) + " render --procedural 3 --views 6 --size 32 --quiet --out " + dir.File("out");
-  const CommandResult r =
-      RunShell(run + " >/dev/null 2>&1 & a=$!; " + run + " >/dev/null 2>&1 & b=$!; wait $a; x=$?; wait $b; echo codes $x $?");
+  const std::string run =
+      std::string(NERFREG_BINARY) + " render --procedural 3 --views 6 --size 32 --quiet --out " + dir.File("out");
+  const CommandResult r = RunShell(run + " >/dev/null 2>&1 & a=$!; " + run +
+                                   " >/dev/null 2>&1 & b=$!; wait $a; x=$?; wait $b; echo codes $x $?");
   const size_t at = r.output.find("codes ");
   ASSERT_NE(at, std::string::npos) << r.output;
   const std::string codes = r.output.substr(at + 6, 3);
@@ -169,9 +177,9 @@ TEST_F(OutputSafetyCli, TerminationSignalsLeaveTheLastCheckpointLoadable) {
   for (const char* signal : {"TERM", "INT"}) {
     ScopedTempDir dir;
     const std::string ckpt = dir.File("b.ckpt");
-    const CommandResult r = RunShell("timeout --preserve-status -s " + std::string(signal) + " 6 " + NERFREG_BINARY +
-                                     " nerf train " + Data() + " --out " + ckpt +
-                                     " --iters 100000 --samples 4096 --checkpoint-every 2 --quiet");
+    const CommandResult r =
+        RunShell("timeout --preserve-status -s " + std::string(signal) + " 6 " + NERFREG_BINARY + " nerf train " +
+                 Data() + " --out " + ckpt + " --iters 100000 --samples 4096 --checkpoint-every 2 --quiet");
     EXPECT_EQ(r.exit_code, std::string(signal) == "TERM" ? 143 : 130) << r.output;
     ASSERT_TRUE(FileExists(ckpt)) << r.output;
     EXPECT_GT(LoadNerfBlock(ckpt).step, 0);

@@ -19,14 +19,14 @@ namespace {
 
 TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   ScopedTempDir dir;
-  const CommandResult made = RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --quiet --out " +
-                                        dir.File("data"));
+  const CommandResult made =
+      RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --quiet --out " + dir.File("data"));
   ASSERT_EQ(made.exit_code, 0) << made.output;
   const Json pairs = ReadJsonFile(dir.File("data/pairs.json"));
   ASSERT_EQ(pairs["pairs"].size(), 2u);
   // make-data resumes: a second run skips the finished objects.
-  const CommandResult again = RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --out " +
-                                         dir.File("data"));
+  const CommandResult again =
+      RunNerfreg("reg make-data --procedural 2 --mesh-pairs 1 --grid-resolution 32 --out " + dir.File("data"));
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("\"objects_skipped\":2"), std::string::npos) << again.output;
 
@@ -60,17 +60,17 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   }
   ASSERT_GT(last_step, 0);
   const int target = last_step + 3;
-  const CommandResult resumed = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w.pt") +
-                                           " --iters " + std::to_string(target) +
-                                           " --val-every 0 --mirror 0.5 --recolour 0.5 --resume --quiet");
+  const CommandResult resumed =
+      RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w.pt") + " --iters " +
+                 std::to_string(target) + " --val-every 0 --mirror 0.5 --recolour 0.5 --resume --quiet");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_TRUE(temp_files().empty()) << temp_files().front();
   const Json summary = ReadJsonFile(dir.File("w.pt.json"));
   EXPECT_EQ(summary["iterations"].get<int>(), target);
   EXPECT_EQ(summary["options"]["mirror_probability"].get<double>(), 0.5);
   EXPECT_EQ(summary["options"]["colour_probability"].get<double>(), 0.5);
-  const CommandResult bad_mirror = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " + dir.File("w_bad.pt") +
-                                              " --iters 2 --mirror 1.5 --quiet");
+  const CommandResult bad_mirror = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --out " +
+                                              dir.File("w_bad.pt") + " --iters 2 --mirror 1.5 --quiet");
   EXPECT_NE(bad_mirror.exit_code, 0);
   EXPECT_NE(bad_mirror.output.find("--mirror"), std::string::npos) << bad_mirror.output;
   // It did not start again from zero: no step 1 after the resume.
@@ -79,7 +79,8 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
 
   // --init starts a new run (step 0, fresh optimizer) from those weights: with a vanishing
   // learning rate the result is still them, where a fresh start (the same seed) is not.
-  const std::string short_run = "reg train " + dir.File("data/pairs.json") + " --iters 2 --lr 1e-12 --val-every 0 --quiet";
+  const std::string short_run =
+      "reg train " + dir.File("data/pairs.json") + " --iters 2 --lr 1e-12 --val-every 0 --quiet";
   ASSERT_EQ(RunNerfreg(short_run + " --init " + dir.File("w.pt") + " --out " + dir.File("w_init.pt")).exit_code, 0);
   ASSERT_EQ(RunNerfreg(short_run + " --out " + dir.File("w_fresh.pt")).exit_code, 0);
   {
@@ -96,7 +97,8 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
     EXPECT_GT(fresh_diff, 1e-3);
   }
   // reg average: the element-wise mean of two runs; an existing output is kept without --force.
-  const std::string average = "reg average " + dir.File("w.pt") + " " + dir.File("w_fresh.pt") + " --out " + dir.File("w_mean.pt");
+  const std::string average =
+      "reg average " + dir.File("w.pt") + " " + dir.File("w_fresh.pt") + " --out " + dir.File("w_mean.pt");
   ASSERT_EQ(RunNerfreg(average).exit_code, 0);
   EXPECT_NE(RunNerfreg(average).exit_code, 0);
   {
@@ -105,13 +107,15 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
     DregNet mean = LoadDregWeights(dir.File("w_mean.pt"), nullptr);
     const auto a = trained->parameters(), c = fresh->parameters(), m = mean->parameters();
     double worst = 0;
-    for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (m[i] - (a[i] + c[i]) / 2).abs().max().item<double>());
+    for (size_t i = 0; i < a.size(); ++i)
+      worst = std::max(worst, (m[i] - (a[i] + c[i]) / 2).abs().max().item<double>());
     EXPECT_LT(worst, 1e-6);
   }
 
   // Every method on the pairs, one table with a summary line per method.
-  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg,ransac " +
-                                        "--refine none,icp --weights " + dir.File("w.pt") + " --out " + dir.File("eval.json"));
+  const CommandResult eval =
+      RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg,ransac " +
+                 "--refine none,icp --weights " + dir.File("w.pt") + " --out " + dir.File("eval.json"));
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   const Json table = ReadJsonFile(dir.File("eval.json"));
   EXPECT_EQ(table["rows"].size(), 2u * 4u);
@@ -126,51 +130,59 @@ TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   const double threshold = 0.95;
   int below = 0;
   for (const auto& p : pairs_json["pairs"]) below += p["overlap"].get<double>() < threshold;
-  const CommandResult binned = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
-                                          "--overlap-threshold 0.95 --out " + dir.File("eval_binned.json"));
+  const CommandResult binned =
+      RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
+                 "--overlap-threshold 0.95 --out " + dir.File("eval_binned.json"));
   ASSERT_EQ(binned.exit_code, 0) << binned.output;
   const Json by_overlap = ReadJsonFile(dir.File("eval_binned.json"))["summary"]["ransac+icp"]["by_overlap"];
   EXPECT_EQ(by_overlap["below"]["pairs"].get<int>(), below) << by_overlap.dump();
-  EXPECT_EQ(by_overlap["below"]["pairs"].get<int>() + by_overlap["at_or_above"]["pairs"].get<int>(), 2) << by_overlap.dump();
+  EXPECT_EQ(by_overlap["below"]["pairs"].get<int>() + by_overlap["at_or_above"]["pairs"].get<int>(), 2)
+      << by_overlap.dump();
   EXPECT_LE(by_overlap["below"]["successes_5deg_0.05"].get<int>(), below);
   EXPECT_NE(RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --overlap-threshold 1.5").exit_code, 0);
   // ICP on the mask without the half-turn check (the earlier refinement) is its own row name.
-  const CommandResult mask = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
-                                        "--refine icp --icp-points mask --no-flips --out " + dir.File("eval_mask.json"));
+  const CommandResult mask =
+      RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods ransac " +
+                 "--refine icp --icp-points mask --no-flips --out " + dir.File("eval_mask.json"));
   ASSERT_EQ(mask.exit_code, 0) << mask.output;
   const Json mask_table = ReadJsonFile(dir.File("eval_mask.json"));
   EXPECT_TRUE(mask_table["summary"].contains("ransac+icp[mask][noflips]")) << mask_table["summary"].dump();
   EXPECT_LT(mask_table["summary"]["ransac+icp[mask][noflips]"]["median_rotation_deg"].get<double>(), 10.0);
   // --methods truth: the refinements started at the ground truth (their floor); unrefined it is
   // the truth itself, and grid ICP from it moves a few degrees at most (one point per cell).
-  const CommandResult truth = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods truth " +
-                                         "--refine none,icp --out " + dir.File("eval_truth.json"));
+  const CommandResult truth =
+      RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods truth " +
+                 "--refine none,icp --out " + dir.File("eval_truth.json"));
   ASSERT_EQ(truth.exit_code, 0) << truth.output;
   const Json truth_table = ReadJsonFile(dir.File("eval_truth.json"));
   ASSERT_TRUE(truth_table["summary"].contains("truth+icp")) << truth_table["summary"].dump();
   EXPECT_LT(truth_table["summary"]["truth"]["mean_rotation_deg"].get<double>(), 1e-6);
   EXPECT_LT(truth_table["summary"]["truth+icp"]["median_rotation_deg"].get<double>(), 5.0);
   EXPECT_NE(RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods oracle").exit_code, 0);
-  const CommandResult bad = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods ransac --icp-points all");
+  const CommandResult bad =
+      RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --methods ransac --icp-points all");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.output.find("--icp-points"), std::string::npos) << bad.output;
 }
 
 TEST(RegCli, BadWeightsAreClearErrors) {
   ScopedTempDir dir;
-  ASSERT_EQ(RunNerfreg("reg make-data --procedural 1 --mesh-pairs 1 --grid-resolution 32 --quiet --out " + dir.File("data")).exit_code, 0);
+  ASSERT_EQ(
+      RunNerfreg("reg make-data --procedural 1 --mesh-pairs 1 --grid-resolution 32 --quiet --out " + dir.File("data"))
+          .exit_code,
+      0);
   RunShell("echo 'not weights' > " + dir.File("bad.pt"));
-  const CommandResult r = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg --weights " +
-                                     dir.File("bad.pt"));
+  const CommandResult r = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") +
+                                     " --split all --methods dreg --weights " + dir.File("bad.pt"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("bad.pt"), std::string::npos) << r.output;
-  const CommandResult missing = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") + " --split all --methods dreg --weights " +
-                                           dir.File("none.pt"));
+  const CommandResult missing = RunNerfreg("reg eval --pairs " + dir.File("data/pairs.json") +
+                                           " --split all --methods dreg --weights " + dir.File("none.pt"));
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("none.pt"), std::string::npos) << missing.output;
   // Fine-tuning from a file that is not weights: the same clear error, and no output written.
-  const CommandResult init = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --iters 1 --init " + dir.File("bad.pt") +
-                                        " --out " + dir.File("w.pt"));
+  const CommandResult init = RunNerfreg("reg train " + dir.File("data/pairs.json") + " --iters 1 --init " +
+                                        dir.File("bad.pt") + " --out " + dir.File("w.pt"));
   EXPECT_EQ(init.exit_code, 2) << init.output;
   EXPECT_NE(init.output.find("bad.pt"), std::string::npos) << init.output;
   EXPECT_FALSE(FileExists(dir.File("w.pt")));
@@ -181,7 +193,6 @@ TEST(RegCli, BadWeightsAreClearErrors) {
   EXPECT_FALSE(FileExists(dir.File("w.pt")));
 }
 
-
 // reg register (default --refine field) and reg register-many on one trained block given twice
 // (three times): the true pose is the identity, which RANSAC + ICP finds and the field alignment
 // must keep; the outputs record the refinement. (AlignFields' recovery of a known move of a
@@ -190,11 +201,16 @@ TEST(RegCli, BadWeightsAreClearErrors) {
 TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   ScopedTempDir dir;
   ASSERT_EQ(RunNerfreg("render --procedural 4 --views 30 --size 24 --supersample 1 --test-every 6 --quiet --out " +
-                       dir.File("data")).exit_code, 0);
+                       dir.File("data"))
+                .exit_code,
+            0);
   const std::string block = dir.File("b.ckpt");
-  ASSERT_EQ(RunNerfreg("nerf train " + dir.File("data") + " --out " + block + " --iters 150 --samples 4096 --quiet").exit_code, 0);
+  ASSERT_EQ(RunNerfreg("nerf train " + dir.File("data") + " --out " + block + " --iters 150 --samples 4096 --quiet")
+                .exit_code,
+            0);
 
-  const CommandResult one = RunNerfreg("reg register " + block + " " + block + " --method ransac --quiet --out " + dir.File("t.json"));
+  const CommandResult one =
+      RunNerfreg("reg register " + block + " " + block + " --method ransac --quiet --out " + dir.File("t.json"));
   ASSERT_EQ(one.exit_code, 0) << one.output;
   const Json t = ReadJsonFile(dir.File("t.json"));
   EXPECT_EQ(t["method"].get<std::string>(), "ransac+icp+field");
@@ -205,8 +221,8 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   EXPECT_LT(RotationErrorDeg(est.rotation, Eigen::Quaterniond::Identity()), 0.2);
   EXPECT_LT(est.translation.norm(), 0.005);
 
-  const CommandResult many = RunNerfreg("reg register-many " + block + " " + block + " " + block + " --quiet --out " +
-                                        dir.File("many.json"));
+  const CommandResult many =
+      RunNerfreg("reg register-many " + block + " " + block + " " + block + " --quiet --out " + dir.File("many.json"));
   ASSERT_EQ(many.exit_code, 0) << many.output;
   const Json m = ReadJsonFile(dir.File("many.json"));
   ASSERT_EQ(m["world_from_block"].size(), 3u);
@@ -219,8 +235,8 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
 
   // dreg + ICP: on the grids, then on the blocks' occupied points (recorded, with the pose it
   // started from). The network's answer here is whatever it is; the ICPs must end at the identity.
-  const CommandResult d = RunNerfreg("reg register " + block + " " + block + " --method dreg --refine icp --quiet --out " +
-                                     dir.File("d.json"));
+  const CommandResult d = RunNerfreg("reg register " + block + " " + block +
+                                     " --method dreg --refine icp --quiet --out " + dir.File("d.json"));
   ASSERT_EQ(d.exit_code, 0) << d.output;
   const Json dj = ReadJsonFile(dir.File("d.json"));
   EXPECT_EQ(dj["method"].get<std::string>(), "dreg+icp+block") << dj.dump();
@@ -241,12 +257,15 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   // reg eval --refine field on a real pair (block_K.ckpt beside block_K.grid): the block against
   // itself, identity.
   ASSERT_EQ(RunNerfreg("reg extract " + block + " --quiet --out " + dir.File("b.grid")).exit_code, 0);
-  const Json pairs = {{"pairs", Json::array({{{"name", "self"}, {"kind", "nerf"}, {"split", "val"}, {"source", "b.grid"},
+  const Json pairs = {{"pairs", Json::array({{{"name", "self"},
+                                              {"kind", "nerf"},
+                                              {"split", "val"},
+                                              {"source", "b.grid"},
                                               {"target", "b.grid"},
                                               {"target_from_source", MatrixToJson(Eigen::Matrix4d::Identity())}}})}};
   WriteJsonFile(dir.File("pairs.json"), pairs);
-  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") + " --methods ransac --refine block-icp,field --out " +
-                                        dir.File("eval.json"));
+  const CommandResult eval = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") +
+                                        " --methods ransac --refine block-icp,field --out " + dir.File("eval.json"));
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   const Json table = ReadJsonFile(dir.File("eval.json"));
   for (const char* name : {"ransac+icp+block", "ransac+icp+block+field"}) {
@@ -255,7 +274,8 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   }
 
   // Bad refinement options are one-line errors before any work.
-  const CommandResult bad = RunNerfreg("reg register " + block + " " + block + " --field-iterations -1 --out " + dir.File("x.json"));
+  const CommandResult bad =
+      RunNerfreg("reg register " + block + " " + block + " --field-iterations -1 --out " + dir.File("x.json"));
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("--field-iterations"), std::string::npos) << bad.output;
   EXPECT_FALSE(FileExists(dir.File("x.json")));

@@ -13,8 +13,10 @@ namespace {
 TEST(RenderCli, AssimpMeshIntoTwoBlocksWithGroundTruth) {
   ScopedTempDir dir;
   const std::string out = dir.File("d");
-  const CommandResult r = RunNerfreg("render --mesh /usr/share/assimp/models/OBJ/spider.obj --blocks 2 --size 24 "
-                                     "--views 40 --supersample 1 --seed 11 --quiet --out " + out);
+  const CommandResult r = RunNerfreg(
+      "render --mesh /usr/share/assimp/models/OBJ/spider.obj --blocks 2 --size 24 "
+      "--views 40 --supersample 1 --seed 11 --quiet --out " +
+      out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Dataset world = ReadTransformsJson(out + "/transforms.json");
   const Json gt = ReadJsonFile(out + "/ground_truth.json");

@@ -18,8 +18,10 @@ namespace {
 // Chromium from printing its deprecation warning into the console, and without --disable-gpu the
 // compositor does not read the WebGL canvas back (which logs "GPU stall due to ReadPixels").
 std::string Chromium(const std::string& flags, const std::string& url) {
-  return RunShell("timeout 120 chromium --headless --no-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader "
-                  "--enable-logging=stderr --log-level=0 " + flags + " " + url + " 2>&1")
+  return RunShell(
+             "timeout 120 chromium --headless --no-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader "
+             "--enable-logging=stderr --log-level=0 " +
+             flags + " " + url + " 2>&1")
       .output;
 }
 
@@ -58,8 +60,9 @@ std::string WriteRun(const ScopedTempDir& dir) {
       }
     }
     WriteTransformsJson(ds, run + "/data/" + block + "/transforms.json");
-    std::string ply = "ply\nformat ascii 1.0\nelement vertex 2000\nproperty float x\nproperty float y\nproperty float z\n"
-                      "end_header\n";
+    std::string ply =
+        "ply\nformat ascii 1.0\nelement vertex 2000\nproperty float x\nproperty float y\nproperty float z\n"
+        "end_header\n";
     for (int i = 0; i < 2000; ++i) {
       const double u = i * 0.61803398875, v = (i + 0.5) / 2000.0;
       const double th = std::acos(1 - 2 * v), ph = 2 * M_PI * u;
@@ -70,15 +73,19 @@ std::string WriteRun(const ScopedTempDir& dir) {
   }
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
   t(0, 3) = 1;
-  WriteJsonFile(run + "/target_from_source_auto.json",
-                Json{{"target_from_source", MatrixToJson(t)}, {"method", "auto"}, {"seconds", 2.5}, {"confidence", 0.8},
-                     {"source", run + "/block_0.ckpt"}, {"target", run + "/block_1.ckpt"}});
+  WriteJsonFile(run + "/target_from_source_auto.json", Json{{"target_from_source", MatrixToJson(t)},
+                                                            {"method", "auto"},
+                                                            {"seconds", 2.5},
+                                                            {"confidence", 0.8},
+                                                            {"source", run + "/block_0.ckpt"},
+                                                            {"target", run + "/block_1.ckpt"}});
   WriteJsonFile(run + "/errors_auto.json",
                 Json{{"rotation_error_deg", 0.5}, {"translation_error", 0.01}, {"translation_error_fraction", 0.004}});
   WriteImage(run + "/target_from_source_auto_before.png", Image(30, 10, 3, 0.9f));
   WriteImage(run + "/target_from_source_auto_after.png", Image(30, 10, 3, 0.8f));
-  WriteFileAtomic(run + "/block_0.ckpt.log.jsonl",
-                  "{\"step\": 50, \"loss\": 0.1}\n{\"step\": 100, \"loss\": 0.01, \"test_psnr\": 21, \"seconds\": 3}\n");
+  WriteFileAtomic(
+      run + "/block_0.ckpt.log.jsonl",
+      "{\"step\": 50, \"loss\": 0.1}\n{\"step\": 100, \"loss\": 0.01, \"test_psnr\": 21, \"seconds\": 3}\n");
   return run;
 }
 

@@ -25,8 +25,10 @@ Sim3d ReadPose(const std::string& path) {
 
 TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
   ScopedTempDir dir;
-  const CommandResult render = RunNerfreg("render --procedural 23 --blocks 2 --views 60 --size 64 --supersample 1 --splats "
-                                          "--quiet --out " + dir.File("data"));
+  const CommandResult render = RunNerfreg(
+      "render --procedural 23 --blocks 2 --views 60 --size 64 --supersample 1 --splats "
+      "--quiet --out " +
+      dir.File("data"));
   ASSERT_EQ(render.exit_code, 0) << render.output;
   const std::string a = dir.File("data/block_0/splats.ply"), b = dir.File("data/block_1/splats.ply");
   ASSERT_TRUE(IsSplatPly(a) && IsSplatPly(b) && IsSplatPly(dir.File("data/splats.ply")));
@@ -42,13 +44,15 @@ TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
   const double trans = TranslationError(est.translation, truth.translation);
   EXPECT_TRUE(RegistrationSucceeded(rot, trans)) << rot << " deg, " << trans << "\n" << t.dump();
   std::printf("reg register splats (%s): %.3f deg, %.4f\n", t["method"].get<std::string>().c_str(), rot, trans);
-  const CommandResult eval = RunNerfreg("reg eval --pair " + dir.File("t.json") + " --ground-truth " +
-                                        dir.File("data/ground_truth.json"));
+  const CommandResult eval =
+      RunNerfreg("reg eval --pair " + dir.File("t.json") + " --ground-truth " + dir.File("data/ground_truth.json"));
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   EXPECT_NE(eval.output.find("yes"), std::string::npos) << eval.output;
 
   // Block 0's splats and cameras moved into block 1's frame land where the truth puts them.
-  ASSERT_EQ(RunNerfreg("reg apply " + dir.File("t.json") + " " + a + " --quiet --out " + dir.File("a_in_b.ply")).exit_code, 0);
+  ASSERT_EQ(
+      RunNerfreg("reg apply " + dir.File("t.json") + " " + a + " --quiet --out " + dir.File("a_in_b.ply")).exit_code,
+      0);
   const Splats s = ReadSplatPly(a), moved = ReadSplatPly(dir.File("a_in_b.ply"));
   ASSERT_EQ(moved.size(), s.size());
   double worst = 0;
@@ -66,8 +70,8 @@ TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
   EXPECT_LT(RotationErrorDeg(in_b.frames[0].cam_from_world.rotation, expected.rotation), 5.0);
 
   // And back: within 1e-6 of the original file; an existing output needs --force.
-  const std::string back = "reg apply " + dir.File("t.json") + " " + dir.File("a_in_b.ply") + " --inverse --quiet --out " +
-                           dir.File("back.ply");
+  const std::string back = "reg apply " + dir.File("t.json") + " " + dir.File("a_in_b.ply") +
+                           " --inverse --quiet --out " + dir.File("back.ply");
   ASSERT_EQ(RunNerfreg(back).exit_code, 0);
   const CommandResult again = RunNerfreg(back);
   EXPECT_EQ(again.exit_code, 2);

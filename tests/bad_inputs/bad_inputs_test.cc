@@ -28,8 +28,7 @@ struct BadInputCase {
 
 const std::vector<BadInputCase>& Cases() {
   static const std::vector<BadInputCase> cases = {
-      {"report_missing_run_dir",
-       [](const std::string& d) { return "report " + d + "/nope --out " + d + "/r.html"; },
+      {"report_missing_run_dir", [](const std::string& d) { return "report " + d + "/nope --out " + d + "/r.html"; },
        "nope: expected a run directory", "r.html"},
       {"report_existing_output_without_force",
        [](const std::string& d) {
@@ -47,8 +46,7 @@ const std::vector<BadInputCase>& Cases() {
          return "render --mesh " + d + "/bad.off --out " + d + "/out";
        },
        "bad.off: face 0: expected a line", "out"},
-      {"render_bad_size",
-       [](const std::string& d) { return "render --procedural 1 --size 0x5 --out " + d + "/out"; },
+      {"render_bad_size", [](const std::string& d) { return "render --procedural 1 --size 0x5 --out " + d + "/out"; },
        "--size", "out"},
       {"render_existing_output",
        [](const std::string& d) {
@@ -64,15 +62,17 @@ const std::vector<BadInputCase>& Cases() {
        "transforms.json: expected valid JSON", "sparse"},
       {"convert_bad_matrix",
        [](const std::string& d) {
-         WriteFileAtomic(d + "/transforms.json",
-                         R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0]]}]})");
+         WriteFileAtomic(
+             d + "/transforms.json",
+             R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0]]}]})");
          return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
        },
        "transforms.json: frames[0].transform_matrix: expected a 4x4 matrix", "sparse"},
       {"convert_missing_image_for_size",
        [](const std::string& d) {
-         WriteFileAtomic(d + "/transforms.json",
-                         R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_0", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         WriteFileAtomic(
+             d + "/transforms.json",
+             R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_0", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
          return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
        },
        "r_0.png: expected an existing image file", "sparse"},
@@ -142,15 +142,17 @@ const std::vector<BadInputCase>& Cases() {
        "m: frames[0]: expected valid intrinsics", "t.json"},
       {"transforms_absurd_focal",
        [](const std::string& d) {
-         WriteFileAtomic(d + "/transforms.json",
-                         R"({"fl_x": 1e308, "fl_y": 1e308, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         WriteFileAtomic(
+             d + "/transforms.json",
+             R"({"fl_x": 1e308, "fl_y": 1e308, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
          return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
        },
        "frames[0].fl_x: expected a focal length of at most 1e6 pixels", "sparse"},
       {"transforms_absurd_translation",
        [](const std::string& d) {
-         WriteFileAtomic(d + "/transforms.json",
-                         R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,1e308],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+         WriteFileAtomic(
+             d + "/transforms.json",
+             R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,1e308],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
          return "convert " + d + "/transforms.json --to colmap --out " + d + "/sparse";
        },
        "frames[0].transform_matrix: expected a finite camera position within 1e7 scene units", "sparse"},
@@ -164,12 +166,14 @@ const std::vector<BadInputCase>& Cases() {
        [](const std::string& d) { return "dbarf poses " + d + " --focal 100 --max-features 0 --out " + d + "/p"; },
        "error: --max-features: expected > 0, got 0", "p"},
       {"reg_register_grid_not_a_multiple_of_16",
-       [](const std::string& d) { return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json"; },
+       [](const std::string& d) {
+         return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json";
+       },
        "error: --grid-resolution: expected a multiple of 16 for the network", "t.json"},
-      {"render_empty_out",
-       [](const std::string& d) { return "render --procedural 1 --views 2 --size 8 --out \"\""; },
+      {"render_empty_out", [](const std::string& d) { return "render --procedural 1 --views 2 --size 8 --out \"\""; },
        "error: --out: expected a path", ""},
-      {"unknown_option", [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
+      {"unknown_option",
+       [](const std::string& d) { return "report " + d + " --out " + d + "/r.html --no-such-option"; },
        "no-such-option", "r.html"},
       // 3D Gaussian splat PLYs (data/splat_ply.h), through reg register and reg apply.
       {"splats_nan_opacity",
@@ -217,8 +221,9 @@ const std::vector<BadInputCase>& Cases() {
        "huge.ply: element vertex: expected at most 3 vertices", "t.json"},
       {"reg_register_mesh_ply",
        [](const std::string& d) {
-         WriteFileAtomic(d + "/m.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                       "property float z\nend_header\n0 0 0\n");
+         WriteFileAtomic(d + "/m.ply",
+                         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                         "property float z\nend_header\n0 0 0\n");
          return "reg register " + d + "/m.ply " + d + "/m.ply --method ransac --out " + d + "/t.json";
        },
        "m.ply: expected a NeRF block checkpoint or a 3D Gaussian splat PLY", "t.json"},
@@ -257,7 +262,9 @@ TEST_P(BadInput, FailsCleanlyWithANamedError) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Battery, BadInput, ::testing::Range<size_t>(0, Cases().size()),
-                         [](const ::testing::TestParamInfo<size_t>& info) { return std::string(Cases()[info.param].name); });
+                         [](const ::testing::TestParamInfo<size_t>& info) {
+                           return std::string(Cases()[info.param].name);
+                         });
 
 }  // namespace
 }  // namespace nerfreg

@@ -15,7 +15,8 @@ struct ModelInfo {
   int num_params;
 };
 const ModelInfo kModels[] = {
-    {"SIMPLE_PINHOLE", 0, 3}, {"PINHOLE", 1, 4}, {"SIMPLE_RADIAL", 2, 4}, {"RADIAL", 3, 5}, {"OPENCV", 4, 8}, {"OPENCV_FISHEYE", 5, 8},
+    {"SIMPLE_PINHOLE", 0, 3}, {"PINHOLE", 1, 4}, {"SIMPLE_RADIAL", 2, 4},
+    {"RADIAL", 3, 5},         {"OPENCV", 4, 8},  {"OPENCV_FISHEYE", 5, 8},
 };
 
 const ModelInfo* FindModel(const std::string& name) {
@@ -56,7 +57,8 @@ class BinaryReader {
   explicit BinaryReader(const std::string& path) : path_(path), data_(ReadFileToString(path)) {}
   template <typename T>
   T Read(const char* field) {
-    if (pos_ + sizeof(T) > data_.size()) ThrowInputError(path_, field, "more bytes (file truncated at " + std::to_string(pos_) + ")");
+    if (pos_ + sizeof(T) > data_.size())
+      ThrowInputError(path_, field, "more bytes (file truncated at " + std::to_string(pos_) + ")");
     T v;
     std::memcpy(&v, data_.data() + pos_, sizeof(T));
     pos_ += sizeof(T);
@@ -103,7 +105,8 @@ class BinaryWriter {
   std::string out_;
 };
 
-Eigen::Quaterniond QuatFromWxyz(double w, double x, double y, double z, const std::string& path, const std::string& field) {
+Eigen::Quaterniond QuatFromWxyz(double w, double x, double y, double z, const std::string& path,
+                                const std::string& field) {
   const double norm = std::sqrt(w * w + x * x + y * y + z * z);
   if (!(norm > 1e-9) || !std::isfinite(norm)) ThrowInputError(path, field, "a non-zero quaternion QW QX QY QZ");
   return Eigen::Quaterniond(w / norm, x / norm, y / norm, z / norm);
@@ -113,7 +116,9 @@ Eigen::Quaterniond QuatFromWxyz(double w, double x, double y, double z, const st
 
 Camera ColmapCamera::ToCamera() const {
   const ModelInfo* m = FindModel(model);
-  if (!m) throw InputError("COLMAP camera " + std::to_string(camera_id) + ": model " + model + " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE)");
+  if (!m)
+    throw InputError("COLMAP camera " + std::to_string(camera_id) + ": model " + model +
+                     " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE)");
   const auto& p = params;
   Camera c;
   c.width = width;
@@ -155,8 +160,8 @@ ColmapCamera ColmapCamera::FromCamera(std::uint32_t id, const Camera& c) {
     out.params = {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.k3, c.k4};
   } else if (c.k3 != 0 || c.k4 != 0) {
     // COLMAP's FULL_OPENCV reads k4 as a rational term, not nerfstudio's r^8 coefficient.
-    throw InputError("COLMAP camera " + std::to_string(id) + ": radial k3, k4 (nerfstudio OPENCV) have no COLMAP model; " +
-                     "write transforms.json instead");
+    throw InputError("COLMAP camera " + std::to_string(id) +
+                     ": radial k3, k4 (nerfstudio OPENCV) have no COLMAP model; " + "write transforms.json instead");
   } else if (c.HasDistortion()) {
     out.model = "OPENCV";
     out.params = {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2};
@@ -188,10 +193,13 @@ ColmapModel ReadColmapText(const std::string& dir) {
     Parse(s, &cam.width, cam_path, line, "WIDTH");
     Parse(s, &cam.height, cam_path, line, "HEIGHT");
     const ModelInfo* m = FindModel(cam.model);
-    if (!m) ThrowInputError(cam_path, "line " + std::to_string(line) + " MODEL", "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL or OPENCV, got " + cam.model);
+    if (!m)
+      ThrowInputError(cam_path, "line " + std::to_string(line) + " MODEL",
+                      "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL or OPENCV, got " + cam.model);
     cam.params.resize(m->num_params);
     for (auto& p : cam.params) Parse(s, &p, cam_path, line, "PARAMS");
-    if (cam.width <= 0 || cam.height <= 0) ThrowInputError(cam_path, "line " + std::to_string(line) + " WIDTH/HEIGHT", "positive sizes");
+    if (cam.width <= 0 || cam.height <= 0)
+      ThrowInputError(cam_path, "line " + std::to_string(line) + " WIDTH/HEIGHT", "positive sizes");
     model.cameras[cam.camera_id] = cam;
   }
   const std::string img_path = JoinPaths(dir, "images.txt");
@@ -277,10 +285,13 @@ ColmapModel ReadColmapBinary(const std::string& dir) {
       cam.camera_id = r.Read<std::uint32_t>("camera_id");
       const int model_id = r.Read<int>("model_id");
       const ModelInfo* m = FindModel(model_id);
-      if (!m) ThrowInputError(r.path(), "camera " + std::to_string(cam.camera_id) + " model_id", "0-4 (SIMPLE_PINHOLE..OPENCV), got " + std::to_string(model_id));
+      if (!m)
+        ThrowInputError(r.path(), "camera " + std::to_string(cam.camera_id) + " model_id",
+                        "0-4 (SIMPLE_PINHOLE..OPENCV), got " + std::to_string(model_id));
       cam.model = m->name;
       const auto w = r.Read<std::uint64_t>("width"), h = r.Read<std::uint64_t>("height");
-      if (w == 0 || h == 0 || w > 65536 || h > 65536) ThrowInputError(r.path(), "camera " + std::to_string(cam.camera_id) + " size", "1..65536");
+      if (w == 0 || h == 0 || w > 65536 || h > 65536)
+        ThrowInputError(r.path(), "camera " + std::to_string(cam.camera_id) + " size", "1..65536");
       cam.width = static_cast<int>(w);
       cam.height = static_cast<int>(h);
       cam.params.resize(m->num_params);
@@ -298,9 +309,11 @@ ColmapModel ReadColmapBinary(const std::string& dir) {
       for (double& v : q) v = r.Read<double>("qvec");
       Eigen::Vector3d t;
       for (int c = 0; c < 3; ++c) t(c) = r.Read<double>("tvec");
-      im.cam_from_world = Rigid3d(QuatFromWxyz(q[0], q[1], q[2], q[3], r.path(), "image " + std::to_string(im.image_id) + " qvec"), t);
+      im.cam_from_world =
+          Rigid3d(QuatFromWxyz(q[0], q[1], q[2], q[3], r.path(), "image " + std::to_string(im.image_id) + " qvec"), t);
       im.camera_id = r.Read<std::uint32_t>("camera_id");
-      if (!model.cameras.count(im.camera_id)) ThrowInputError(r.path(), "image " + std::to_string(im.image_id) + " camera_id", "a camera in cameras.bin");
+      if (!model.cameras.count(im.camera_id))
+        ThrowInputError(r.path(), "image " + std::to_string(im.image_id) + " camera_id", "a camera in cameras.bin");
       im.name = r.ReadString("name");
       const auto np = r.ReadCount("num_points2D", 24);
       im.points2d.resize(np);
@@ -383,7 +396,8 @@ void WriteColmapBinary(const ColmapModel& model, const std::string& dir) {
   c.Write<std::uint64_t>(model.cameras.size());
   for (const auto& [id, cam] : model.cameras) {
     const ModelInfo* m = FindModel(cam.model);
-    if (!m || static_cast<int>(cam.params.size()) != m->num_params) throw std::invalid_argument("WriteColmapBinary: bad camera " + std::to_string(id));
+    if (!m || static_cast<int>(cam.params.size()) != m->num_params)
+      throw std::invalid_argument("WriteColmapBinary: bad camera " + std::to_string(id));
     c.Write<std::uint32_t>(id);
     c.Write<int>(m->id);
     c.Write<std::uint64_t>(cam.width);
@@ -446,7 +460,8 @@ ColmapModel ColmapFromDataset(const Dataset& dataset) {
     std::uint32_t camera_id = 0;
     for (const auto& [id, cam] : model.cameras) {
       const ColmapCamera candidate = ColmapCamera::FromCamera(id, f.camera);
-      if (candidate.model == cam.model && candidate.params == cam.params && cam.width == candidate.width && cam.height == candidate.height) {
+      if (candidate.model == cam.model && candidate.params == cam.params && cam.width == candidate.width &&
+          cam.height == candidate.height) {
         camera_id = id;
         break;
       }

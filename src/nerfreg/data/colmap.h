@@ -15,10 +15,10 @@ namespace nerfreg {
 
 struct ColmapCamera {
   std::uint32_t camera_id = 0;
-  std::string model;          // SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV
+  std::string model;  // SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV
   int width = 0, height = 0;
-  std::vector<double> params; // in COLMAP's order for the model
-  Camera ToCamera() const;    // throws InputError for unsupported models
+  std::vector<double> params;                                              // in COLMAP's order for the model
+  Camera ToCamera() const;                                                 // throws InputError for unsupported models
   static ColmapCamera FromCamera(std::uint32_t id, const Camera& camera);  // PINHOLE or OPENCV
 };
 

@@ -73,9 +73,13 @@ TEST(Colmap, ModelsLoadInTheRealColmapAndBack) {
   // COLMAP reads our text model and writes binary; reads our binary model and writes text.
   const std::string env = "QT_QPA_PLATFORM=offscreen ";
   ASSERT_EQ(std::system((env + "colmap model_converter --input_path " + dir.File("ours_txt") + " --output_path " +
-                         dir.File("colmap_bin") + " --output_type BIN >/dev/null 2>&1").c_str()), 0);
+                         dir.File("colmap_bin") + " --output_type BIN >/dev/null 2>&1")
+                            .c_str()),
+            0);
   ASSERT_EQ(std::system((env + "colmap model_converter --input_path " + dir.File("ours_bin") + " --output_path " +
-                         dir.File("colmap_txt") + " --output_type TXT >/dev/null 2>&1").c_str()), 0);
+                         dir.File("colmap_txt") + " --output_type TXT >/dev/null 2>&1")
+                            .c_str()),
+            0);
   ExpectSameModel(m, ReadColmapBinary(dir.File("colmap_bin")));
   ExpectSameModel(m, ReadColmapText(dir.File("colmap_txt")));
 }

@@ -91,8 +91,10 @@ void WriteCameras(const Dataset& dataset, const std::string& out, const ConvertO
     const std::string probe = JoinPaths(out, options.binary ? "cameras.bin" : "cameras.txt");
     CheckCanWriteOutput(probe, options.force);
     const ColmapModel model = ColmapFromDataset(d);
-    if (options.binary) WriteColmapBinary(model, out);
-    else WriteColmapText(model, out);
+    if (options.binary)
+      WriteColmapBinary(model, out);
+    else
+      WriteColmapText(model, out);
   }
 }
 

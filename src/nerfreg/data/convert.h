@@ -15,10 +15,10 @@ CameraFormat DetectCameraFormat(const std::string& input);
 Dataset ReadCameras(const std::string& input);
 
 struct ConvertOptions {
-  std::string to;         // "nerf", "nerfstudio", "llff" or "colmap"
-  bool binary = false;    // COLMAP output as .bin (default .txt)
-  bool force = false;     // overwrite existing outputs
-  void Check() const;     // throws InputError naming the option
+  std::string to;       // "nerf", "nerfstudio", "llff" or "colmap"
+  bool binary = false;  // COLMAP output as .bin (default .txt)
+  bool force = false;   // overwrite existing outputs
+  void Check() const;   // throws InputError naming the option
 };
 
 // nerfstudio's layout: transforms.json at `path` (camera_model, applied_transform, split lists) and,

@@ -33,7 +33,8 @@ void Dataset::Check(const std::string& source) const {
   for (size_t k = 0; k < frames.size(); ++k) {
     const Frame& f = frames[k];
     const std::string field = "frames[" + std::to_string(k) + "]";
-    if (!names.insert(f.name).second) ThrowInputError(source, field + ".file_path", "unique image names, '" + f.name + "' repeats");
+    if (!names.insert(f.name).second)
+      ThrowInputError(source, field + ".file_path", "unique image names, '" + f.name + "' repeats");
     if (f.split != "train" && f.split != "test" && f.split != "val") {
       ThrowInputError(source, field + ".split", "\"train\", \"test\" or \"val\", got \"" + f.split + "\"");
     }

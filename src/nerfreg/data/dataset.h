@@ -11,8 +11,8 @@
 namespace nerfreg {
 
 struct Frame {
-  std::string file_path;        // as written in the source file (relative to Dataset::root)
-  std::string name;             // unique image name, e.g. "r_017.png" (same view in every block)
+  std::string file_path;  // as written in the source file (relative to Dataset::root)
+  std::string name;       // unique image name, e.g. "r_017.png" (same view in every block)
   Camera camera;
   Rigid3d cam_from_world;       // OpenCV axes (geometry/conventions.h)
   std::string split = "train";  // "train" or "test"
@@ -21,7 +21,7 @@ struct Frame {
 };
 
 struct Dataset {
-  std::string root;             // directory image paths are relative to
+  std::string root;  // directory image paths are relative to
   std::vector<Frame> frames;
   // instant-ngp fields, kept so files we read and write back keep them.
   std::optional<int> aabb_scale;

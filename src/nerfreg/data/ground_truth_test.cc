@@ -18,8 +18,10 @@ TEST(GroundTruth, TargetFromSourceMapsSourcePointsOntoTargetPoints) {
   b.scale = 0.8;
   b.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(-1.1, Eigen::Vector3d::UnitZ()));
   b.translation = Eigen::Vector3d(-2, 0.5, 0.1);
-  WriteJsonFile(dir.File("gt.json"), {{"blocks", {{{"block_from_world", MatrixToJson(a.ToMatrix())}},
-                                                  {{"block_from_world", MatrixToJson(b.ToMatrix())}}}}});
+  WriteJsonFile(
+      dir.File("gt.json"),
+      {{"blocks",
+        {{{"block_from_world", MatrixToJson(a.ToMatrix())}}, {{"block_from_world", MatrixToJson(b.ToMatrix())}}}}});
   const GroundTruthFile gt(dir.File("gt.json"));
   const Sim3d b_from_a = gt.TargetFromSource(0, 1);
   const Eigen::Vector3d x_world(0.4, -0.2, 1.3);

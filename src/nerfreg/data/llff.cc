@@ -30,12 +30,14 @@ Dataset ReadLlff(const std::string& scene_dir, const LlffOptions& options) {
   std::vector<std::string> names;
   for (const auto& e : fs::directory_iterator(image_dir)) {
     const std::string ext = LowerExtension(e.path().string());
-    if (e.is_regular_file() && (ext == ".png" || ext == ".jpg" || ext == ".jpeg")) names.push_back(e.path().filename().string());
+    if (e.is_regular_file() && (ext == ".png" || ext == ".jpg" || ext == ".jpeg"))
+      names.push_back(e.path().filename().string());
   }
   std::sort(names.begin(), names.end());
   const auto n = static_cast<size_t>(a.shape[0]);
   if (names.size() != n) {
-    ThrowInputError(image_dir, "", std::to_string(n) + " images as poses_bounds.npy has rows, found " + std::to_string(names.size()));
+    ThrowInputError(image_dir, "",
+                    std::to_string(n) + " images as poses_bounds.npy has rows, found " + std::to_string(names.size()));
   }
   int img_w = 0, img_h = 0, img_c = 0;
   ReadImageSize(JoinPaths(image_dir, names[0]), &img_w, &img_h, &img_c);
@@ -84,7 +86,9 @@ void WriteLlffPoses(const Dataset& dataset, const std::string& scene_dir, double
     const Camera& c = f.camera;
     if (std::abs(c.fx - c.fy) > 1e-6 * c.fx || std::abs(c.cx - 0.5 * c.width) > 1e-6 * c.width ||
         std::abs(c.cy - 0.5 * c.height) > 1e-6 * c.height || c.HasDistortion()) {
-      ThrowInputError(f.name, "camera", "fx == fy, a centred principal point and no distortion (all LLFF can store), got " + c.ToString());
+      ThrowInputError(
+          f.name, "camera",
+          "fx == fy, a centred principal point and no distortion (all LLFF can store), got " + c.ToString());
     }
     const Matrix3x4d c2w = LlffFromCamFromWorld(f.cam_from_world);
     double* row = a.data.data() + k * 17;

@@ -54,7 +54,8 @@ TEST(Llff, MismatchedImageCountAndBadShapeAreNamed) {
     ReadLlff(dir.path());
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("4 images as poses_bounds.npy has rows, found 5"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("4 images as poses_bounds.npy has rows, found 5"), std::string::npos)
+        << e.what();
   }
   NpyArray bad;
   bad.shape = {2, 15};

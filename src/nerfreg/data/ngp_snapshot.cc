@@ -47,9 +47,14 @@ int MsgpackDepthUpTo(const std::vector<std::uint8_t>& b, int limit) {
     } else if (t <= 0xbf) {
       ok = skip(t & 0x1f);
     } else {
-      static const int kFixed[] = {
-          /*c0*/ 0, 0, 0, 0, /*c4 bin*/ -1, -2, -4, /*c7 ext*/ -11, -12, -14, /*ca*/ 4, 8,
-          /*cc*/ 1, 2, 4, 8, /*d0*/ 1, 2, 4, 8, /*d4 fixext*/ 2, 3, 5, 9, 17, /*d9 str*/ -1, -2, -4};
+      static const int kFixed[] = {/*c0*/ 0,        0,   0,   0,
+                                   /*c4 bin*/ -1,   -2,  -4,
+                                   /*c7 ext*/ -11,  -12, -14,
+                                   /*ca*/ 4,        8,
+                                   /*cc*/ 1,        2,   4,   8,
+                                   /*d0*/ 1,        2,   4,   8,
+                                   /*d4 fixext*/ 2, 3,   5,   9, 17,
+                                   /*d9 str*/ -1,   -2,  -4};
       if (t >= 0xdc) {  // array16/32, map16/32
         const int n = (t == 0xdc || t == 0xde) ? 2 : 4;
         if (b.size() - p < static_cast<size_t>(n)) break;
@@ -99,7 +104,8 @@ std::int64_t IntIn(const JsonField& f, std::int64_t lo, std::int64_t hi) {
   if (v < lo || v > hi) f.Fail(range);
   return v;
 }
-std::int64_t IntInOr(const JsonField& f, const std::string& key, std::int64_t lo, std::int64_t hi, std::int64_t fallback) {
+std::int64_t IntInOr(const JsonField& f, const std::string& key, std::int64_t lo, std::int64_t hi,
+                     std::int64_t fallback) {
   return f.Has(key) ? IntIn(f[key], lo, hi) : fallback;
 }
 
@@ -115,11 +121,12 @@ const Json::binary_t& Binary(const JsonField& f) {
 
 bool LooksCompressed(const std::vector<std::uint8_t>& b) {
   if (b.size() < 2) return false;
-  if (b[0] == 0x1f && b[1] == 0x8b) return true;                                 // gzip
+  if (b[0] == 0x1f && b[1] == 0x8b) return true;                                    // gzip
   return (b[0] & 0x0f) == 8 && (b[0] >> 4) <= 7 && ((b[0] << 8) | b[1]) % 31 == 0;  // zlib
 }
 
-std::vector<std::uint8_t> Inflate(const std::vector<std::uint8_t>& in, const std::string& source, std::int64_t max_bytes) {
+std::vector<std::uint8_t> Inflate(const std::vector<std::uint8_t>& in, const std::string& source,
+                                  std::int64_t max_bytes) {
   z_stream zs;
   std::memset(&zs, 0, sizeof(zs));
   if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("inflateInit2 failed");  // zlib or gzip
@@ -134,7 +141,8 @@ std::vector<std::uint8_t> Inflate(const std::vector<std::uint8_t>& in, const std
     rc = inflate(&zs, Z_NO_FLUSH);
     if (rc != Z_OK && rc != Z_STREAM_END) {
       inflateEnd(&zs);
-      ThrowInputError(source, "", "a complete zlib/gzip-compressed .ingp snapshot (inflate failed: truncated or corrupt)");
+      ThrowInputError(source, "",
+                      "a complete zlib/gzip-compressed .ingp snapshot (inflate failed: truncated or corrupt)");
     }
     const std::size_t got = sizeof(chunk) - zs.avail_out;
     if (static_cast<std::int64_t>(out.size() + got) > max_bytes) {
@@ -170,7 +178,8 @@ int ReadShDegree(const JsonField& f) {
   const std::string otype = Lower(f.StringOr("otype", ""));
   JsonField sh = f;
   if (otype == "composite") {
-    if (!f["nested"].json().is_array() || f["nested"].ArraySize() < 1) f["nested"].Fail("a non-empty array of encodings");
+    if (!f["nested"].json().is_array() || f["nested"].ArraySize() < 1)
+      f["nested"].Fail("a non-empty array of encodings");
     sh = f["nested"][0];
     if (IntInOr(sh, "n_dims_to_encode", 0, 16, 3) != 3) sh["n_dims_to_encode"].Fail("3 (the view direction)");
   }
@@ -216,7 +225,7 @@ std::uint16_t FloatToHalf(float f) {
     return sign | static_cast<std::uint16_t>(std::nearbyint(a * std::ldexp(1.f, 24)));
   }
   int e;
-  const float m = std::frexp(a, &e);  // a = m 2^e, m in [0.5, 1)
+  const float m = std::frexp(a, &e);                                                   // a = m 2^e, m in [0.5, 1)
   std::uint32_t mant = static_cast<std::uint32_t>(std::nearbyint(std::ldexp(m, 11)));  // [1024, 2048]
   if (mant == 2048) {
     mant = 1024;
@@ -260,7 +269,8 @@ std::vector<NgpGridLevel> NgpGridLevels(const NgpGridEncoding& e) {
 }
 
 std::int64_t NgpMlp::ParamCount() const {
-  return std::int64_t(width) * inputs + std::int64_t(hidden_layers - 1) * width * width + std::int64_t(padded_outputs) * width;
+  return std::int64_t(width) * inputs + std::int64_t(hidden_layers - 1) * width * width +
+         std::int64_t(padded_outputs) * width;
 }
 
 NgpSnapshot ReadNgpSnapshot(const std::string& path, const NgpReadOptions& options) {
@@ -268,7 +278,8 @@ NgpSnapshot ReadNgpSnapshot(const std::string& path, const NgpReadOptions& optio
   return ParseNgpSnapshot(std::vector<std::uint8_t>(s.begin(), s.end()), path, options);
 }
 
-NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::string& source, const NgpReadOptions& options) {
+NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::string& source,
+                             const NgpReadOptions& options) {
   options.Check();
   Json root;
   {
@@ -276,13 +287,15 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
     const bool compressed = LooksCompressed(raw);
     if (compressed) inflated = Inflate(raw, source, options.max_inflated_bytes);
     if (MsgpackDepthUpTo(compressed ? inflated : raw, kMaxJsonDepth) > kMaxJsonDepth) {
-      ThrowInputError(source, "", "an instant-ngp snapshot nested at most " + std::to_string(kMaxJsonDepth) +
-                                      " levels deep (arrays and maps)");
+      ThrowInputError(
+          source, "",
+          "an instant-ngp snapshot nested at most " + std::to_string(kMaxJsonDepth) + " levels deep (arrays and maps)");
     }
     try {
       root = Json::from_msgpack(compressed ? inflated : raw);
     } catch (const Json::exception& e) {
-      ThrowInputError(source, "", std::string("an instant-ngp snapshot (msgpack, or zlib-compressed .ingp): ") + e.what());
+      ThrowInputError(source, "",
+                      std::string("an instant-ngp snapshot (msgpack, or zlib-compressed .ingp): ") + e.what());
     }
   }
   if (!root.is_object()) ThrowInputError(source, "", "an instant-ngp snapshot (a msgpack map at the top)");
@@ -336,9 +349,10 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
   if (Lower(e.interpolation) != "linear") enc["interpolation"].Fail("\"Linear\"");
   e.per_level_scale = enc.DoubleOr("per_level_scale", 0.0);
   if (!(e.per_level_scale > 0)) {  // instant-ngp's rule: the finest level reaches 2048 * aabb_scale
-    e.per_level_scale = e.levels > 1 ? std::exp(std::log(2048.0f * float(out.aabb_scale) / float(e.base_resolution)) /
-                                                float(e.levels - 1))
-                                     : 1.0;
+    e.per_level_scale =
+        e.levels > 1
+            ? std::exp(std::log(2048.0f * float(out.aabb_scale) / float(e.base_resolution)) / float(e.levels - 1))
+            : 1.0;
   }
   if (!(e.per_level_scale >= 1.0 && e.per_level_scale <= 16.0)) enc["per_level_scale"].Fail("a number in [1, 16]");
   const auto levels = NgpGridLevels(e);
@@ -351,7 +365,8 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
   out.sh_degree = ReadShDegree(top["dir_encoding"]);
   const int dir_width = static_cast<int>(RoundUp(out.sh_degree * out.sh_degree, 16));
   if (dir_width != out.sh_degree * out.sh_degree) top["dir_encoding"].Fail("an encoding without padding");
-  out.rgb_network = ReadMlp(top["rgb_network"], static_cast<int>(RoundUp(out.density_network.padded_outputs + dir_width, 16)), 3, true);
+  out.rgb_network = ReadMlp(top["rgb_network"],
+                            static_cast<int>(RoundUp(out.density_network.padded_outputs + dir_width, 16)), 3, true);
 
   out.density_params_offset = 0;
   out.rgb_params_offset = out.density_network.ParamCount();
@@ -369,8 +384,8 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
   if (elem == 0) snap["params_type"].Fail("\"__half\" or \"float\"");
   const auto& bin = Binary(snap["params_binary"]);
   if (static_cast<std::int64_t>(bin.size()) != n_params * elem) {
-    snap["params_binary"].Fail(std::to_string(n_params * elem) + " bytes (n_params x " + std::to_string(elem) + "), got " +
-                               std::to_string(bin.size()));
+    snap["params_binary"].Fail(std::to_string(n_params * elem) + " bytes (n_params x " + std::to_string(elem) +
+                               "), got " + std::to_string(bin.size()));
   }
   out.params.resize(static_cast<std::size_t>(n_params));
   for (std::int64_t i = 0; i < n_params; ++i) {
@@ -393,8 +408,9 @@ NgpSnapshot ParseNgpSnapshot(const std::vector<std::uint8_t>& raw, const std::st
     const auto& grid = Binary(snap["density_grid_binary"]);
     const std::int64_t cells = std::int64_t(g) * g * g;
     if (grid.size() % (2 * cells) != 0 || grid.empty() || grid.size() / (2 * cells) > 8) {
-      snap["density_grid_binary"].Fail("1 to 8 cascades of density_grid_size^3 fp16 values (" + std::to_string(2 * cells) +
-                                       " bytes each), got " + std::to_string(grid.size()) + " bytes");
+      snap["density_grid_binary"].Fail("1 to 8 cascades of density_grid_size^3 fp16 values (" +
+                                       std::to_string(2 * cells) + " bytes each), got " + std::to_string(grid.size()) +
+                                       " bytes");
     }
     out.density_grid_size = g;
     out.density_cascades = static_cast<int>(grid.size() / (2 * cells));

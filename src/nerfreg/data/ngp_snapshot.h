@@ -37,11 +37,11 @@ struct NgpGridEncoding {
 
 // One grid level in tiny-cuda-nn's layout.
 struct NgpGridLevel {
-  float scale;              // position scale: pos = x * scale + 0.5
-  std::uint32_t resolution; // vertices per axis
-  std::uint32_t entries;    // table rows of this level (the modulus of its index)
-  bool dense;               // indexed x + y*res + z*res^2, else hashed
-  std::int64_t offset;      // first row of the level in the concatenated table
+  float scale;               // position scale: pos = x * scale + 0.5
+  std::uint32_t resolution;  // vertices per axis
+  std::uint32_t entries;     // table rows of this level (the modulus of its index)
+  bool dense;                // indexed x + y*res + z*res^2, else hashed
+  std::int64_t offset;       // first row of the level in the concatenated table
 };
 std::vector<NgpGridLevel> NgpGridLevels(const NgpGridEncoding& encoding);
 

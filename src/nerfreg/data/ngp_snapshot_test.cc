@@ -178,7 +178,8 @@ TEST(NgpSnapshot, DeepNestingIsAnInputErrorNotAStackOverflow) {
     std::vector<std::uint8_t> bytes;
     for (int k = 0; k < 100; ++k) bytes.insert(bytes.end(), level.begin(), level.end());
     bytes.push_back(0xc0);
-    EXPECT_NE(InputErrorOf([&] { ParseNgpSnapshot(bytes, "d.ingp"); }).find(expected), std::string::npos) << int(level[0]);
+    EXPECT_NE(InputErrorOf([&] { ParseNgpSnapshot(bytes, "d.ingp"); }).find(expected), std::string::npos)
+        << int(level[0]);
   }
   // Siblings are not depth: 100 arrays side by side inside one array.
   std::vector<std::uint8_t> wide = {0xdc, 0x00, 100};

@@ -19,21 +19,21 @@ namespace nerfreg {
 
 struct TestNgpSnapshotOptions {
   int levels = 4;
-  int features = 4;               // levels * features must be a multiple of 16 (no padding)
+  int features = 4;  // levels * features must be a multiple of 16 (no padding)
   int log2_table_size = 10;
   int base_resolution = 4;
-  double per_level_scale = 1.5;   // resolutions 4, 6, 9, 14: dense (one of 736 rows) and hashed levels
-  int width = 16;                 // both MLPs
-  int aabb_scale = 2;             // 2 cascades
-  int grid_size = 16;             // density grid cells per axis
+  double per_level_scale = 1.5;  // resolutions 4, 6, 9, 14: dense (one of 736 rows) and hashed levels
+  int width = 16;                // both MLPs
+  int aabb_scale = 2;            // 2 cascades
+  int grid_size = 16;            // density grid cells per axis
   unsigned seed = 0;
-  double dataset_scale = 0.25;    // stored as nerf.dataset.scale / offset
+  double dataset_scale = 0.25;  // stored as nerf.dataset.scale / offset
   std::vector<double> dataset_offset = {0.5, 0.4, 0.6};
 };
 
 struct TestNgpSnapshot {
   nlohmann::json json;
-  std::vector<float> params;         // density MLP, colour MLP, grid: exactly what the file holds
+  std::vector<float> params;           // density MLP, colour MLP, grid: exactly what the file holds
   std::vector<std::uint8_t> occupied;  // [cascade][z][y][x], 1 where the density grid is 1.0
 };
 
@@ -67,8 +67,9 @@ inline TestNgpSnapshot MakeTestNgpSnapshot(const TestNgpSnapshotOptions& o = {})
   using nlohmann::json;
   TestNgpSnapshot s;
   const int w = o.width, enc = o.levels * o.features;
-  const std::int64_t n = std::int64_t(w) * enc + std::int64_t(16) * w +       // density: 1 hidden layer, 16 outputs
-                         std::int64_t(w) * 32 + std::int64_t(w) * w + 16 * w +  // colour: 32 inputs, 2 hidden, 3 -> 16 rows
+  const std::int64_t n = std::int64_t(w) * enc + std::int64_t(16) * w +  // density: 1 hidden layer, 16 outputs
+                         std::int64_t(w) * 32 + std::int64_t(w) * w +
+                         16 * w +  // colour: 32 inputs, 2 hidden, 3 -> 16 rows
                          TestNgpGridRows(o) * o.features;
   std::mt19937 rng(o.seed);
   std::uniform_int_distribution<int> k(-1024, 1024);
@@ -92,8 +93,9 @@ inline TestNgpSnapshot MakeTestNgpSnapshot(const TestNgpSnapshotOptions& o = {})
     for (int z = 0; z < g; ++z)
       for (int y = 0; y < g; ++y)
         for (int x = 0; x < g; ++x) {
-          const bool on = c == 0 ? ((x >= 4 && x < 8 && y >= 4 && y < 8 && z >= 4 && z < 8) || (x == 1 && y == 2 && z == 3))
-                                 : (x < 2 && y >= g - 3 && z < 3);
+          const bool on =
+              c == 0 ? ((x >= 4 && x < 8 && y >= 4 && y < 8 && z >= 4 && z < 8) || (x == 1 && y == 2 && z == 3))
+                     : (x < 2 && y >= g - 3 && z < 3);
           if (!on) continue;
           const std::int64_t m = c * cells + TestMorton(x, y, z);
           grid[2 * m] = one & 0xff;
@@ -102,22 +104,41 @@ inline TestNgpSnapshot MakeTestNgpSnapshot(const TestNgpSnapshotOptions& o = {})
         }
   const double lo = 0.5 - 0.5 * o.aabb_scale, hi = 0.5 + 0.5 * o.aabb_scale;
   s.json = {
-      {"encoding", {{"otype", "HashGrid"}, {"n_levels", o.levels}, {"n_features_per_level", o.features},
-                    {"log2_hashmap_size", o.log2_table_size}, {"base_resolution", o.base_resolution},
-                    {"per_level_scale", o.per_level_scale}}},
-      {"network", {{"otype", "FullyFusedMLP"}, {"activation", "ReLU"}, {"output_activation", "None"}, {"n_neurons", w},
-                   {"n_hidden_layers", 1}}},
-      {"dir_encoding", {{"otype", "Composite"},
-                        {"nested", json::array({{{"n_dims_to_encode", 3}, {"otype", "SphericalHarmonics"}, {"degree", 4}},
-                                                {{"otype", "Identity"}}})}}},
-      {"rgb_network", {{"otype", "FullyFusedMLP"}, {"activation", "ReLU"}, {"output_activation", "None"}, {"n_neurons", w},
-                       {"n_hidden_layers", 2}}},
+      {"encoding",
+       {{"otype", "HashGrid"},
+        {"n_levels", o.levels},
+        {"n_features_per_level", o.features},
+        {"log2_hashmap_size", o.log2_table_size},
+        {"base_resolution", o.base_resolution},
+        {"per_level_scale", o.per_level_scale}}},
+      {"network",
+       {{"otype", "FullyFusedMLP"},
+        {"activation", "ReLU"},
+        {"output_activation", "None"},
+        {"n_neurons", w},
+        {"n_hidden_layers", 1}}},
+      {"dir_encoding",
+       {{"otype", "Composite"},
+        {"nested", json::array({{{"n_dims_to_encode", 3}, {"otype", "SphericalHarmonics"}, {"degree", 4}},
+                                {{"otype", "Identity"}}})}}},
+      {"rgb_network",
+       {{"otype", "FullyFusedMLP"},
+        {"activation", "ReLU"},
+        {"output_activation", "None"},
+        {"n_neurons", w},
+        {"n_hidden_layers", 2}}},
       {"snapshot",
-       {{"version", 1}, {"mode", "nerf"}, {"n_params", n}, {"params_type", "__half"},
-        {"params_binary", json::binary(bin)}, {"density_grid_size", g}, {"density_grid_binary", json::binary(grid)},
+       {{"version", 1},
+        {"mode", "nerf"},
+        {"n_params", n},
+        {"params_type", "__half"},
+        {"params_binary", json::binary(bin)},
+        {"density_grid_size", g},
+        {"density_grid_binary", json::binary(grid)},
         {"aabb", {{"min", {lo, lo, lo}}, {"max", {hi, hi, hi}}}},
-        {"nerf", {{"aabb_scale", o.aabb_scale},
-                  {"dataset", {{"scale", o.dataset_scale}, {"offset", o.dataset_offset}, {"aabb_scale", o.aabb_scale}}}}}}}};
+        {"nerf",
+         {{"aabb_scale", o.aabb_scale},
+          {"dataset", {{"scale", o.dataset_scale}, {"offset", o.dataset_offset}, {"aabb_scale", o.aabb_scale}}}}}}}};
   return s;
 }
 
@@ -127,7 +148,8 @@ inline std::vector<std::uint8_t> TestNgpSnapshotBytes(const nlohmann::json& j, b
   if (!compressed) return raw;
   uLongf size = compressBound(static_cast<uLong>(raw.size()));
   std::vector<std::uint8_t> out(size);
-  if (compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 6) != Z_OK) throw std::runtime_error("compress2");
+  if (compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 6) != Z_OK)
+    throw std::runtime_error("compress2");
   out.resize(size);
   return out;
 }

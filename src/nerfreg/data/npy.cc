@@ -78,7 +78,8 @@ NpyArray ParseNpy(const std::string& bytes, const std::string& src) {
   const char order_char = m[1].str()[0];
   const char kind = m[2].str()[0];
   const int size = std::stoi(m[3].str().substr(0, 2));
-  if (!((kind == 'f' && (size == 4 || size == 8)) || ((kind == 'i' || kind == 'u') && (size == 1 || size == 2 || size == 4 || size == 8)) ||
+  if (!((kind == 'f' && (size == 4 || size == 8)) ||
+        ((kind == 'i' || kind == 'u') && (size == 1 || size == 2 || size == 4 || size == 8)) ||
         (kind == 'b' && size == 1))) {
     ThrowInputError(src, "descr", "f4, f8, i1-i8, u1-u8 or b1, got " + m[0].str());
   }
@@ -112,8 +113,9 @@ NpyArray ParseNpy(const std::string& bytes, const std::string& src) {
   const std::int64_t n = array.Size();
   const size_t data_start = header_start + header_len;
   if (static_cast<std::uint64_t>(n) * size > bytes.size() - data_start) {
-    ThrowInputError(src, "shape", std::to_string(n) + " elements of " + std::to_string(size) + " bytes, file has only " +
-                                      std::to_string(bytes.size() - data_start) + " data bytes (truncated?)");
+    ThrowInputError(src, "shape",
+                    std::to_string(n) + " elements of " + std::to_string(size) + " bytes, file has only " +
+                        std::to_string(bytes.size() - data_start) + " data bytes (truncated?)");
   }
   array.data.resize(static_cast<size_t>(n));
   // An empty array has no data; its other dimensions may be huge (only their product is bounded),
@@ -144,7 +146,8 @@ NpyArray ReadNpy(const std::string& path) { return ParseNpy(ReadFileToString(pat
 
 std::string SerializeNpy(const NpyArray& array) {
   std::string shape = "(";
-  for (size_t k = 0; k < array.shape.size(); ++k) shape += std::to_string(array.shape[k]) + (array.shape.size() == 1 || k + 1 < array.shape.size() ? "," : "");
+  for (size_t k = 0; k < array.shape.size(); ++k)
+    shape += std::to_string(array.shape[k]) + (array.shape.size() == 1 || k + 1 < array.shape.size() ? "," : "");
   shape += ")";
   std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': " + shape + ", }";
   // Pad so that the data starts at a multiple of 64 bytes, header ending in '\n'.

@@ -43,16 +43,19 @@ std::string Raw(std::initializer_list<T> values, bool big_endian = false) {
 }
 
 TEST(Npy, ReadsCOrderFloat64) {
-  const auto a = ParseNpy(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }",
-                                   Raw<double>({1, 2, 3, 4, 5, 6})), "a.npy");
+  const auto a = ParseNpy(
+      NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }", Raw<double>({1, 2, 3, 4, 5, 6})),
+      "a.npy");
   EXPECT_EQ(a.shape, (std::vector<std::int64_t>{2, 3}));
   EXPECT_EQ(a.data, (std::vector<double>{1, 2, 3, 4, 5, 6}));
   // An empty Fortran array whose other dimensions multiply past 2^63 reads as empty. The fuzzer's
   // file: npy_fuzz (UBSan) flagged the strides formed from them; it replays it from
   // fuzz/corpus/npy/empty_fortran_huge_strides.
-  const std::string found("\x93NUMPY\x02.t\x00\x00\x00{'descr': '>f4',\x1d'fortran_order': True, 'shape': (0, 44, "
-                          "444,434, 44,444, 444,434, 44,4,44,4,43)44\xed }\x00\x00\xfe\xff\xff\xa9\x00\x00\x00      "
-                          "\x00\x00\x00\x00\x00\x00\x00", 135);
+  const std::string found(
+      "\x93NUMPY\x02.t\x00\x00\x00{'descr': '>f4',\x1d'fortran_order': True, 'shape': (0, 44, "
+      "444,434, 44,444, 444,434, 44,4,44,4,43)44\xed }\x00\x00\xfe\xff\xff\xa9\x00\x00\x00      "
+      "\x00\x00\x00\x00\x00\x00\x00",
+      135);
   const auto e = ParseNpy(found, "e.npy");
   EXPECT_TRUE(e.data.empty());
   EXPECT_EQ(e.shape.size(), 13u);
@@ -60,17 +63,19 @@ TEST(Npy, ReadsCOrderFloat64) {
 
 TEST(Npy, ReadsFortranOrderAsRowMajor) {
   // Matrix [[1,2,3],[4,5,6]] stored column by column.
-  const auto a = ParseNpy(NpyBytes(1, "{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3), }",
-                                   Raw<double>({1, 4, 2, 5, 3, 6})), "a.npy");
+  const auto a = ParseNpy(
+      NpyBytes(1, "{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3), }", Raw<double>({1, 4, 2, 5, 3, 6})),
+      "a.npy");
   EXPECT_EQ(a.data, (std::vector<double>{1, 2, 3, 4, 5, 6}));
 }
 
 TEST(Npy, ReadsBigEndianFloat32AndVersion2AndInts) {
-  const auto a = ParseNpy(NpyBytes(2, "{'descr': '>f4', 'fortran_order': False, 'shape': (3,), }",
-                                   Raw<float>({1.5f, -2.f, 3.25f}, true)), "b.npy");
+  const auto a = ParseNpy(
+      NpyBytes(2, "{'descr': '>f4', 'fortran_order': False, 'shape': (3,), }", Raw<float>({1.5f, -2.f, 3.25f}, true)),
+      "b.npy");
   EXPECT_EQ(a.data, (std::vector<double>{1.5, -2, 3.25}));
-  const auto i = ParseNpy(NpyBytes(1, "{'descr': '<i4', 'fortran_order': False, 'shape': (2,), }",
-                                   Raw<std::int32_t>({-7, 9})), "c.npy");
+  const auto i = ParseNpy(
+      NpyBytes(1, "{'descr': '<i4', 'fortran_order': False, 'shape': (2,), }", Raw<std::int32_t>({-7, 9})), "c.npy");
   EXPECT_EQ(i.data, (std::vector<double>{-7, 9}));
 }
 
@@ -100,14 +105,17 @@ TEST(Npy, BadFilesAreNamedErrorsWithoutAllocating) {
   EXPECT_NE(ErrorOf("not numpy").find("bad.npy: magic"), std::string::npos);
   // A header claiming 10^12 elements: refused from the header, nothing allocated.
   EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000, 1000000), }", ""))
-                .find("bad.npy: shape"), std::string::npos);
+                .find("bad.npy: shape"),
+            std::string::npos);
   // Fewer bytes than the shape needs: truncated.
   EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (4,), }", Raw<double>({1, 2})))
-                .find("truncated"), std::string::npos);
+                .find("truncated"),
+            std::string::npos);
   EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<c16', 'fortran_order': False, 'shape': (1,), }", std::string(16, 0)))
-                .find("descr"), std::string::npos);
-  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (-3,), }", ""))
-                .find("shape"), std::string::npos);
+                .find("descr"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (-3,), }", "")).find("shape"),
+            std::string::npos);
   std::string truncated_header = NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (1,), }", "");
   EXPECT_NE(ErrorOf(truncated_header.substr(0, 30)).find("header"), std::string::npos);
 }

@@ -23,7 +23,8 @@ Splats TransformSplats(const Splats& splats, const Sim3d& new_from_old) {
     const Eigen::Quaterniond moved = new_from_old.rotation * Eigen::Quaterniond(q(0), q(1), q(2), q(3));
     out.rotation.col(i) = Eigen::Vector4d(moved.w(), moved.x(), moved.y(), moved.z()).cast<float>();
     for (int c = 0; c < 3 && rest > 0; ++c) {
-      out.f_rest.col(i).segment(c * rest, rest) = (sh * splats.f_rest.col(i).segment(c * rest, rest).cast<double>()).cast<float>();
+      out.f_rest.col(i).segment(c * rest, rest) =
+          (sh * splats.f_rest.col(i).segment(c * rest, rest).cast<double>()).cast<float>();
     }
   }
   return out;

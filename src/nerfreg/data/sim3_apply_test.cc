@@ -39,7 +39,9 @@ TEST(Sim3Apply, SplatsMoveAsAWholeAndTheInverseReturnsThemWithin1e6) {
     const double s2 = kNewFromOld.scale * kNewFromOld.scale;
     for (std::int64_t i = 0; i < s.size(); ++i) {
       // Each Gaussian is the old one moved: mean T mu, covariance s^2 R Sigma R^T.
-      EXPECT_LT((moved.position.col(i).cast<double>() - kNewFromOld * Eigen::Vector3d(s.position.col(i).cast<double>())).norm(), 1e-5);
+      EXPECT_LT((moved.position.col(i).cast<double>() - kNewFromOld * Eigen::Vector3d(s.position.col(i).cast<double>()))
+                    .norm(),
+                1e-5);
       const Eigen::Matrix3d expected = s2 * r * Covariance(s, i) * r.transpose();
       EXPECT_LT((Covariance(moved, i) - expected).norm(), 1e-5 * std::max(1e-3, expected.norm()));
       EXPECT_NEAR(moved.rotation.col(i).norm(), s.rotation.col(i).norm(), 1e-5);
@@ -85,7 +87,8 @@ TEST(Sim3Apply, TransformsJsonMovesCamerasKeepsTheRestAndRoundTrips) {
   const Eigen::Matrix4d m0 = JsonField(in, "t.json")["frames"][0]["transform_matrix"].Matrix(4, 4);
   const Eigen::Matrix4d n0 = JsonField(moved, "t.json")["frames"][0]["transform_matrix"].Matrix(4, 4);
   EXPECT_LT((n0.block<3, 1>(0, 3) - kNewFromOld * Eigen::Vector3d(m0.block<3, 1>(0, 3))).norm(), 1e-12);
-  EXPECT_LT((n0.topLeftCorner<3, 3>() - kNewFromOld.rotation.toRotationMatrix() * m0.topLeftCorner<3, 3>()).norm(), 1e-12);
+  EXPECT_LT((n0.topLeftCorner<3, 3>() - kNewFromOld.rotation.toRotationMatrix() * m0.topLeftCorner<3, 3>()).norm(),
+            1e-12);
   EXPECT_NEAR(moved["frames"][0]["far"].get<double>(), 6 * kNewFromOld.scale, 1e-12);
   EXPECT_EQ(moved["my_key"], "kept");
   EXPECT_EQ(moved["frames"][1]["fl_x"], 90);
@@ -112,7 +115,8 @@ TEST(Sim3Apply, ColmapLlffAndDataparserRoundTrip) {
   ColmapModel model;
   ColmapImage image;
   image.image_id = 1;
-  image.cam_from_world = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
+  image.cam_from_world =
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
   model.images[1] = image;
   ColmapPoint3D point;
   point.point3d_id = 7;
@@ -144,7 +148,8 @@ TEST(Sim3Apply, ColmapLlffAndDataparserRoundTrip) {
   EXPECT_THROW(TransformLlffPoses(bad, kNewFromOld, "p.npy"), InputError);
 
   // The trained model's frame stays put: a point there is the same whichever file frame maps into it.
-  const Sim3d trained_from_old(0.8, Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(1, 0, 0));
+  const Sim3d trained_from_old(0.8, Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())),
+                               Eigen::Vector3d(1, 0, 0));
   const Sim3d trained_from_new = TransformDataparser(trained_from_old, kNewFromOld);
   const Eigen::Vector3d p(0.3, 0.2, -0.7);
   EXPECT_LT((trained_from_new * (kNewFromOld * p) - trained_from_old * p).norm(), 1e-12);

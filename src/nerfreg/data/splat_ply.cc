@@ -50,11 +50,11 @@ enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, 
 
 bool ParsePlyType(const std::string& t, PlyType* type) {
   static const std::pair<const char*, PlyType> kNames[] = {
-      {"char", PlyType::kInt8},     {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
-      {"uint8", PlyType::kUint8},   {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-      {"ushort", PlyType::kUint16}, {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
-      {"int32", PlyType::kInt32},   {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
-      {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+      {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+      {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+      {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+      {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+      {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
       {"float64", PlyType::kFloat64}};
   for (const auto& [name, value] : kNames) {
     if (t == name) {
@@ -68,11 +68,15 @@ bool ParsePlyType(const std::string& t, PlyType* type) {
 int PlyTypeBytes(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
-    case PlyType::kFloat64: return 8;
-    default: return 4;
+    case PlyType::kUint16:
+      return 2;
+    case PlyType::kFloat64:
+      return 8;
+    default:
+      return 4;
   }
 }
 
@@ -111,14 +115,15 @@ std::vector<std::string> HeaderLines(const std::string& bytes, const std::string
   while (true) {
     const size_t end = bytes.find('\n', pos);
     if (end == std::string::npos || end >= kMaxHeaderBytes) {
-      ThrowInputError(src, "header", "a PLY header ending in an end_header line within " +
-                                         std::to_string(kMaxHeaderBytes) + " bytes");
+      ThrowInputError(src, "header",
+                      "a PLY header ending in an end_header line within " + std::to_string(kMaxHeaderBytes) + " bytes");
     }
     std::string line = bytes.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
     for (char c : line) {
       if (static_cast<unsigned char>(c) < 0x20 && c != '\t') {
-        ThrowInputError(src, "header", "printable text (a control byte in line " + std::to_string(lines.size() + 1) + ")");
+        ThrowInputError(src, "header",
+                        "printable text (a control byte in line " + std::to_string(lines.size() + 1) + ")");
       }
     }
     pos = end + 1;
@@ -138,11 +143,12 @@ void AssignSlots(Header* h, const std::string& src) {
     Slot slot;
     int index;
   };
-  std::vector<Named> own = {{"x", Slot::kPosition, 0},   {"y", Slot::kPosition, 1},   {"z", Slot::kPosition, 2},
-                            {"f_dc_0", Slot::kDc, 0},    {"f_dc_1", Slot::kDc, 1},    {"f_dc_2", Slot::kDc, 2},
-                            {"opacity", Slot::kOpacity, 0}, {"scale_0", Slot::kScale, 0}, {"scale_1", Slot::kScale, 1},
-                            {"scale_2", Slot::kScale, 2}, {"rot_0", Slot::kRotation, 0}, {"rot_1", Slot::kRotation, 1},
-                            {"rot_2", Slot::kRotation, 2}, {"rot_3", Slot::kRotation, 3}};
+  std::vector<Named> own = {
+      {"x", Slot::kPosition, 0},      {"y", Slot::kPosition, 1},     {"z", Slot::kPosition, 2},
+      {"f_dc_0", Slot::kDc, 0},       {"f_dc_1", Slot::kDc, 1},      {"f_dc_2", Slot::kDc, 2},
+      {"opacity", Slot::kOpacity, 0}, {"scale_0", Slot::kScale, 0},  {"scale_1", Slot::kScale, 1},
+      {"scale_2", Slot::kScale, 2},   {"rot_0", Slot::kRotation, 0}, {"rot_1", Slot::kRotation, 1},
+      {"rot_2", Slot::kRotation, 2},  {"rot_3", Slot::kRotation, 3}};
   const std::vector<Named> normals = {{"nx", Slot::kNormal, 0}, {"ny", Slot::kNormal, 1}, {"nz", Slot::kNormal, 2}};
   auto find = [&](const std::string& name) -> Property* {
     for (Property& p : h->properties)
@@ -179,7 +185,8 @@ void AssignSlots(Header* h, const std::string& src) {
       int k = -1;
       const auto r = std::from_chars(p.name.data() + 7, p.name.data() + p.name.size(), k);
       if (r.ec != std::errc() || r.ptr != p.name.data() + p.name.size() || k >= rest) {
-        ThrowInputError(src, "property " + p.name, "f_rest_0 .. f_rest_" + std::to_string(rest) + " numbered without gaps");
+        ThrowInputError(src, "property " + p.name,
+                        "f_rest_0 .. f_rest_" + std::to_string(rest) + " numbered without gaps");
       }
     }
   }
@@ -200,7 +207,8 @@ void AssignSlots(Header* h, const std::string& src) {
   for (Property& p : h->properties) {
     if (p.slot != Slot::kExtra) continue;
     if (extras == kMaxExtras) {
-      ThrowInputError(src, "property " + p.name, "at most " + std::to_string(kMaxExtras) + " properties besides the splat's own");
+      ThrowInputError(src, "property " + p.name,
+                      "at most " + std::to_string(kMaxExtras) + " properties besides the splat's own");
     }
     p.index = extras++;
   }
@@ -210,8 +218,9 @@ Header ParseHeader(const std::string& bytes, const std::string& src) {
   Header h;
   const std::vector<std::string> lines = HeaderLines(bytes, src, &h.body);
   if (lines.size() < 2 || (lines[1] != "format ascii 1.0" && lines[1] != "format binary_little_endian 1.0")) {
-    ThrowInputError(src, "format", "\"format binary_little_endian 1.0\" or \"format ascii 1.0\" after \"ply\" (got \"" +
-                                       (lines.size() < 2 ? std::string() : lines[1].substr(0, 64)) + "\")");
+    ThrowInputError(src, "format",
+                    "\"format binary_little_endian 1.0\" or \"format ascii 1.0\" after \"ply\" (got \"" +
+                        (lines.size() < 2 ? std::string() : lines[1].substr(0, 64)) + "\")");
   }
   h.ascii = lines[1] == "format ascii 1.0";
   int element = -1;  // elements seen; only the first (vertex) is read
@@ -229,7 +238,8 @@ Header ParseHeader(const std::string& bytes, const std::string& src) {
       }
       h.vertices = std::stoll(c);
     } else if (w[0] == "property") {
-      if (element < 0) ThrowInputError(src, "header line " + std::to_string(i + 1), "a property after its element line");
+      if (element < 0)
+        ThrowInputError(src, "header line " + std::to_string(i + 1), "a property after its element line");
       if (element > 0) continue;
       if (w.size() >= 2 && w[1] == "list") {
         ThrowInputError(src, "property " + w.back(), "a scalar property (the vertex element has no lists)");
@@ -274,14 +284,22 @@ double ReadBinary(const char* p, PlyType t) {
     return static_cast<double>(x);
   };
   switch (t) {
-    case PlyType::kInt8: return as(std::int8_t());
-    case PlyType::kUint8: return as(std::uint8_t());
-    case PlyType::kInt16: return as(std::int16_t());
-    case PlyType::kUint16: return as(std::uint16_t());
-    case PlyType::kInt32: return as(std::int32_t());
-    case PlyType::kUint32: return as(std::uint32_t());
-    case PlyType::kFloat32: return as(float());
-    default: return as(double());
+    case PlyType::kInt8:
+      return as(std::int8_t());
+    case PlyType::kUint8:
+      return as(std::uint8_t());
+    case PlyType::kInt16:
+      return as(std::int16_t());
+    case PlyType::kUint16:
+      return as(std::uint16_t());
+    case PlyType::kInt32:
+      return as(std::int32_t());
+    case PlyType::kUint32:
+      return as(std::uint32_t());
+    case PlyType::kFloat32:
+      return as(float());
+    default:
+      return as(double());
   }
 }
 
@@ -360,14 +378,30 @@ void CheckSplat(const Splats& s, std::int64_t i, const std::string& src) {
 void Store(Splats* s, const Property& p, std::int64_t i, double v) {
   const float f = static_cast<float>(v);
   switch (p.slot) {
-    case Slot::kPosition: s->position(p.index, i) = f; break;
-    case Slot::kNormal: s->normal(p.index, i) = f; break;
-    case Slot::kDc: s->f_dc(p.index, i) = f; break;
-    case Slot::kRest: s->f_rest(p.index, i) = f; break;
-    case Slot::kOpacity: s->opacity(i) = f; break;
-    case Slot::kScale: s->log_scale(p.index, i) = f; break;
-    case Slot::kRotation: s->rotation(p.index, i) = f; break;
-    case Slot::kExtra: s->extras[p.index].values[i] = v; break;
+    case Slot::kPosition:
+      s->position(p.index, i) = f;
+      break;
+    case Slot::kNormal:
+      s->normal(p.index, i) = f;
+      break;
+    case Slot::kDc:
+      s->f_dc(p.index, i) = f;
+      break;
+    case Slot::kRest:
+      s->f_rest(p.index, i) = f;
+      break;
+    case Slot::kOpacity:
+      s->opacity(i) = f;
+      break;
+    case Slot::kScale:
+      s->log_scale(p.index, i) = f;
+      break;
+    case Slot::kRotation:
+      s->rotation(p.index, i) = f;
+      break;
+    case Slot::kExtra:
+      s->extras[p.index].values[i] = v;
+      break;
   }
 }
 
@@ -449,14 +483,30 @@ std::vector<OutProperty> OutProperties(const Splats& s) {
 void AppendBinary(std::string* out, PlyType t, double v) {
   auto put = [out](auto x) { out->append(reinterpret_cast<const char*>(&x), sizeof(x)); };
   switch (t) {
-    case PlyType::kInt8: put(static_cast<std::int8_t>(v)); break;
-    case PlyType::kUint8: put(static_cast<std::uint8_t>(v)); break;
-    case PlyType::kInt16: put(static_cast<std::int16_t>(v)); break;
-    case PlyType::kUint16: put(static_cast<std::uint16_t>(v)); break;
-    case PlyType::kInt32: put(static_cast<std::int32_t>(v)); break;
-    case PlyType::kUint32: put(static_cast<std::uint32_t>(v)); break;
-    case PlyType::kFloat32: put(static_cast<float>(v)); break;
-    default: put(v); break;
+    case PlyType::kInt8:
+      put(static_cast<std::int8_t>(v));
+      break;
+    case PlyType::kUint8:
+      put(static_cast<std::uint8_t>(v));
+      break;
+    case PlyType::kInt16:
+      put(static_cast<std::int16_t>(v));
+      break;
+    case PlyType::kUint16:
+      put(static_cast<std::uint16_t>(v));
+      break;
+    case PlyType::kInt32:
+      put(static_cast<std::int32_t>(v));
+      break;
+    case PlyType::kUint32:
+      put(static_cast<std::uint32_t>(v));
+      break;
+    case PlyType::kFloat32:
+      put(static_cast<float>(v));
+      break;
+    default:
+      put(v);
+      break;
   }
 }
 
@@ -465,8 +515,8 @@ void AppendBinary(std::string* out, PlyType t, double v) {
 std::string SerializeSplatPly(const Splats& s, bool ascii) {
   s.CheckShapes();
   const std::vector<OutProperty> props = OutProperties(s);
-  std::string out = std::string("ply\nformat ") + (ascii ? "ascii" : "binary_little_endian") +
-                    " 1.0\nelement vertex " + std::to_string(s.size()) + "\n";
+  std::string out = std::string("ply\nformat ") + (ascii ? "ascii" : "binary_little_endian") + " 1.0\nelement vertex " +
+                    std::to_string(s.size()) + "\n";
   std::vector<PlyType> types;
   for (const OutProperty& p : props) {
     PlyType t;

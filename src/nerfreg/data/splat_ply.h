@@ -42,14 +42,14 @@ struct SplatExtraProperty {
 };
 
 struct Splats {
-  int sh_degree = 0;               // 0..3
-  Eigen::Matrix3Xf position;       // [3, N]
-  Eigen::Matrix3Xf normal;         // [3, N], or [3, 0] when the file has no nx ny nz
-  Eigen::Matrix3Xf f_dc;           // [3, N]
-  Eigen::MatrixXf f_rest;          // [3 ((D + 1)^2 - 1), N], the file's channel-major order
-  Eigen::VectorXf opacity;         // [N] logit
-  Eigen::Matrix3Xf log_scale;      // [3, N]
-  Eigen::Matrix4Xf rotation;       // [4, N] (w, x, y, z), as stored (not normalised)
+  int sh_degree = 0;           // 0..3
+  Eigen::Matrix3Xf position;   // [3, N]
+  Eigen::Matrix3Xf normal;     // [3, N], or [3, 0] when the file has no nx ny nz
+  Eigen::Matrix3Xf f_dc;       // [3, N]
+  Eigen::MatrixXf f_rest;      // [3 ((D + 1)^2 - 1), N], the file's channel-major order
+  Eigen::VectorXf opacity;     // [N] logit
+  Eigen::Matrix3Xf log_scale;  // [3, N]
+  Eigen::Matrix4Xf rotation;   // [4, N] (w, x, y, z), as stored (not normalised)
   std::vector<SplatExtraProperty> extras;
 
   std::int64_t size() const { return position.cols(); }

@@ -65,8 +65,9 @@ TEST(SplatPly, ReadsTheInriaLayoutByName) {
 TEST(SplatPly, IsSplatPlyTellsSplatsFromMeshesAndOtherFiles) {
   ScopedTempDir dir;
   WriteSplatPly(RandomSplats(3, 1, 1), dir.File("s.ply"));
-  WriteFileAtomic(dir.File("m.ply"), "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                     "property float z\nend_header\n0 0 0\n");
+  WriteFileAtomic(dir.File("m.ply"),
+                  "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                  "property float z\nend_header\n0 0 0\n");
   WriteFileAtomic(dir.File("t.json"), "{}");
   EXPECT_TRUE(IsSplatPly(dir.File("s.ply")));
   EXPECT_FALSE(IsSplatPly(dir.File("m.ply")));
@@ -90,7 +91,8 @@ TEST(SplatPly, RefusesBadHeadersNamingTheFileAndField) {
             "bad.ply: property opacity: expected a float property of the vertex element (it is missing)");
   EXPECT_EQ(ErrorOf(AsciiWith("property float scale_1", "property double scale_1")),
             "bad.ply: property scale_1: expected type float (got double)");
-  EXPECT_EQ(ErrorOf(AsciiWith("format ascii 1.0", "format binary_big_endian 1.0")).rfind("bad.ply: format: expected", 0), 0u);
+  EXPECT_EQ(
+      ErrorOf(AsciiWith("format ascii 1.0", "format binary_big_endian 1.0")).rfind("bad.ply: format: expected", 0), 0u);
   EXPECT_EQ(ErrorOf(AsciiWith("property float x", "property list uchar float x")),
             "bad.ply: property x: expected a scalar property (the vertex element has no lists)");
   EXPECT_EQ(ErrorOf(AsciiWith("element vertex 1", "element face 1")),
@@ -105,13 +107,16 @@ TEST(SplatPly, RefusesBadHeadersNamingTheFileAndField) {
 TEST(SplatPly, RefusesBadValuesNamingTheVertex) {
   Splats s = RandomSplats(3, 1, 8);
   s.opacity(1) = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)), "bad.ply: vertex[1].opacity: expected a finite number (not NaN or infinite)");
+  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)),
+            "bad.ply: vertex[1].opacity: expected a finite number (not NaN or infinite)");
   s = RandomSplats(3, 1, 8);
   s.rotation.col(2).setZero();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)), "bad.ply: vertex[2].rot: expected a non-zero quaternion (rot_0..3 are all zero)");
+  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)),
+            "bad.ply: vertex[2].rot: expected a non-zero quaternion (rot_0..3 are all zero)");
   s = RandomSplats(3, 2, 8);
   s.f_rest(5, 0) = std::numeric_limits<float>::infinity();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s, true)), "bad.ply: vertex[0].f_rest: expected finite numbers (not NaN or infinite)");
+  EXPECT_EQ(ErrorOf(SerializeSplatPly(s, true)),
+            "bad.ply: vertex[0].f_rest: expected finite numbers (not NaN or infinite)");
   s = RandomSplats(3, 0, 8);
   s.log_scale(0, 0) = 100;
   EXPECT_EQ(ErrorOf(SerializeSplatPly(s)), "bad.ply: vertex[0].scale: expected log scales within [-40, 40]");

@@ -65,7 +65,8 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
     const JsonField a = root["applied_transform"];
     const bool rows4 = a.json().is_array() && a.json().size() == 4;
     const Eigen::MatrixXd m = a.Matrix(rows4 ? 4 : 3, 4);
-    if (rows4 && !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1))) a.Fail("a [3, 4] matrix (or [4, 4] ending 0 0 0 1)");
+    if (rows4 && !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
+      a.Fail("a [3, 4] matrix (or [4, 4] ending 0 0 0 1)");
     dataset.applied_transform = m.topRows(3);
   }
   const std::string dataparser = JoinPaths(root_dir.empty() ? "." : root_dir, "dataparser_transforms.json");
@@ -137,9 +138,12 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
     } else {
       ThrowInputError(path, "frames[" + std::to_string(k) + "]", "intrinsics: fl_x or camera_angle_x");
     }
-    if (!std::isnan(fl_y)) cam.fy = fl_y;
-    else if (!std::isnan(ay) && ay > 0 && ay < M_PI) cam.fy = 0.5 * h / std::tan(0.5 * ay);
-    else cam.fy = cam.fx;
+    if (!std::isnan(fl_y))
+      cam.fy = fl_y;
+    else if (!std::isnan(ay) && ay > 0 && ay < M_PI)
+      cam.fy = 0.5 * h / std::tan(0.5 * ay);
+    else
+      cam.fy = cam.fx;
     cam.cx = Pick(Pick(own.cx, top.cx), 0.5 * w);
     cam.cy = Pick(Pick(own.cy, top.cy), 0.5 * h);
     const std::string model = own.model.empty() ? top.model : own.model;
@@ -272,7 +276,8 @@ Sim3d ReadDataparserTransforms(const std::string& path) {
 }
 
 void WriteDataparserTransforms(const Sim3d& trained_from_data, const std::string& path) {
-  const Eigen::Matrix4d m = Sim3d(1.0, trained_from_data.rotation, trained_from_data.translation / trained_from_data.scale).ToMatrix();
+  const Eigen::Matrix4d m =
+      Sim3d(1.0, trained_from_data.rotation, trained_from_data.translation / trained_from_data.scale).ToMatrix();
   WriteJsonFile(path, Json{{"transform", MatrixToJson(m.topRows(3))}, {"scale", trained_from_data.scale}});
 }
 
@@ -282,8 +287,9 @@ void CheckImagesMatchCameras(const Dataset& dataset) {
     const std::string path = dataset.ImagePath(f);
     ReadImageSize(path, &w, &h, &c);
     if (w != f.camera.width || h != f.camera.height) {
-      ThrowInputError(path, "size", std::to_string(f.camera.width) + "x" + std::to_string(f.camera.height) +
-                                        " as the cameras say, image is " + std::to_string(w) + "x" + std::to_string(h));
+      ThrowInputError(path, "size",
+                      std::to_string(f.camera.width) + "x" + std::to_string(f.camera.height) +
+                          " as the cameras say, image is " + std::to_string(w) + "x" + std::to_string(h));
     }
   }
 }

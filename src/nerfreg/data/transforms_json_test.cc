@@ -64,8 +64,8 @@ TEST(TransformsJson, ReadsInstantNgpFieldsPerFrameAndTopLevel) {
   EXPECT_DOUBLE_EQ(d.frames[0].camera.fx, 500.5);
   EXPECT_DOUBLE_EQ(d.frames[0].camera.fy, 501.5);
   EXPECT_DOUBLE_EQ(d.frames[0].camera.p2, -0.002);
-  EXPECT_DOUBLE_EQ(d.frames[1].camera.fx, 700);   // per frame wins
-  EXPECT_DOUBLE_EQ(d.frames[1].camera.fy, 501.5); // the rest from the top level
+  EXPECT_DOUBLE_EQ(d.frames[1].camera.fx, 700);    // per frame wins
+  EXPECT_DOUBLE_EQ(d.frames[1].camera.fy, 501.5);  // the rest from the top level
   EXPECT_EQ(*d.aabb_scale, 16);
   EXPECT_DOUBLE_EQ(*d.ngp_scale, 0.5);
   // Writing back keeps per-frame intrinsics where they differ.
@@ -80,24 +80,36 @@ TEST(TransformsJson, BadFilesNameTheFileAndField) {
     WriteFileAtomic(p, text);
     return InputErrorOf([&] { ReadTransformsJson(p); });
   };
-  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png"}]})").find("t.json: frames[0].transform_matrix"), std::string::npos);
-  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0],[0,0,1]]}]})")
-                .find("expected a 4x4 matrix"), std::string::npos);
-  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
-                .find("rotation"), std::string::npos);
-  EXPECT_NE(err(R"({"w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
-                .find("fl_x or camera_angle_x"), std::string::npos);
+  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png"}]})")
+                .find("t.json: frames[0].transform_matrix"),
+            std::string::npos);
+  EXPECT_NE(
+      err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0],[0,1,0],[0,0,1]]}]})")
+          .find("expected a 4x4 matrix"),
+      std::string::npos);
+  EXPECT_NE(
+      err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
+          .find("rotation"),
+      std::string::npos);
+  EXPECT_NE(
+      err(R"({"w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
+          .find("fl_x or camera_angle_x"),
+      std::string::npos);
   EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": []})").find("frames"), std::string::npos);
   EXPECT_NE(err(R"({"fl_x": 10, "frames": [)").find("expected valid JSON"), std::string::npos);
-  EXPECT_NE(err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,NaN],[0,0,0,1]]}]})")
-                .find("t.json"), std::string::npos);
+  EXPECT_NE(
+      err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,NaN],[0,0,0,1]]}]})")
+          .find("t.json"),
+      std::string::npos);
   const std::string two = R"({"fl_x": 10, "w": 4, "h": 4, "frames": [
       {"file_path": "a/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]},
       {"file_path": "b/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})";
   EXPECT_NE(err(two).find("unique image names"), std::string::npos);
   // No sizes and a missing image: the image path is named.
-  EXPECT_NE(err(R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_9", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
-                .find("r_9.png"), std::string::npos);
+  EXPECT_NE(
+      err(R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_9", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
+          .find("r_9.png"),
+      std::string::npos);
 }
 
 TEST(TransformsJson, ReadsNerfstudioModelsDistortionAndPerFrameIntrinsics) {
@@ -147,7 +159,8 @@ TEST(TransformsJson, NerfstudioWriteReadRoundTripKeepsItsFields) {
   Eigen::Matrix<double, 3, 4> applied;
   applied << 0, 1, 0, 0.5, 1, 0, 0, 0, 0, 0, -1, 2;
   d.applied_transform = applied;
-  d.trained_from_data = Sim3d(0.3, Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(0.1, 0, 0));
+  d.trained_from_data =
+      Sim3d(0.3, Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(0.1, 0, 0));
   const std::string path = dir.File("out/transforms.json");
   WriteTransformsJson(d, path, TransformsJsonFlavour::kNerfstudio);
   WriteDataparserTransforms(*d.trained_from_data, dir.File("out/dataparser_transforms.json"));
@@ -169,7 +182,8 @@ TEST(TransformsJson, NerfstudioWriteReadRoundTripKeepsItsFields) {
 TEST(TransformsJson, BadNerfstudioFieldsAreNamed) {
   ScopedTempDir dir;
   const std::string p = dir.File("transforms.json");
-  const std::string frames = R"("frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}])";
+  const std::string frames =
+      R"("frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}])";
   auto err = [&](const std::string& text) {
     WriteFileAtomic(p, text);
     return InputErrorOf([&] { ReadTransformsJson(p); });
@@ -183,9 +197,11 @@ TEST(TransformsJson, BadNerfstudioFieldsAreNamed) {
                 .find("transforms.json: applied_transform: expected"),
             std::string::npos);
   const std::string good = R"({"fl_x": 10, "w": 4, "h": 4, )" + frames + "}";
-  WriteFileAtomic(dir.File("dataparser_transforms.json"), R"({"transform": [[1,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": -2})");
+  WriteFileAtomic(dir.File("dataparser_transforms.json"),
+                  R"({"transform": [[1,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": -2})");
   EXPECT_NE(err(good).find("dataparser_transforms.json: scale: expected a positive number"), std::string::npos);
-  WriteFileAtomic(dir.File("dataparser_transforms.json"), R"({"transform": [[2,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": 1})");
+  WriteFileAtomic(dir.File("dataparser_transforms.json"),
+                  R"({"transform": [[2,0,0,0],[0,1,0,0],[0,0,1,0]], "scale": 1})");
   EXPECT_NE(err(good).find("dataparser_transforms.json: transform: expected a rotation"), std::string::npos);
 }
 

@@ -118,12 +118,13 @@ DbarfModel LoadDbarfWeights(const std::string& path, const DbarfOptions* expecte
   const JsonField m(meta, path);
   const DbarfOptions options = DbarfOptionsFromJson(m["options"]);
   if (expected != nullptr && DbarfOptionsToJson(*expected) != DbarfOptionsToJson(options)) {
-    ThrowInputError(path, "options",
-                    "the configuration " + DbarfOptionsToJson(*expected).dump() +
-                        " (the weights are of another configuration)");
+    ThrowInputError(
+        path, "options",
+        "the configuration " + DbarfOptionsToJson(*expected).dump() + " (the weights are of another configuration)");
   }
-  CheckArchiveCanHold(path, "options",
-                      GeneralizableNerfParameterLowerBound(options.nerf) + PoseDepthNetParameterLowerBound(options.pose));
+  CheckArchiveCanHold(
+      path, "options",
+      GeneralizableNerfParameterLowerBound(options.nerf) + PoseDepthNetParameterLowerBound(options.pose));
   DbarfModel model(options);
   if (meta.contains("training") && meta["training"].is_object()) model.training = meta["training"];
   try {

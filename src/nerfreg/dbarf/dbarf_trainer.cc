@@ -28,8 +28,7 @@ constexpr int kStateVersion = 1;
 void SetLearningRates(torch::optim::Adam* optimizer, const std::vector<double>& base, double factor) {
   auto& groups = optimizer->param_groups();
   for (size_t g = 0; g < groups.size() && g < base.size(); ++g) {
-    static_cast<torch::optim::AdamOptions&>(groups[g].options())
-        .lr(base[g] * factor);
+    static_cast<torch::optim::AdamOptions&>(groups[g].options()).lr(base[g] * factor);
   }
 }
 
@@ -62,16 +61,19 @@ void DbarfScene::Check() const {
     for (int j : n)
       if (j < 0 || j >= v) ThrowInputError(name, "view_graph", "neighbour indices within the images");
   if (!(near > 0 && far > near && std::isfinite(far))) {
-    ThrowInputError(name, "near/far", "a depth range 0 < near < far, got " + std::to_string(near) + ", " +
-                                          std::to_string(far));
+    ThrowInputError(name, "near/far",
+                    "a depth range 0 < near < far, got " + std::to_string(near) + ", " + std::to_string(far));
   }
 }
 
 const char* DbarfStageName(DbarfStage stage) {
   switch (stage) {
-    case DbarfStage::kPose: return "pose";
-    case DbarfStage::kNerf: return "nerf";
-    case DbarfStage::kJoint: return "joint";
+    case DbarfStage::kPose:
+      return "pose";
+    case DbarfStage::kNerf:
+      return "nerf";
+    case DbarfStage::kJoint:
+      return "joint";
   }
   return "?";
 }
@@ -102,7 +104,8 @@ void DbarfTrainOptions::Check() const {
   if (source_jitter_min > source_jitter_max) throw InputError("source jitter: expected min <= max");
   if (rays_per_step < 1) throw InputError("--rays: expected >= 1, got " + std::to_string(rays_per_step));
   if (!(lr_feature > 0 && lr_mlp > 0 && lr_pose > 0)) throw InputError("learning rates: expected > 0");
-  if (lr_decay_steps < 1 || !(lr_gamma > 0 && lr_gamma <= 1)) throw InputError("lr decay: expected steps >= 1, 0 < gamma <= 1");
+  if (lr_decay_steps < 1 || !(lr_gamma > 0 && lr_gamma <= 1))
+    throw InputError("lr decay: expected steps >= 1, 0 < gamma <= 1");
   if (!(joint_decay >= 0)) throw InputError("joint_decay: expected >= 0");
   if (schedule != "dbarf" && schedule != "nerf") {
     throw InputError("--schedule: expected \"dbarf\" or \"nerf\", got \"" + schedule + "\"");
@@ -122,7 +125,8 @@ void DbarfTrainOptions::Check() const {
   }
   if (!(lr_cameras > 0)) throw InputError("--lr-cameras: expected > 0");
   if ((init_noise_deg > 0 || init_noise_translation > 0) && pose_init != "cameras") {
-    throw InputError("--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
+    throw InputError(
+        "--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
   }
   if (!sfm.Check()) throw InputError("SfM loss options: expected valid weights (see the log)");
   if (!(supervise_rotation_weight >= 0 && std::isfinite(supervise_rotation_weight))) {
@@ -201,11 +205,11 @@ torch::Tensor SupervisedPoseLoss(const std::vector<torch::Tensor>& src_from_tgts
   TORCH_CHECK(!src_from_tgts.empty(), "SupervisedPoseLoss: no predictions");
   TORCH_CHECK(truth.dim() == 3 && truth.size(1) == 4 && truth.size(2) == 4, "SupervisedPoseLoss: truth [N, 4, 4], got ",
               truth.sizes());
-  const torch::Tensor r_true = truth.slice(1, 0, 3).slice(2, 0, 3);                  // [N, 3, 3]
-  const torch::Tensor t_true = truth.slice(1, 0, 3).select(2, 3);                    // [N, 3]
+  const torch::Tensor r_true = truth.slice(1, 0, 3).slice(2, 0, 3);  // [N, 3, 3]
+  const torch::Tensor t_true = truth.slice(1, 0, 3).select(2, 3);    // [N, 3]
   // A pose whose source is the target itself has no baseline: its translation error is measured
   // against a tenth of the step's longest baseline instead.
-  const torch::Tensor norms = t_true.norm(2, 1);                                   // [N]
+  const torch::Tensor norms = t_true.norm(2, 1);  // [N]
   const torch::Tensor baseline = norms.clamp_min((0.1 * norms.max()).clamp_min(1e-6).item<double>());
   const int64_t k_count = static_cast<int64_t>(src_from_tgts.size());
   torch::Tensor total = torch::zeros({}, truth.options());
@@ -222,8 +226,8 @@ torch::Tensor SupervisedPoseLoss(const std::vector<torch::Tensor>& src_from_tgts
 }
 
 torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_world,
-                                          const torch::Tensor& estimated_cam_from_world,
-                                          const std::vector<bool>& use, const std::string& source) {
+                                          const torch::Tensor& estimated_cam_from_world, const std::vector<bool>& use,
+                                          const std::string& source) {
   TORCH_CHECK(true_cam_from_world.dim() == 3 && true_cam_from_world.sizes() == estimated_cam_from_world.sizes() &&
                   true_cam_from_world.size(1) == 4 && true_cam_from_world.size(2) == 4 &&
                   static_cast<int64_t>(use.size()) == true_cam_from_world.size(0),
@@ -236,7 +240,9 @@ torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_wor
     const torch::Tensor u = c.index_select(0, torch::tensor(views, torch::kLong).to(c.device())).to(torch::kDouble);
     return -torch::matmul(u.slice(1, 0, 3).slice(2, 0, 3).transpose(1, 2), u.slice(1, 0, 3).slice(2, 3, 4)).squeeze(2);
   };
-  const auto spread = [](const torch::Tensor& c) { return (c - c.mean(0, true)).pow(2).sum(1).mean().sqrt().item<double>(); };
+  const auto spread = [](const torch::Tensor& c) {
+    return (c - c.mean(0, true)).pow(2).sum(1).mean().sqrt().item<double>();
+  };
   const double true_spread = spread(centres(true_cam_from_world));
   if (!(true_spread > 1e-12)) ThrowInputError(source, "ground truth", "cameras at distinct centres");
   const double scale = spread(centres(estimated_cam_from_world)) / true_spread;
@@ -292,9 +298,9 @@ DbarfStepResult DbarfTrainer::Step() {
 
   const torch::Tensor src_idx =
       torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(scene.images.device());
-  const torch::Tensor target = scene.images.slice(0, t, t + 1);        // [1, 3, H, W]
+  const torch::Tensor target = scene.images.slice(0, t, t + 1);               // [1, 3, H, W]
   const torch::Tensor source_images = scene.images.index_select(0, src_idx);  // [N, 3, H, W]
-  const torch::Tensor k_t = scene.intrinsics[t];                        // [3, 3]
+  const torch::Tensor k_t = scene.intrinsics[t];                              // [3, 3]
   const bool pose_grad = result.stage != DbarfStage::kNerf;
   const bool nerf_on = result.stage != DbarfStage::kPose;
   model_->Train(true);
@@ -460,7 +466,8 @@ void DbarfTrainer::LoadState(const std::string& path) {
 
 void DbarfRunOptions::Check() const {
   if (steps < 1) throw InputError("--steps: expected >= 1, got " + std::to_string(steps));
-  if (checkpoint_every < 1) throw InputError("--checkpoint-every: expected >= 1, got " + std::to_string(checkpoint_every));
+  if (checkpoint_every < 1)
+    throw InputError("--checkpoint-every: expected >= 1, got " + std::to_string(checkpoint_every));
   if (out.empty()) throw InputError("--out: expected a weights path");
 }
 
@@ -472,7 +479,8 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
   DbarfTrainer trainer(model, std::move(scenes), options);
   const std::string state_path = run.out + ".train";
   if (run.resume) {
-    if (!FileExists(state_path)) ThrowInputError(state_path, "", "a training state to resume (written by dbarf pretrain / finetune)");
+    if (!FileExists(state_path))
+      ThrowInputError(state_path, "", "a training state to resume (written by dbarf pretrain / finetune)");
     trainer.LoadState(state_path);
     LOG_INFO("resuming {} at step {}", run.out, trainer.step());
   }
@@ -499,8 +507,8 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
     const DbarfStepResult r = trainer.Step();
     if (r.psnr > 0) psnrs.push_back(r.psnr);
     if (r.sfm_loss > 0) sfms.push_back(r.sfm_loss);
-    Json line = {{"step", trainer.step()}, {"stage", DbarfStageName(r.stage)}, {"scene", r.scene}, {"target", r.target},
-                 {"sources", r.num_sources}, {"seconds", elapsed()}};
+    Json line = {{"step", trainer.step()}, {"stage", DbarfStageName(r.stage)}, {"scene", r.scene},
+                 {"target", r.target},     {"sources", r.num_sources},         {"seconds", elapsed()}};
     if (r.sfm_loss > 0) line["sfm_loss"] = r.sfm_loss;
     if (r.rgb_loss > 0) line["rgb_loss"] = r.rgb_loss, line["psnr"] = r.psnr;
     if (r.pose_loss > 0) line["pose_loss"] = r.pose_loss;
@@ -598,7 +606,8 @@ RelativePoseError EvaluateIdentityRelativePoses(const DbarfScene& scene, const t
     const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, num_sources);
     if (!sources.empty()) {
       const int64_t n = static_cast<int64_t>(sources.size());
-      sum.Add(torch::eye(4, true_cam_from_world.options()).expand({n, 4, 4}), RelativeCameras(true_cam_from_world, t, sources));
+      sum.Add(torch::eye(4, true_cam_from_world.options()).expand({n, 4, 4}),
+              RelativeCameras(true_cam_from_world, t, sources));
     }
   }
   return sum.Result();
@@ -622,9 +631,11 @@ RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& sce
         torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong).to(scene.images.device());
     torch::Tensor init = pose_init == "cameras" ? InitialRelativePoses(scene, t, sources, noise) : torch::Tensor();
     if (init.defined()) init = init.to(device);
-    const auto pred = model.pose_net->forward(scene.images.slice(0, t, t + 1).to(device), scene.images.index_select(0, idx).to(device),
-                                              scene.intrinsics[t].to(device), init);
-    sum.Add(pred.src_from_tgt.back().to(true_cam_from_world.device()), RelativeCameras(true_cam_from_world, t, sources));
+    const auto pred =
+        model.pose_net->forward(scene.images.slice(0, t, t + 1).to(device),
+                                scene.images.index_select(0, idx).to(device), scene.intrinsics[t].to(device), init);
+    sum.Add(pred.src_from_tgt.back().to(true_cam_from_world.device()),
+            RelativeCameras(true_cam_from_world, t, sources));
   }
   return sum.Result();
 }

@@ -58,16 +58,16 @@ const char* DbarfStageName(DbarfStage stage);
 DbarfStage DbarfStageOfStep(int64_t step, int64_t stage_steps);
 
 struct DbarfTrainOptions {
-  int64_t stage_steps = 10000;        // steps per stage block
-  int num_sources = 5;                // sources per step before the jitter
-  int source_jitter_min = -2;         // num_sources + uniform integer in [min, max]
+  int64_t stage_steps = 10000;  // steps per stage block
+  int num_sources = 5;          // sources per step before the jitter
+  int source_jitter_min = -2;   // num_sources + uniform integer in [min, max]
   int source_jitter_max = 2;
   double self_source_probability = 0.005;  // one source replaced by the target itself
-  int64_t rays_per_step = 500;        // rays per step at 5 sources (scaled by 5 / N, spec 4)
+  int64_t rays_per_step = 500;             // rays per step at 5 sources (scaled by 5 / N, spec 4)
   double lr_feature = 1e-3, lr_mlp = 5e-4, lr_pose = 2e-5;
-  int64_t lr_decay_steps = 50000;     // StepLR period
+  int64_t lr_decay_steps = 50000;  // StepLR period
   double lr_gamma = 0.5;
-  double joint_decay = 1e-5;          // a = 2^(-joint_decay * step)
+  double joint_decay = 1e-5;  // a = 2^(-joint_decay * step)
   // Where the NeRF-only stage places the sources: "network" (the pose network's prediction, the
   // original) or "cameras" (the scene's estimated cameras, when it has them).
   std::string nerf_poses = "network";
@@ -132,7 +132,7 @@ struct DbarfStepResult {
   // sum |t| / sum |t_true| over the sources.
   double disparity = -1;
   double rotation_err_deg = -1, direction_err_deg = -1, translation_ratio = -1;
-  double psnr = 0;       // of the rendered rays (nerf and joint stages)
+  double psnr = 0;  // of the rendered rays (nerf and joint stages)
   int scene = 0, target = 0, num_sources = 0;
 };
 
@@ -183,9 +183,9 @@ struct DbarfRunOptions {
 };
 struct DbarfRunResult {
   int64_t steps = 0;
-  double seconds = 0;           // this run's wall time
-  double mean_psnr_last = 0;    // over the last 10% of the steps that rendered
-  double mean_sfm_last = 0;     // over the last 10% of the steps with an SfM loss
+  double seconds = 0;                  // this run's wall time
+  double mean_psnr_last = 0;           // over the last 10% of the steps that rendered
+  double mean_sfm_last = 0;            // over the last 10% of the steps with an SfM loss
   std::vector<torch::Tensor> cameras;  // per scene [V, 4, 4] as trained (refined with refine_cameras)
 };
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
@@ -203,8 +203,8 @@ torch::Tensor SupervisedPoseLoss(const std::vector<torch::Tensor>& src_from_tgts
 // estimate is good). Relative poses of the result compare directly with the estimated cameras'.
 // Throws InputError naming `source` when fewer than 2 views are used or the true centres coincide.
 torch::Tensor GroundTruthInEstimatedScale(const torch::Tensor& true_cam_from_world,
-                                          const torch::Tensor& estimated_cam_from_world,
-                                          const std::vector<bool>& use, const std::string& source);
+                                          const torch::Tensor& estimated_cam_from_world, const std::vector<bool>& use,
+                                          const std::string& source);
 
 // src_from_tgt [N, 4, 4] of views `sources` relative to `target` from the scene's cameras.
 // The scene with its tensors on `device`.
@@ -229,8 +229,8 @@ struct RelativePoseNoise {
 };
 
 struct RelativePoseError {
-  double rotation_deg = 0;     // mean geodesic angle
-  double translation = 0;      // mean |t_pred - t_true| (scene units)
+  double rotation_deg = 0;  // mean geodesic angle
+  double translation = 0;   // mean |t_pred - t_true| (scene units)
   // Mean angle between predicted and true translation directions: the photometric loss fixes a
   // translation only up to the scale of the depth, so this is what self-supervision can recover.
   double translation_deg = 0;
@@ -241,8 +241,7 @@ struct RelativePoseError {
 // With `pose_init` "cameras" the network starts from the scene's cameras (as in training).
 RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& scene,
                                         const torch::Tensor& true_cam_from_world, int num_sources,
-                                        const std::string& pose_init = "network",
-                                        const RelativePoseNoise& noise = {});
+                                        const std::string& pose_init = "network", const RelativePoseNoise& noise = {});
 // The error of identity relative poses (the start of pose_init "network"), measured the same way:
 // the rotation error is the true relative rotation; the direction of a zero translation counts 90 deg.
 RelativePoseError EvaluateIdentityRelativePoses(const DbarfScene& scene, const torch::Tensor& true_cam_from_world,

@@ -65,7 +65,7 @@ bool Changed(const std::vector<torch::Tensor>& before, const std::vector<torch::
 }
 
 TEST(DbarfTrainer, StageScheduleFollowsTheOriginal) {
-  const std::vector<DbarfStage> expected = {DbarfStage::kPose, DbarfStage::kNerf, DbarfStage::kPose,
+  const std::vector<DbarfStage> expected = {DbarfStage::kPose,  DbarfStage::kNerf, DbarfStage::kPose,
                                             DbarfStage::kJoint, DbarfStage::kPose, DbarfStage::kNerf,
                                             DbarfStage::kJoint, DbarfStage::kNerf};
   for (size_t k = 0; k < expected.size(); ++k) {
@@ -248,7 +248,8 @@ TEST(DbarfTrainer, SupervisedPoseLossVanishesAtTheTruthAndIsScaleFree) {
   const torch::Tensor truth = testing_scene::SourcePoses(3);
   EXPECT_LT(SupervisedPoseLoss({truth, truth}, truth).item<double>(), 1e-4);
   // One degree about y, and a translation off by a tenth of each baseline.
-  const torch::Tensor turn = Se3Exp(torch::tensor({{0.0, 0.0, 0.0, 0.0, M_PI / 180.0, 0.0}}, torch::kFloat)).expand({3, 4, 4});
+  const torch::Tensor turn =
+      Se3Exp(torch::tensor({{0.0, 0.0, 0.0, 0.0, M_PI / 180.0, 0.0}}, torch::kFloat)).expand({3, 4, 4});
   torch::Tensor turned = truth.clone();  // the rotation turned, the translation kept
   turned.slice(1, 0, 3).slice(2, 0, 3).copy_(torch::matmul(turn, truth).slice(1, 0, 3).slice(2, 0, 3));
   const double chordal = 2 * std::sqrt(2.0) * std::sin(M_PI / 360.0);  // |R_a - R_b|_F a degree apart
@@ -281,7 +282,8 @@ TEST(DbarfTrainer, GroundTruthIsRescaledToTheEstimatedCamerasUnits) {
   const torch::Tensor estimated = torch::matmul(scaled, Se3Inverse(frame));
   const torch::Tensor rescaled = GroundTruthInEstimatedScale(truth, estimated, {true, true, true, true}, "x");
   const std::vector<int> sources = {1, 2, 3};
-  EXPECT_TRUE(torch::allclose(RelativeCameras(rescaled, 0, sources), RelativeCameras(estimated, 0, sources), 1e-4, 1e-4));
+  EXPECT_TRUE(
+      torch::allclose(RelativeCameras(rescaled, 0, sources), RelativeCameras(estimated, 0, sources), 1e-4, 1e-4));
   EXPECT_THROW(GroundTruthInEstimatedScale(truth, estimated, {true, false, false, false}, "x"), InputError);
 }
 

@@ -78,16 +78,15 @@ GeneralizableNerf::GeneralizableNerf(const GeneralizableNerfOptions& opts) : opt
   ibrnet = IbrNet(options.ibrnet);
 }
 
-IbrSourceViews GeneralizableNerf::PrepareSources(const torch::Tensor& images,
-                                                 const torch::Tensor& intrinsics,
+IbrSourceViews GeneralizableNerf::PrepareSources(const torch::Tensor& images, const torch::Tensor& intrinsics,
                                                  const torch::Tensor& cam_from_world) {
   IbrSourceViews s{images, intrinsics, cam_from_world, feature_net->NerfFeatures(images)};
   s.CheckShapes();
   return s;
 }
 
-IbrRenderOutput GeneralizableNerf::RenderRays(const IbrSourceViews& sources, const IbrRays& rays,
-                                              double near, double far, bool training) {
+IbrRenderOutput GeneralizableNerf::RenderRays(const IbrSourceViews& sources, const IbrRays& rays, double near,
+                                              double far, bool training) {
   return RenderIbrRays(ibrnet, sources, rays, near, far, options.render, training);
 }
 
@@ -117,15 +116,13 @@ double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {
   return n + 208.0 * (3.0 + o.ibrnet.feature_channels);
 }
 
-GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
-                                        const GeneralizableNerfOptions* expected) {
+GeneralizableNerf LoadGeneralizableNerf(const std::string& path, const GeneralizableNerfOptions* expected) {
   torch::serialize::InputArchive archive;
   const Json meta =
       LoadArchiveMeta(path, "generalizable NeRF checkpoint", kFormatTag, kGeneralizableNerfCheckpointVersion, &archive);
   const JsonField m(meta, path);
   const GeneralizableNerfOptions options = GeneralizableNerfOptionsFromJson(m["options"]);
-  if (expected != nullptr &&
-      GeneralizableNerfOptionsToJson(*expected) != GeneralizableNerfOptionsToJson(options)) {
+  if (expected != nullptr && GeneralizableNerfOptionsToJson(*expected) != GeneralizableNerfOptionsToJson(options)) {
     ThrowInputError(path, "options",
                     "the configuration " + GeneralizableNerfOptionsToJson(*expected).dump() +
                         " (the checkpoint has another configuration)");
@@ -139,8 +136,7 @@ GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
     model.feature_net->load(features);
     model.ibrnet->load(ibrnet);
   } catch (const c10::Error&) {
-    ThrowInputError(path, "",
-                    "a complete generalizable NeRF checkpoint (tensors missing or of the wrong shape)");
+    ThrowInputError(path, "", "a complete generalizable NeRF checkpoint (tensors missing or of the wrong shape)");
   }
   return model;
 }

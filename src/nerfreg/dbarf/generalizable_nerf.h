@@ -54,8 +54,8 @@ struct GeneralizableNerf {
   IbrSourceViews PrepareSources(const torch::Tensor& images, const torch::Tensor& intrinsics,
                                 const torch::Tensor& cam_from_world);
   // RenderIbrRays with this model's options.
-  IbrRenderOutput RenderRays(const IbrSourceViews& sources, const IbrRays& rays, double near,
-                             double far, bool training);
+  IbrRenderOutput RenderRays(const IbrSourceViews& sources, const IbrRays& rays, double near, double far,
+                             bool training);
 
   GeneralizableNerfOptions options;
   ResUNet feature_net{nullptr};
@@ -72,7 +72,6 @@ void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& pa
 
 // Reads a checkpoint into a model built from the options stored in it. When `expected` is given,
 // the stored options must equal it (compared as JSON), else InputError ("another configuration").
-GeneralizableNerf LoadGeneralizableNerf(const std::string& path,
-                                        const GeneralizableNerfOptions* expected = nullptr);
+GeneralizableNerf LoadGeneralizableNerf(const std::string& path, const GeneralizableNerfOptions* expected = nullptr);
 
 }  // namespace nerfreg

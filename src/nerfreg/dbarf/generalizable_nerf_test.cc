@@ -39,8 +39,7 @@ TEST(GeneralizableNerf, SaveLoadRoundTripRendersTheSame) {
 
   torch::NoGradGuard no_grad;
   const torch::Tensor images = torch::rand({2, 3, 24, 32});
-  const torch::Tensor k =
-      torch::tensor({30.0, 0.0, 16.0, 0.0, 30.0, 12.0, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
+  const torch::Tensor k = torch::tensor({30.0, 0.0, 16.0, 0.0, 30.0, 12.0, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
   torch::Tensor poses = torch::eye(4).repeat({2, 1, 1});
   poses[0][0][3] = 0.2;
   poses[1][0][3] = -0.2;

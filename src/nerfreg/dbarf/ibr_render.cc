@@ -20,8 +20,7 @@ bool IbrRenderOptions::Check() const {
     return false;
   }
   if (!(valid_sample_fraction >= 0 && valid_sample_fraction < 1)) {
-    LOG_ERROR("IbrRenderOptions: valid_sample_fraction must be in [0, 1), got {}",
-              valid_sample_fraction);
+    LOG_ERROR("IbrRenderOptions: valid_sample_fraction must be in [0, 1), got {}", valid_sample_fraction);
     return false;
   }
   if (chunk_rays < 1) {
@@ -35,27 +34,24 @@ void IbrSourceViews::CheckShapes() const {
   TORCH_CHECK(images.dim() == 4 && images.size(1) == 3 && images.scalar_type() == torch::kFloat,
               "IbrSourceViews: images must be float32 [V,3,H,W], got ", images.sizes());
   const int64_t v = images.size(0);
-  TORCH_CHECK(intrinsics.sizes() == torch::IntArrayRef({v, 3, 3}),
-              "IbrSourceViews: intrinsics must be [V,3,3], got ", intrinsics.sizes());
+  TORCH_CHECK(intrinsics.sizes() == torch::IntArrayRef({v, 3, 3}), "IbrSourceViews: intrinsics must be [V,3,3], got ",
+              intrinsics.sizes());
   TORCH_CHECK(cam_from_world.sizes() == torch::IntArrayRef({v, 4, 4}),
               "IbrSourceViews: cam_from_world must be [V,4,4], got ", cam_from_world.sizes());
   TORCH_CHECK(features.defined() && features.dim() == 4 && features.size(0) == v,
               "IbrSourceViews: features must be [V,C,h,w]");
 }
 
-IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world,
-                   int64_t height, int64_t width, const torch::Tensor& pixel_indices) {
-  TORCH_CHECK(intrinsics.sizes() == torch::IntArrayRef({3, 3}) &&
-                  cam_from_world.sizes() == torch::IntArrayRef({4, 4}),
+IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height, int64_t width,
+                   const torch::Tensor& pixel_indices) {
+  TORCH_CHECK(intrinsics.sizes() == torch::IntArrayRef({3, 3}) && cam_from_world.sizes() == torch::IntArrayRef({4, 4}),
               "TargetRays: intrinsics must be [3,3] and cam_from_world [4,4]");
-  torch::Tensor idx = pixel_indices.defined()
-                          ? pixel_indices
-                          : torch::arange(height * width, intrinsics.options().dtype(torch::kLong));
-  TORCH_CHECK(idx.dim() == 1 && idx.scalar_type() == torch::kLong,
-              "TargetRays: pixel_indices must be int64 [R]");
+  torch::Tensor idx =
+      pixel_indices.defined() ? pixel_indices : torch::arange(height * width, intrinsics.options().dtype(torch::kLong));
+  TORCH_CHECK(idx.dim() == 1 && idx.scalar_type() == torch::kLong, "TargetRays: pixel_indices must be int64 [R]");
   const torch::Tensor u = idx.remainder(width).to(torch::kFloat) + 0.5;
   const torch::Tensor v = idx.div(width, "floor").to(torch::kFloat) + 0.5;
-  const torch::Tensor pix = torch::stack({u, v, torch::ones_like(u)}, 1);    // [R,3]
+  const torch::Tensor pix = torch::stack({u, v, torch::ones_like(u)}, 1);            // [R,3]
   const torch::Tensor dir_cam = torch::matmul(pix, torch::inverse(intrinsics).t());  // z = 1
   const torch::Tensor rot = cam_from_world.narrow(0, 0, 3).narrow(1, 0, 3);
   IbrRays rays;
@@ -64,8 +60,8 @@ IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_fro
   return rays;
 }
 
-torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far,
-                                  bool stratified, torch::Device device) {
+torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far, bool stratified,
+                                  torch::Device device) {
   TORCH_CHECK(near > 0 && far > near, "InverseDepthSamples: need 0 < near < far");
   TORCH_CHECK(num_samples >= 2, "InverseDepthSamples: need >= 2 samples");
   const torch::Tensor inv = torch::linspace(1.0 / near, 1.0 / far, num_samples, torch::TensorOptions().device(device));
@@ -77,16 +73,14 @@ torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double 
   return lower + (upper - lower) * torch::rand_like(z);
 }
 
-IbrRenderOutput CompositeIbr(const torch::Tensor& rgb, const torch::Tensor& sigma,
-                             const torch::Tensor& depths) {
-  TORCH_CHECK(sigma.dim() == 2 && depths.sizes() == sigma.sizes(),
-              "CompositeIbr: sigma and depths must be [R,S]");
+IbrRenderOutput CompositeIbr(const torch::Tensor& rgb, const torch::Tensor& sigma, const torch::Tensor& depths) {
+  TORCH_CHECK(sigma.dim() == 2 && depths.sizes() == sigma.sizes(), "CompositeIbr: sigma and depths must be [R,S]");
   TORCH_CHECK(rgb.dim() == 3 && rgb.size(2) == 3 && rgb.sizes().slice(0, 2) == sigma.sizes(),
               "CompositeIbr: rgb must be [R,S,3]");
   const torch::Tensor alpha = 1.0 - torch::exp(-sigma);
   const torch::Tensor trans = torch::cumprod(1.0 - alpha + 1e-10, 1);
-  const torch::Tensor shifted = torch::cat(
-      {torch::ones_like(trans.narrow(1, 0, 1)), trans.narrow(1, 0, trans.size(1) - 1)}, 1);
+  const torch::Tensor shifted =
+      torch::cat({torch::ones_like(trans.narrow(1, 0, 1)), trans.narrow(1, 0, trans.size(1) - 1)}, 1);
   IbrRenderOutput out;
   out.weights = alpha * shifted;
   out.rgb = (out.weights.unsqueeze(2) * rgb).sum(1);
@@ -94,29 +88,25 @@ IbrRenderOutput CompositeIbr(const torch::Tensor& rgb, const torch::Tensor& sigm
   return out;
 }
 
-IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const IbrRays& rays,
-                              double near, double far, const IbrRenderOptions& options,
-                              bool training) {
+IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const IbrRays& rays, double near, double far,
+                              const IbrRenderOptions& options, bool training) {
   TORCH_CHECK(options.Check(), "RenderIbrRays: invalid options");
   sources.CheckShapes();
-  TORCH_CHECK(rays.origins.dim() == 2 && rays.origins.size(1) == 3 &&
-                  rays.directions.sizes() == rays.origins.sizes(),
+  TORCH_CHECK(rays.origins.dim() == 2 && rays.origins.size(1) == 3 && rays.directions.sizes() == rays.origins.sizes(),
               "RenderIbrRays: rays must be [R,3]");
   const int64_t r = rays.origins.size(0), s = options.num_samples;
   const int64_t height = sources.images.size(2), width = sources.images.size(3);
-  const torch::Tensor z = InverseDepthSamples(r, s, near, far, training, rays.origins.device());  // [R,S]
-  const torch::Tensor points =
-      rays.origins.unsqueeze(1) + z.unsqueeze(2) * rays.directions.unsqueeze(1);  // [R,S,3]
+  const torch::Tensor z = InverseDepthSamples(r, s, near, far, training, rays.origins.device());           // [R,S]
+  const torch::Tensor points = rays.origins.unsqueeze(1) + z.unsqueeze(2) * rays.directions.unsqueeze(1);  // [R,S,3]
 
-  const ProjectedPoints proj =
-      ProjectToViews(points, sources.intrinsics, sources.cam_from_world, height, width);
-  const torch::Tensor rgb = SampleViews(sources.images, proj.uv, height, width);    // [V,R,S,3]
+  const ProjectedPoints proj = ProjectToViews(points, sources.intrinsics, sources.cam_from_world, height, width);
+  const torch::Tensor rgb = SampleViews(sources.images, proj.uv, height, width);     // [V,R,S,3]
   const torch::Tensor feat = SampleViews(sources.features, proj.uv, height, width);  // [V,R,S,C]
   const torch::Tensor ray_diff =
       RayDifference(points, rays.origins, CameraCenters(sources.cam_from_world));  // [V,R,S,4]
-  const torch::Tensor mask = proj.Valid().permute({1, 2, 0});                       // [R,S,V]
-  const IbrNetOutput raw = net->forward(torch::cat({rgb, feat}, 3).permute({1, 2, 0, 3}),
-                                        ray_diff.permute({1, 2, 0, 3}), mask);
+  const torch::Tensor mask = proj.Valid().permute({1, 2, 0});                      // [R,S,V]
+  const IbrNetOutput raw =
+      net->forward(torch::cat({rgb, feat}, 3).permute({1, 2, 0, 3}), ray_diff.permute({1, 2, 0, 3}), mask);
 
   IbrRenderOutput out = CompositeIbr(raw.rgb, raw.sigma, z);
   const torch::Tensor good_samples = (mask.sum(2) >= 2).sum(1);  // [R]
@@ -125,9 +115,8 @@ IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const 
 }
 
 IbrRenderOutput RenderIbrImage(ResUNet& feature_net, IbrNet& net, IbrSourceViews sources,
-                               const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world,
-                               int64_t height, int64_t width, double near, double far,
-                               const IbrRenderOptions& options) {
+                               const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
+                               int64_t width, double near, double far, const IbrRenderOptions& options) {
   TORCH_CHECK(options.Check(), "RenderIbrImage: invalid options");
   torch::NoGradGuard no_grad;
   if (!sources.features.defined()) sources.features = feature_net->NerfFeatures(sources.images);

@@ -43,7 +43,7 @@ struct IbrSourceViews {
 };
 
 struct IbrRays {
-  torch::Tensor origins;     // [R, 3] float32: the target camera centre
+  torch::Tensor origins;  // [R, 3] float32: the target camera centre
   // [R, 3] float32, NOT unit: the camera-frame z component is 1, so origin + z * direction is the
   // point at camera depth z and the rendered depth is z-depth (as the original).
   torch::Tensor directions;
@@ -59,33 +59,30 @@ struct IbrRenderOutput {
 // Rays through the pixel centres of a target camera (intrinsics [3, 3], cam_from_world [4, 4],
 // float32) of an image of size height x width. pixel_indices: [R] int64, row * width + col, or
 // undefined for all pixels in row-major order.
-IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world,
-                   int64_t height, int64_t width, const torch::Tensor& pixel_indices = {});
+IbrRays TargetRays(const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height, int64_t width,
+                   const torch::Tensor& pixel_indices = {});
 
 // Sample depths [num_rays, num_samples] float32, increasing, uniform in inverse depth from near to
 // far (0 < near < far). Stratified: each sample jittered uniformly within its bin (bins bounded by
 // midpoints, the first and last half-bins clamped to near and far). On `device`.
-torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far,
-                                  bool stratified, torch::Device device = torch::kCPU);
+torch::Tensor InverseDepthSamples(int64_t num_rays, int64_t num_samples, double near, double far, bool stratified,
+                                  torch::Device device = torch::kCPU);
 
 // Volume rendering of per-sample rgb [R, S, 3] and sigma [R, S] at depths [R, S]:
 // alpha = 1 - exp(-sigma), T_i = prod_{j<i} (1 - alpha_j + 1e-10), weights = alpha * T.
 // `valid` of the output is left undefined.
-IbrRenderOutput CompositeIbr(const torch::Tensor& rgb, const torch::Tensor& sigma,
-                             const torch::Tensor& depths);
+IbrRenderOutput CompositeIbr(const torch::Tensor& rgb, const torch::Tensor& sigma, const torch::Tensor& depths);
 
 // Renders rays from the source views: samples (stratified when `training`), projects, runs
 // IBRNet, composites. Differentiable in the network, the features and the source cameras.
-IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const IbrRays& rays,
-                              double near, double far, const IbrRenderOptions& options,
-                              bool training);
+IbrRenderOutput RenderIbrRays(IbrNet& net, const IbrSourceViews& sources, const IbrRays& rays, double near, double far,
+                              const IbrRenderOptions& options, bool training);
 
 // Renders a whole target image without gradients, in chunks of options.chunk_rays rays,
 // deterministic samples. Computes the source features with `feature_net` when sources.features is
 // undefined. Returns rgb [H*W, 3], depth [H*W], valid [H*W], weights [H*W, S] (row-major pixels).
 IbrRenderOutput RenderIbrImage(ResUNet& feature_net, IbrNet& net, IbrSourceViews sources,
-                               const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world,
-                               int64_t height, int64_t width, double near, double far,
-                               const IbrRenderOptions& options);
+                               const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
+                               int64_t width, double near, double far, const IbrRenderOptions& options);
 
 }  // namespace nerfreg

@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 
-
 #include "nerfreg/dbarf/projection.h"
 
 namespace nerfreg {
@@ -11,9 +10,7 @@ namespace {
 constexpr int64_t kH = 24, kW = 32;
 constexpr double kF = 30, kCx = 16, kCy = 12;
 
-torch::Tensor K() {
-  return torch::tensor({kF, 0.0, kCx, 0.0, kF, kCy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
-}
+torch::Tensor K() { return torch::tensor({kF, 0.0, kCx, 0.0, kF, kCy, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3}); }
 
 // cam_from_world [4, 4] of a camera with rotation R (x_cam = R (x - c)) at centre c.
 torch::Tensor CamFromWorld(const torch::Tensor& r, const std::vector<double>& c) {
@@ -24,8 +21,7 @@ torch::Tensor CamFromWorld(const torch::Tensor& r, const std::vector<double>& c)
 }
 
 torch::Tensor RotY(double a) {
-  return torch::tensor({std::cos(a), 0.0, std::sin(a), 0.0, 1.0, 0.0, -std::sin(a), 0.0, std::cos(a)},
-                       torch::kFloat)
+  return torch::tensor({std::cos(a), 0.0, std::sin(a), 0.0, 1.0, 0.0, -std::sin(a), 0.0, std::cos(a)}, torch::kFloat)
       .view({3, 3});
 }
 
@@ -40,12 +36,11 @@ std::pair<torch::Tensor, torch::Tensor> RenderPlanes(const std::vector<double>& 
   const torch::Tensor hit_front = front_x < 0;
   const torch::Tensor depth = torch::where(hit_front, torch::full_like(dx, 2.0), torch::full_like(dx, 4.0));
   const torch::Tensor x = c[0] + depth * dx, y = c[1] + depth * dy;
-  const torch::Tensor front = torch::stack(
-      {0.5 + 0.4 * torch::sin(6 * x) * torch::cos(5 * y), 0.5 + 0.4 * torch::cos(7 * x + 1),
-       0.5 + 0.4 * torch::sin(5 * y + 2)});
-  const torch::Tensor back = torch::stack(
-      {0.5 + 0.4 * torch::cos(4 * x + 0.5), 0.5 + 0.4 * torch::sin(4 * x) * torch::sin(4 * y),
-       0.5 + 0.4 * torch::cos(5 * y)});
+  const torch::Tensor front = torch::stack({0.5 + 0.4 * torch::sin(6 * x) * torch::cos(5 * y),
+                                            0.5 + 0.4 * torch::cos(7 * x + 1), 0.5 + 0.4 * torch::sin(5 * y + 2)});
+  const torch::Tensor back =
+      torch::stack({0.5 + 0.4 * torch::cos(4 * x + 0.5), 0.5 + 0.4 * torch::sin(4 * x) * torch::sin(4 * y),
+                    0.5 + 0.4 * torch::cos(5 * y)});
   return {torch::where(hit_front.unsqueeze(0), front, back), depth};
 }
 
@@ -60,7 +55,8 @@ TEST(IbrRender, TargetRaysGoThroughPixelCentresAtUnitZ) {
   const ProjectedPoints p = ProjectToViews(pts, K().unsqueeze(0), pose.unsqueeze(0), kH, kW);
   const torch::Tensor expected = torch::tensor({0.5, 0.5, 5.5, 0.5, 3.5, 1.5, kW - 0.5, kH - 0.5}).view({4, 2});
   EXPECT_LT((p.uv[0].squeeze(1) - expected).abs().max().item<double>(), 1e-4);
-  const torch::Tensor z_cam = torch::matmul(pts.squeeze(1), pose.narrow(0, 2, 1).narrow(1, 0, 3).t()).squeeze(1) + pose[2][3];
+  const torch::Tensor z_cam =
+      torch::matmul(pts.squeeze(1), pose.narrow(0, 2, 1).narrow(1, 0, 3).t()).squeeze(1) + pose[2][3];
   EXPECT_LT((z_cam - 2.5).abs().max().item<double>(), 1e-5);
   EXPECT_EQ(TargetRays(K(), pose, kH, kW).origins.size(0), kH * kW);
 }
@@ -123,8 +119,8 @@ TEST(IbrRender, RaysOutsideEverySourceViewAreInvalid) {
   src.cam_from_world = torch::stack({CamFromWorld(eye, {-0.2, 0, 0}), CamFromWorld(eye, {0.2, 0, 0})});
   src.features = fnet->NerfFeatures(src.images);
   // Looking the same way as the sources: every ray valid; looking backwards: none.
-  const IbrRenderOutput ahead = RenderIbrRays(
-      net, src, TargetRays(K(), CamFromWorld(eye, {0, 0, 0}), kH, kW), 1.5, 6.0, options, false);
+  const IbrRenderOutput ahead =
+      RenderIbrRays(net, src, TargetRays(K(), CamFromWorld(eye, {0, 0, 0}), kH, kW), 1.5, 6.0, options, false);
   // A sample needs 2 valid views: the sources are 0.2 left and right, so at the near depth 1.5
   // their images shift by 30 * 0.2 / 1.5 = 4 pixels; columns 0-3 and W-4.. see only one source
   // at every depth.
@@ -133,8 +129,8 @@ TEST(IbrRender, RaysOutsideEverySourceViewAreInvalid) {
   EXPECT_FALSE(valid.narrow(1, 0, 1).any().item<bool>());
   EXPECT_FALSE(valid.narrow(1, kW - 1, 1).any().item<bool>());
   EXPECT_EQ(ahead.weights.sizes(), torch::IntArrayRef({kH * kW, options.num_samples}));
-  const IbrRenderOutput behind = RenderIbrRays(
-      net, src, TargetRays(K(), CamFromWorld(RotY(M_PI), {0, 0, 0}), kH, kW), 1.5, 6.0, options, false);
+  const IbrRenderOutput behind =
+      RenderIbrRays(net, src, TargetRays(K(), CamFromWorld(RotY(M_PI), {0, 0, 0}), kH, kW), 1.5, 6.0, options, false);
   EXPECT_FALSE(behind.valid.any().item<bool>());
   EXPECT_EQ(behind.weights.abs().max().item<double>(), 0.0);  // sigma is 0 without views
 
@@ -142,7 +138,8 @@ TEST(IbrRender, RaysOutsideEverySourceViewAreInvalid) {
   IbrRenderOptions chunked = options;
   chunked.chunk_rays = 100;
   src.features = torch::Tensor();
-  const IbrRenderOutput image = RenderIbrImage(fnet, net, src, K(), CamFromWorld(eye, {0, 0, 0}), kH, kW, 1.5, 6.0, chunked);
+  const IbrRenderOutput image =
+      RenderIbrImage(fnet, net, src, K(), CamFromWorld(eye, {0, 0, 0}), kH, kW, 1.5, 6.0, chunked);
   EXPECT_EQ(image.rgb.sizes(), torch::IntArrayRef({kH * kW, 3}));
   EXPECT_LT((image.rgb - ahead.rgb).abs().max().item<double>(), 1e-5);
   EXPECT_LT((image.depth - ahead.depth).abs().max().item<double>(), 1e-4);

@@ -18,8 +18,7 @@ nn::Linear Linear(int64_t in, int64_t out, bool bias = true) {
 }
 
 // Weighted mean and variance over views (dim 2) of x [R,S,V,C] with weights [R,S,V,1].
-std::pair<torch::Tensor, torch::Tensor> FusedMeanVariance(const torch::Tensor& x,
-                                                          const torch::Tensor& weight) {
+std::pair<torch::Tensor, torch::Tensor> FusedMeanVariance(const torch::Tensor& x, const torch::Tensor& weight) {
   const torch::Tensor mean = (x * weight).sum(2, true);
   const torch::Tensor var = (weight * (x - mean).pow(2)).sum(2, true);
   return {mean, var};
@@ -41,8 +40,7 @@ bool IbrNetOptions::Check() const {
     return false;
   }
   if (attention_heads < 1 || kModelWidth % attention_heads != 0) {
-    LOG_ERROR("IbrNetOptions: attention_heads must divide {}, got {}", kModelWidth,
-              attention_heads);
+    LOG_ERROR("IbrNetOptions: attention_heads must divide {}, got {}", kModelWidth, attention_heads);
     return false;
   }
   return true;
@@ -61,24 +59,20 @@ torch::Tensor SamplePositionalEncoding(int64_t num_samples, int64_t dim) {
 IbrNetImpl::IbrNetImpl(const IbrNetOptions& options) : options_(options) {
   TORCH_CHECK(options_.Check(), "IbrNet: invalid options");
   const int64_t view_ch = 3 + options_.feature_channels;
-  s = register_parameter("s", torch::tensor(options_.anti_alias_init, torch::kFloat),
-                         options_.anti_alias_pooling);
-  ray_dir_fc_ = register_module(
-      "ray_dir_fc", nn::Sequential(Linear(4, 16), nn::ELU(), Linear(16, view_ch), nn::ELU()));
-  base_fc_ = register_module("base_fc", nn::Sequential(Linear(3 * view_ch, 64), nn::ELU(),
-                                                       Linear(64, kBaseWidth), nn::ELU()));
+  s = register_parameter("s", torch::tensor(options_.anti_alias_init, torch::kFloat), options_.anti_alias_pooling);
+  ray_dir_fc_ = register_module("ray_dir_fc", nn::Sequential(Linear(4, 16), nn::ELU(), Linear(16, view_ch), nn::ELU()));
+  base_fc_ =
+      register_module("base_fc", nn::Sequential(Linear(3 * view_ch, 64), nn::ELU(), Linear(64, kBaseWidth), nn::ELU()));
   vis_fc_ = register_module("vis_fc", nn::Sequential(Linear(kBaseWidth, kBaseWidth), nn::ELU(),
                                                      Linear(kBaseWidth, kBaseWidth + 1), nn::ELU()));
-  vis_fc2_ = register_module("vis_fc2", nn::Sequential(Linear(kBaseWidth, kBaseWidth), nn::ELU(),
-                                                       Linear(kBaseWidth, 1), nn::Sigmoid()));
+  vis_fc2_ = register_module(
+      "vis_fc2", nn::Sequential(Linear(kBaseWidth, kBaseWidth), nn::ELU(), Linear(kBaseWidth, 1), nn::Sigmoid()));
   geometry_fc_ = register_module(
-      "geometry_fc", nn::Sequential(Linear(2 * kBaseWidth + 1, 64), nn::ELU(),
-                                    Linear(64, kModelWidth), nn::ELU()));
-  out_geometry_fc_ = register_module(
-      "out_geometry_fc",
-      nn::Sequential(Linear(kModelWidth, 16), nn::ELU(), Linear(16, 1), nn::ReLU()));
-  rgb_fc_ = register_module("rgb_fc", nn::Sequential(Linear(kBaseWidth + 1 + 4, 16), nn::ELU(),
-                                                     Linear(16, 8), nn::ELU(), Linear(8, 1)));
+      "geometry_fc", nn::Sequential(Linear(2 * kBaseWidth + 1, 64), nn::ELU(), Linear(64, kModelWidth), nn::ELU()));
+  out_geometry_fc_ =
+      register_module("out_geometry_fc", nn::Sequential(Linear(kModelWidth, 16), nn::ELU(), Linear(16, 1), nn::ReLU()));
+  rgb_fc_ = register_module(
+      "rgb_fc", nn::Sequential(Linear(kBaseWidth + 1 + 4, 16), nn::ELU(), Linear(16, 8), nn::ELU(), Linear(8, 1)));
   // Kaiming-normal weights, zero biases, on the MLPs the original initialises so; ray_dir_fc,
   // out_geometry_fc and the attention keep torch's default initialisation, as there.
   for (auto* seq : {&base_fc_, &vis_fc_, &vis_fc2_, &geometry_fc_, &rgb_fc_}) {
@@ -94,9 +88,7 @@ IbrNetImpl::IbrNetImpl(const IbrNetOptions& options) : options_(options) {
   w_k_ = register_module("w_k", Linear(kModelWidth, kModelWidth, false));
   w_v_ = register_module("w_v", Linear(kModelWidth, kModelWidth, false));
   w_o_ = register_module("w_o", Linear(kModelWidth, kModelWidth, false));
-  attention_norm_ = register_module(
-      "attention_norm",
-      nn::LayerNorm(nn::LayerNormOptions({kModelWidth}).eps(1e-6)));
+  attention_norm_ = register_module("attention_norm", nn::LayerNorm(nn::LayerNormOptions({kModelWidth}).eps(1e-6)));
 }
 
 torch::Tensor IbrNetImpl::PoolingWeights(const torch::Tensor& ray_diff, const torch::Tensor& mask) {
@@ -111,13 +103,11 @@ torch::Tensor IbrNetImpl::PoolingWeights(const torch::Tensor& ray_diff, const to
 IbrNetOutput IbrNetImpl::forward(const torch::Tensor& rgb_feat, const torch::Tensor& ray_diff,
                                  const torch::Tensor& mask) {
   const int64_t view_ch = 3 + options_.feature_channels;
-  TORCH_CHECK(rgb_feat.dim() == 4 && rgb_feat.size(3) == view_ch &&
-                  rgb_feat.scalar_type() == torch::kFloat,
+  TORCH_CHECK(rgb_feat.dim() == 4 && rgb_feat.size(3) == view_ch && rgb_feat.scalar_type() == torch::kFloat,
               "IbrNet: rgb_feat must be float32 [R,S,V,", view_ch, "], got ", rgb_feat.sizes());
   const int64_t r = rgb_feat.size(0), n = rgb_feat.size(1), v = rgb_feat.size(2);
   TORCH_CHECK(ray_diff.sizes() == torch::IntArrayRef({r, n, v, 4}),
-              "IbrNet: ray_diff must be [R,S,V,4] = ", rgb_feat.sizes().slice(0, 3), ", got ",
-              ray_diff.sizes());
+              "IbrNet: ray_diff must be [R,S,V,4] = ", rgb_feat.sizes().slice(0, 3), ", got ", ray_diff.sizes());
   TORCH_CHECK(mask.sizes() == rgb_feat.sizes().slice(0, 3) && mask.scalar_type() == torch::kBool,
               "IbrNet: mask must be bool [R,S,V], got ", mask.sizes());
   const torch::Tensor m = mask.to(torch::kFloat).unsqueeze(-1);  // [R,S,V,1]
@@ -143,8 +133,8 @@ IbrNetOutput IbrNetImpl::forward(const torch::Tensor& rgb_feat, const torch::Ten
   weight = vis / (vis.sum(2, true) + 1e-8);
 
   std::tie(mean, var) = FusedMeanVariance(x, weight);
-  torch::Tensor g = geometry_fc_->forward(
-      torch::cat({mean.squeeze(2), var.squeeze(2), weight.mean(2)}, -1));  // [R,S,16]
+  torch::Tensor g =
+      geometry_fc_->forward(torch::cat({mean.squeeze(2), var.squeeze(2), weight.mean(2)}, -1));  // [R,S,16]
   g = g + SamplePositionalEncoding(n, kModelWidth).to(g.device()).unsqueeze(0);
 
   // Ray transformer: samples of a ray attend to samples with >= 2 valid views.
@@ -153,8 +143,7 @@ IbrNetOutput IbrNetImpl::forward(const torch::Tensor& rgb_feat, const torch::Ten
   auto split = [&](const torch::Tensor& t) {
     return t.view({r, n, heads, dk}).transpose(1, 2);  // [R,H,S,dk]
   };
-  const torch::Tensor q = split(w_q_->forward(g)), k = split(w_k_->forward(g)),
-                      val = split(w_v_->forward(g));
+  const torch::Tensor q = split(w_q_->forward(g)), k = split(w_k_->forward(g)), val = split(w_v_->forward(g));
   torch::Tensor logits = torch::matmul(q / std::sqrt(static_cast<double>(dk)), k.transpose(2, 3));
   logits = logits.masked_fill((num_valid < 2).view({r, 1, 1, n}), -1e9);
   const torch::Tensor attended =

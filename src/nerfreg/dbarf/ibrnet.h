@@ -58,8 +58,7 @@ class IbrNetImpl : public torch::nn::Module {
   // rgb_feat: [R, S, V, 3 + feature_channels] float32 (sampled source rgb, then features);
   // ray_diff: [R, S, V, 4] float32 (projection.h RayDifference, permuted);
   // mask: [R, S, V] bool (sample projects inside view and in front of it).
-  IbrNetOutput forward(const torch::Tensor& rgb_feat, const torch::Tensor& ray_diff,
-                       const torch::Tensor& mask);
+  IbrNetOutput forward(const torch::Tensor& rgb_feat, const torch::Tensor& ray_diff, const torch::Tensor& mask);
 
   // The anti-alias pooling weights [R, S, V, 1]: zero on invalid views, summing to 1 over the
   // valid views (unless all of a sample's weights tie with the minimum, e.g. a single view: then
@@ -71,8 +70,8 @@ class IbrNetImpl : public torch::nn::Module {
 
  private:
   IbrNetOptions options_;
-  torch::nn::Sequential ray_dir_fc_{nullptr}, base_fc_{nullptr}, vis_fc_{nullptr},
-      vis_fc2_{nullptr}, geometry_fc_{nullptr}, out_geometry_fc_{nullptr}, rgb_fc_{nullptr};
+  torch::nn::Sequential ray_dir_fc_{nullptr}, base_fc_{nullptr}, vis_fc_{nullptr}, vis_fc2_{nullptr},
+      geometry_fc_{nullptr}, out_geometry_fc_{nullptr}, rgb_fc_{nullptr};
   torch::nn::Linear w_q_{nullptr}, w_k_{nullptr}, w_v_{nullptr}, w_o_{nullptr};
   torch::nn::LayerNorm attention_norm_{nullptr};
 };

@@ -61,8 +61,7 @@ TEST_F(InverseWarpTest, WarpedSourceEqualsTargetOnAnAnalyticPlane) {
     std::vector<torch::Tensor> sources;
     for (int64_t i = 0; i < 3; ++i) sources.push_back(scene.Render(src_from_tgt[i]));
     const torch::Tensor target = scene.Render(torch::eye(4));
-    const auto res = InverseWarp(torch::cat(sources, 0), scene.TargetInverseDepth(), src_from_tgt,
-                                 scene.intrinsics);
+    const auto res = InverseWarp(torch::cat(sources, 0), scene.TargetInverseDepth(), src_from_tgt, scene.intrinsics);
     const torch::Tensor valid = res.valid;
     EXPECT_GT(valid.mean().item<double>(), 0.6);
     // Exact up to bilinear interpolation of a smooth texture.

@@ -51,16 +51,18 @@ struct Problem {
 // Mean per-pixel error over the valid pixels of every pair (robustly clipped per pair).
 torch::Tensor PhotometricTerm(const Problem& p, const torch::Tensor& cam_from_world, const torch::Tensor& grid) {
   const int64_t h = p.images.size(2), w = p.images.size(3);
-  const torch::Tensor correction =
-      F::interpolate(grid, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kBilinear).align_corners(false));
+  const torch::Tensor correction = F::interpolate(
+      grid, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kBilinear).align_corners(false));
   const torch::Tensor inv_depths = p.inv_depths * torch::exp(correction);  // [V, 1, h, w]
   const torch::Tensor src_from_tgt =
       RelativeTransform(cam_from_world.index_select(0, p.src), cam_from_world.index_select(0, p.tgt));  // [E, 4, 4]
-  const InverseWarpResult warp = InverseWarp(p.images.index_select(0, p.src), inv_depths.index_select(0, p.tgt), src_from_tgt,
-                                             p.intrinsics.index_select(0, p.tgt), p.intrinsics.index_select(0, p.src));
-  torch::Tensor error = PhotometricErrorMap(warp.warped, p.images.index_select(0, p.tgt), p.ssim_weight);  // [E, 1, h, w]
-  const torch::Tensor valid = warp.valid;                                                                  // [E, 1, h, w]
-  const torch::Tensor count = valid.sum({1, 2, 3}).clamp_min(1.0);                                        // [E]
+  const InverseWarpResult warp =
+      InverseWarp(p.images.index_select(0, p.src), inv_depths.index_select(0, p.tgt), src_from_tgt,
+                  p.intrinsics.index_select(0, p.tgt), p.intrinsics.index_select(0, p.src));
+  torch::Tensor error =
+      PhotometricErrorMap(warp.warped, p.images.index_select(0, p.tgt), p.ssim_weight);  // [E, 1, h, w]
+  const torch::Tensor valid = warp.valid;                                                // [E, 1, h, w]
+  const torch::Tensor count = valid.sum({1, 2, 3}).clamp_min(1.0);                       // [E]
   if (p.clip_std_factor >= 0) {
     const torch::Tensor e = error.detach();
     const torch::Tensor mean = (e * valid).sum({1, 2, 3}) / count;
@@ -83,16 +85,20 @@ torch::Tensor Smoothness(const torch::Tensor& grid) {
 PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& images, const torch::Tensor& intrinsics,
                                                           const torch::Tensor& inv_depths,
                                                           const torch::Tensor& cam_from_world,
-                                                          const std::vector<std::pair<int, int>>& pairs, int fixed_camera,
+                                                          const std::vector<std::pair<int, int>>& pairs,
+                                                          int fixed_camera,
                                                           const PhotometricBundleAdjustmentOptions& options) {
   options.Check();
-  if (images.dim() != 4 || images.size(1) != 3) throw std::invalid_argument("PhotometricBundleAdjust: images must be [V, 3, H, W]");
+  if (images.dim() != 4 || images.size(1) != 3)
+    throw std::invalid_argument("PhotometricBundleAdjust: images must be [V, 3, H, W]");
   const int64_t v = images.size(0), height = images.size(2), width = images.size(3);
   if (intrinsics.sizes() != torch::IntArrayRef({v, 3, 3}) || cam_from_world.sizes() != torch::IntArrayRef({v, 4, 4}) ||
       inv_depths.sizes() != torch::IntArrayRef({v, 1, height, width})) {
-    throw std::invalid_argument("PhotometricBundleAdjust: intrinsics [V, 3, 3], cam_from_world [V, 4, 4], inv_depths [V, 1, H, W]");
+    throw std::invalid_argument(
+        "PhotometricBundleAdjust: intrinsics [V, 3, 3], cam_from_world [V, 4, 4], inv_depths [V, 1, H, W]");
   }
-  if (fixed_camera < 0 || fixed_camera >= v) throw std::invalid_argument("PhotometricBundleAdjust: fixed_camera out of range");
+  if (fixed_camera < 0 || fixed_camera >= v)
+    throw std::invalid_argument("PhotometricBundleAdjust: fixed_camera out of range");
   std::vector<int64_t> tgt, src;
   for (const auto& [t, s] : pairs) {
     if (t < 0 || s < 0 || t >= v || s >= v || t == s) throw std::invalid_argument("PhotometricBundleAdjust: bad pair");
@@ -106,9 +112,12 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
   const torch::Tensor tgt_index = torch::tensor(tgt, torch::kLong), src_index = torch::tensor(src, torch::kLong);
   double median_depth = 1.0;
   if (!pairs.empty()) {
-    median_depth = 1.0 / std::get<0>(inv_depths.index_select(0, std::get<0>(torch::_unique(tgt_index))).reshape({-1}).median(0)).item<double>();
+    median_depth =
+        1.0 / std::get<0>(inv_depths.index_select(0, std::get<0>(torch::_unique(tgt_index))).reshape({-1}).median(0))
+                  .item<double>();
   }
-  if (!(median_depth > 0) || !std::isfinite(median_depth)) throw std::invalid_argument("PhotometricBundleAdjust: inverse depths must be > 0");
+  if (!(median_depth > 0) || !std::isfinite(median_depth))
+    throw std::invalid_argument("PhotometricBundleAdjust: inverse depths must be > 0");
   torch::Tensor initial = cam_from_world.to(torch::kDouble).clone();
   initial.slice(1, 0, 3).select(2, 3).div_(median_depth);
   const torch::Tensor initial32 = initial.to(torch::kFloat);
@@ -144,11 +153,13 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
     std::vector<torch::optim::OptimizerParamGroup> groups;
     std::vector<double> steps;
     if (options.optimize_poses) {
-      groups.emplace_back(std::vector<torch::Tensor>{delta}, std::make_unique<torch::optim::AdamOptions>(options.pose_step * scale));
+      groups.emplace_back(std::vector<torch::Tensor>{delta},
+                          std::make_unique<torch::optim::AdamOptions>(options.pose_step * scale));
       steps.push_back(options.pose_step * scale);
     }
     if (options.optimize_depth) {
-      groups.emplace_back(std::vector<torch::Tensor>{grid}, std::make_unique<torch::optim::AdamOptions>(options.depth_step * scale));
+      groups.emplace_back(std::vector<torch::Tensor>{grid},
+                          std::make_unique<torch::optim::AdamOptions>(options.depth_step * scale));
       steps.push_back(options.depth_step * scale);
     }
     if (groups.empty()) break;
@@ -160,7 +171,8 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
       torch::AutoGradMode grad(true);
       adam.zero_grad();
       torch::Tensor loss = PhotometricTerm(p, cameras(), grid);
-      if (options.optimize_depth && options.smoothness_weight > 0) loss = loss + options.smoothness_weight * Smoothness(grid);
+      if (options.optimize_depth && options.smoothness_weight > 0)
+        loss = loss + options.smoothness_weight * Smoothness(grid);
       loss.backward();
       adam.step();
       ++result.iterations;
@@ -172,8 +184,10 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
   // The fixed camera exactly as given (float rounding aside, its update is the identity).
   refined[fixed_camera] = cam_from_world[fixed_camera].to(torch::kDouble);
   result.cam_from_world = refined;
-  const torch::Tensor correction =
-      F::interpolate(grid, F::InterpolateFuncOptions().size(std::vector<int64_t>{height, width}).mode(torch::kBilinear).align_corners(false));
+  const torch::Tensor correction = F::interpolate(grid, F::InterpolateFuncOptions()
+                                                            .size(std::vector<int64_t>{height, width})
+                                                            .mode(torch::kBilinear)
+                                                            .align_corners(false));
   result.inv_depths = inv32 * torch::exp(correction) / median_depth;
   result.seconds = timer.Seconds();
   return result;

@@ -28,17 +28,17 @@
 namespace nerfreg {
 
 struct PhotometricBundleAdjustmentOptions {
-  int levels = 3;                // pyramid levels (1: full resolution only)
-  int iterations_per_level = 60;  // Adam steps per level
-  double pose_step = 2e-3;       // Adam learning rate of the pose twists (rad; median depths)
-  double depth_step = 1e-2;      // Adam learning rate of the log inverse-depth grid
-  int depth_grid_stride = 8;     // the depth correction's grid: 1 cell per stride x stride pixels
-  bool optimize_depth = true;    // false: the depths are held as given (poses only)
-  bool optimize_poses = true;    // false: the cameras are held (depths only: how well they explain the images)
+  int levels = 3;                   // pyramid levels (1: full resolution only)
+  int iterations_per_level = 60;    // Adam steps per level
+  double pose_step = 2e-3;          // Adam learning rate of the pose twists (rad; median depths)
+  double depth_step = 1e-2;         // Adam learning rate of the log inverse-depth grid
+  int depth_grid_stride = 8;        // the depth correction's grid: 1 cell per stride x stride pixels
+  bool optimize_depth = true;       // false: the depths are held as given (poses only)
+  bool optimize_poses = true;       // false: the cameras are held (depths only: how well they explain the images)
   double smoothness_weight = 0.05;  // on the squared first differences of the log-depth grid
-  double ssim_weight = 0.85;     // SSIM vs L1 in the per-pixel error (sfm_loss.h)
-  double clip_std_factor = 1.0;  // robust clipping per pair; < 0 disables
-  void Check() const;            // throws InputError naming the option
+  double ssim_weight = 0.85;        // SSIM vs L1 in the per-pixel error (sfm_loss.h)
+  double clip_std_factor = 1.0;     // robust clipping per pair; < 0 disables
+  void Check() const;               // throws InputError naming the option
 };
 
 struct PhotometricBundleAdjustmentResult {
@@ -57,7 +57,8 @@ struct PhotometricBundleAdjustmentResult {
 PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& images, const torch::Tensor& intrinsics,
                                                           const torch::Tensor& inv_depths,
                                                           const torch::Tensor& cam_from_world,
-                                                          const std::vector<std::pair<int, int>>& pairs, int fixed_camera,
+                                                          const std::vector<std::pair<int, int>>& pairs,
+                                                          int fixed_camera,
                                                           const PhotometricBundleAdjustmentOptions& options);
 
 }  // namespace nerfreg

@@ -36,7 +36,9 @@ double RotationDeg(const torch::Tensor& a, const torch::Tensor& b) {
 
 // Degrees between the directions of the centres of cameras k and 0 (the scale gauge is free).
 double CentreDirectionDeg(const torch::Tensor& a, const torch::Tensor& b, int64_t k) {
-  const auto centre = [](const torch::Tensor& t) { return Se3Inverse(t.to(torch::kDouble)).slice(0, 0, 3).select(1, 3); };
+  const auto centre = [](const torch::Tensor& t) {
+    return Se3Inverse(t.to(torch::kDouble)).slice(0, 0, 3).select(1, 3);
+  };
   const torch::Tensor da = centre(a[k]) - centre(a[0]), db = centre(b[k]) - centre(b[0]);
   const double c = (torch::dot(da, db) / (da.norm() * db.norm())).item<double>();
   return std::acos(std::min(1.0, std::max(-1.0, c))) * 180 / M_PI;
@@ -45,7 +47,7 @@ double CentreDirectionDeg(const torch::Tensor& a, const torch::Tensor& b, int64_
 struct Case {
   PlaneScene scene = PlaneScene::Ridge(2.0, 0.4, 48, 64);
   torch::Tensor images, intrinsics, inv_depths, truth, perturbed;  // V = 5
-  std::vector<std::pair<int, int>> pairs;                           // all ordered pairs
+  std::vector<std::pair<int, int>> pairs;                          // all ordered pairs
 };
 
 // Five cameras around the ridge (camera 0 at the identity), rendered exactly; the starting cameras
@@ -134,8 +136,8 @@ TEST(PhotometricBundleAdjustment, WithoutStepsOrPairsTheCamerasStayAsGiven) {
       PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.perturbed, c.pairs, 0, options);
   EXPECT_TRUE(torch::allclose(r.cam_from_world, c.perturbed, 1e-5, 1e-6));
   EXPECT_NEAR(r.final_loss, r.initial_loss, 1e-6);
-  const PhotometricBundleAdjustmentResult none =
-      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.perturbed, {}, 0, PhotometricBundleAdjustmentOptions());
+  const PhotometricBundleAdjustmentResult none = PhotometricBundleAdjust(
+      c.images, c.intrinsics, c.inv_depths, c.perturbed, {}, 0, PhotometricBundleAdjustmentOptions());
   EXPECT_TRUE(torch::allclose(none.cam_from_world, c.perturbed, 1e-5, 1e-6));
 }
 
@@ -169,8 +171,9 @@ TEST(PhotometricBundleAdjustment, RejectsBadInput) {
                std::invalid_argument);
   EXPECT_THROW(PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.perturbed, {{0, 9}}, 0, options),
                std::invalid_argument);
-  EXPECT_THROW(PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths.slice(0, 0, 2), c.perturbed, c.pairs, 0, options),
-               std::invalid_argument);
+  EXPECT_THROW(
+      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths.slice(0, 0, 2), c.perturbed, c.pairs, 0, options),
+      std::invalid_argument);
   EXPECT_THROW(PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.perturbed, c.pairs, 7, options),
                std::invalid_argument);
   options.levels = 0;

@@ -26,12 +26,12 @@ nn::BatchNorm2d Bn(int64_t channels, bool batch_statistics) {
 class BasicBlockImpl : public nn::Module {
  public:
   BasicBlockImpl(int64_t in, int64_t out, int64_t stride, bool batch_statistics) {
-    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, 3, stride, false), Bn(out, batch_statistics),
-                                                   nn::ReLU(), Conv(out, out, 3, 3, 1, false),
-                                                   Bn(out, batch_statistics)));
+    body_ =
+        register_module("body", nn::Sequential(Conv(in, out, 3, 3, stride, false), Bn(out, batch_statistics),
+                                               nn::ReLU(), Conv(out, out, 3, 3, 1, false), Bn(out, batch_statistics)));
     if (stride != 1 || in != out) {
-      shortcut_ = register_module(
-          "shortcut", nn::Sequential(Conv(in, out, 1, 1, stride, false), Bn(out, batch_statistics)));
+      shortcut_ =
+          register_module("shortcut", nn::Sequential(Conv(in, out, 1, 1, stride, false), Bn(out, batch_statistics)));
     }
   }
   torch::Tensor forward(const torch::Tensor& x) {
@@ -121,11 +121,9 @@ torch::Tensor FeatureCostMaps(const torch::Tensor& target_features, const torch:
   TORCH_CHECK(target_features.dim() == 4 && target_features.size(0) == 1,
               "FeatureCostMaps: target features must be [1, C, h, w], got ", target_features.sizes());
   TORCH_CHECK(source_features.dim() == 4 && source_features.sizes().slice(1) == target_features.sizes().slice(1),
-              "FeatureCostMaps: source features must be [N, C, h, w] like the target, got ",
-              source_features.sizes());
+              "FeatureCostMaps: source features must be [N, C, h, w] like the target, got ", source_features.sizes());
   TORCH_CHECK(tgt_inv_depth.dim() == 4 && tgt_inv_depth.size(0) == 1 &&
-                  tgt_inv_depth.size(2) == target_features.size(2) &&
-                  tgt_inv_depth.size(3) == target_features.size(3),
+                  tgt_inv_depth.size(2) == target_features.size(2) && tgt_inv_depth.size(3) == target_features.size(3),
               "FeatureCostMaps: inverse depth must be [1, 1, h, w] at the feature size, got ", tgt_inv_depth.sizes());
   const InverseWarpResult warp = InverseWarp(source_features, tgt_inv_depth, src_from_tgt, intrinsics);
   return (warp.warped - target_features).pow(2);
@@ -143,8 +141,7 @@ torch::Tensor ConvexUpsample(const torch::Tensor& x, const torch::Tensor& mask, 
   return up.permute({0, 1, 4, 2, 5, 3}).reshape({b, 1, factor * h, factor * w});
 }
 
-ResNetEncoderImpl::ResNetEncoderImpl(int64_t in_channels, int64_t out_channels,
-                                     const PoseDepthNetOptions& options) {
+ResNetEncoderImpl::ResNetEncoderImpl(int64_t in_channels, int64_t out_channels, const PoseDepthNetOptions& options) {
   const auto& w = options.encoder_widths;
   const bool batch = options.batch_statistics;
   stem_ = register_module("stem", nn::Sequential(Conv(in_channels, w[0], 7, 7, 2, false), Bn(w[0], batch), nn::ReLU(),
@@ -159,12 +156,11 @@ ResNetEncoderImpl::ResNetEncoderImpl(int64_t in_channels, int64_t out_channels,
 
 torch::Tensor ResNetEncoderImpl::forward(const torch::Tensor& x) {
   const torch::Tensor x2 = layer2_->forward(layer1_->forward(stem_->forward(x)));  // 1/8
-  const torch::Tensor x3 = layer3_->forward(x2);                                    // 1/16
-  const torch::Tensor up = F::interpolate(
-      x3, F::InterpolateFuncOptions()
-              .size(std::vector<int64_t>{x2.size(2), x2.size(3)})
-              .mode(torch::kBilinear)
-              .align_corners(false));
+  const torch::Tensor x3 = layer3_->forward(x2);                                   // 1/16
+  const torch::Tensor up = F::interpolate(x3, F::InterpolateFuncOptions()
+                                                  .size(std::vector<int64_t>{x2.size(2), x2.size(3)})
+                                                  .mode(torch::kBilinear)
+                                                  .align_corners(false));
   const torch::Tensor y = torch::relu(up_conv_->forward(up));
   return out_conv_->forward(torch::relu(fuse_conv_->forward(torch::cat({y, x2}, 1))));
 }

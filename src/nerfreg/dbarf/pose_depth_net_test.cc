@@ -24,9 +24,8 @@ class PoseDepthNetTest : public ::testing::Test {
 // Features as a fixed function of the image: colour, squared colour and a blurred copy.
 torch::Tensor ImageFeatures(const torch::Tensor& image) {
   namespace F = torch::nn::functional;
-  const torch::Tensor blur =
-      F::avg_pool2d(F::pad(image, F::PadFuncOptions({1, 1, 1, 1}).mode(torch::kReplicate)),
-                    F::AvgPool2dFuncOptions(3).stride(1));
+  const torch::Tensor blur = F::avg_pool2d(F::pad(image, F::PadFuncOptions({1, 1, 1, 1}).mode(torch::kReplicate)),
+                                           F::AvgPool2dFuncOptions(3).stride(1));
   return torch::cat({image, image * image, blur}, 1);
 }
 
@@ -115,7 +114,8 @@ TEST_F(PoseDepthNetTest, ForwardShapesRangesAndFiniteGradients) {
     torch::NoGradGuard no_grad;
     int zeroed = 0;
     for (auto& p : net->named_parameters()) {
-      if (p.key().find("pose_head.2.") == std::string::npos && p.key().find("pose_delta_head.2.") == std::string::npos) continue;
+      if (p.key().find("pose_head.2.") == std::string::npos && p.key().find("pose_delta_head.2.") == std::string::npos)
+        continue;
       EXPECT_EQ(p.value().abs().max().item<double>(), 0.0) << p.key();
       p.value().normal_(0.0, 0.01);
       ++zeroed;

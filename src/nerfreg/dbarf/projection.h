@@ -37,8 +37,7 @@ ProjectedPoints ProjectToViews(const torch::Tensor& points, const torch::Tensor&
 // Bilinearly samples maps [V, C, h, w] float32 (images or feature maps covering an image of size
 // height x width) at uv [V, R, S, 2] (continuous pixel coordinates of that image); zero outside.
 // Returns [V, R, S, C].
-torch::Tensor SampleViews(const torch::Tensor& maps, const torch::Tensor& uv, int64_t height,
-                          int64_t width);
+torch::Tensor SampleViews(const torch::Tensor& maps, const torch::Tensor& uv, int64_t height, int64_t width);
 
 // Camera centres in the world, -R^T t, of cam_from_world [V, 4, 4] -> [V, 3].
 torch::Tensor CameraCenters(const torch::Tensor& cam_from_world);

@@ -53,15 +53,14 @@ TEST(Projection, BehindCameraAndBoundsMasks) {
   // In front and centred; behind (z < 0); on the image border u = W exactly (inside);
   // just outside the border (v = -0.4 < 0).
   const torch::Tensor pts =
-      torch::tensor({0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.0, 0.0, 1.0, 0.0, -0.8, 1.0}, torch::kFloat)
-          .view({1, 4, 3});
+      torch::tensor({0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.0, 0.0, 1.0, 0.0, -0.8, 1.0}, torch::kFloat).view({1, 4, 3});
   const ProjectedPoints p = ProjectToViews(pts, k, pose, 12, 16);
   const torch::Tensor front = p.in_front[0][0], bounds = p.in_bounds[0][0], valid = p.Valid()[0][0];
   EXPECT_TRUE(front[0].item<bool>() && bounds[0].item<bool>() && valid[0].item<bool>());
   EXPECT_FALSE(front[1].item<bool>());
   EXPECT_FALSE(valid[1].item<bool>());
   EXPECT_TRUE(torch::isfinite(p.uv).all().item<bool>());
-  EXPECT_TRUE(bounds[2].item<bool>());  // u = 16 = W
+  EXPECT_TRUE(bounds[2].item<bool>());   // u = 16 = W
   EXPECT_FALSE(bounds[3].item<bool>());  // v = -0.4
   EXPECT_TRUE(front[3].item<bool>());
 }
@@ -83,8 +82,7 @@ TEST(Projection, SamplingAFrontoParallelPlaneReturnsItsTexture) {
   // Points on the plane, well inside the source view's interior.
   const torch::Tensor xy = torch::rand({5, 7, 2}) * torch::tensor({1.2, 0.8}) - torch::tensor({0.6, 0.4});
   const torch::Tensor pts = torch::cat({xy, torch::full({5, 7, 1}, depth)}, -1);
-  const ProjectedPoints p =
-      ProjectToViews(pts, Intrinsics(f, cx, cy), CamFromWorld(kIdentity, {0, 0, 0}), h, w);
+  const ProjectedPoints p = ProjectToViews(pts, Intrinsics(f, cx, cy), CamFromWorld(kIdentity, {0, 0, 0}), h, w);
   ASSERT_TRUE(p.Valid().all().item<bool>());
   const torch::Tensor sampled = SampleViews(image, p.uv, h, w);  // [1,5,7,3]
   const torch::Tensor expected = texture(xy.select(2, 0), xy.select(2, 1));
@@ -105,8 +103,8 @@ TEST(Projection, SamplingAFrontoParallelPlaneReturnsItsTexture) {
 }
 
 TEST(Projection, CameraCentresAndRayDifference) {
-  const torch::Tensor pose = torch::cat(
-      {CamFromWorld({0, -1, 0, 1, 0, 0, 0, 0, 1}, {1, 2, -3}), CamFromWorld(kIdentity, {2, 0, -2})});
+  const torch::Tensor pose =
+      torch::cat({CamFromWorld({0, -1, 0, 1, 0, 0, 0, 0, 1}, {1, 2, -3}), CamFromWorld(kIdentity, {2, 0, -2})});
   const torch::Tensor c = CameraCenters(pose);
   EXPECT_LT((c[0] - torch::tensor({1.0, 2.0, -3.0})).abs().max().item<double>(), 1e-5);
 
@@ -143,8 +141,10 @@ TEST(Projection, PoseAndPointGradientsEqualFiniteDifferences) {
   // In float64: d/d(pose, points) of sum(c * sampled image) + sum(c' * ray difference).
   torch::manual_seed(12);
   const torch::Tensor k = Intrinsics(10, 8, 6).to(torch::kDouble);
-  const torch::Tensor pose0 = CamFromWorld({0.995, -0.0998, 0, 0.0998, 0.995, 0, 0, 0, 1}, {0.1, 0, -1}).to(torch::kDouble);
-  const torch::Tensor pts0 = torch::rand({3, 4, 3}, torch::kDouble) * 0.5 + torch::tensor({0.0, 0.0, 1.0}, torch::kDouble);
+  const torch::Tensor pose0 =
+      CamFromWorld({0.995, -0.0998, 0, 0.0998, 0.995, 0, 0, 0, 1}, {0.1, 0, -1}).to(torch::kDouble);
+  const torch::Tensor pts0 =
+      torch::rand({3, 4, 3}, torch::kDouble) * 0.5 + torch::tensor({0.0, 0.0, 1.0}, torch::kDouble);
   const torch::Tensor image = torch::rand({1, 2, 12, 16}, torch::kDouble);
   const torch::Tensor c = torch::rand({1, 3, 4, 2}, torch::kDouble), c2 = torch::rand({1, 3, 4, 4}, torch::kDouble);
   const torch::Tensor query = torch::tensor({0.3, -0.2, -0.5}, torch::kDouble).expand({3, 3});

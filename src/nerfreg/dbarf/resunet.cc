@@ -9,11 +9,8 @@ namespace nn = torch::nn;
 namespace F = torch::nn::functional;
 
 nn::Conv2d Conv(int64_t in, int64_t out, int64_t k, int64_t stride, bool bias) {
-  return nn::Conv2d(nn::Conv2dOptions(in, out, k)
-                        .stride(stride)
-                        .padding(k / 2)
-                        .bias(bias)
-                        .padding_mode(torch::kReflect));
+  return nn::Conv2d(
+      nn::Conv2dOptions(in, out, k).stride(stride).padding(k / 2).bias(bias).padding_mode(torch::kReflect));
 }
 
 nn::InstanceNorm2d Norm(int64_t c) {
@@ -30,12 +27,10 @@ nn::Sequential ConvNormElu(int64_t in, int64_t out, int64_t k) {
 class BasicBlockImpl : public nn::Module {
  public:
   BasicBlockImpl(int64_t in, int64_t out, int64_t stride) {
-    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, stride, false), Norm(out),
-                                                   nn::ReLU(), Conv(out, out, 3, 1, false),
-                                                   Norm(out)));
+    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, stride, false), Norm(out), nn::ReLU(),
+                                                   Conv(out, out, 3, 1, false), Norm(out)));
     if (stride != 1 || in != out) {
-      shortcut_ = register_module("shortcut",
-                                  nn::Sequential(Conv(in, out, 1, stride, false), Norm(out)));
+      shortcut_ = register_module("shortcut", nn::Sequential(Conv(in, out, 1, stride, false), Norm(out)));
     }
   }
   torch::Tensor forward(const torch::Tensor& x) {
@@ -84,8 +79,7 @@ bool ResUNetOptions::Check() const {
     }
   }
   if (nerf_channels < 1 || nerf_channels > out_channels) {
-    LOG_ERROR("ResUNetOptions: nerf_channels must be in [1, out_channels = {}], got {}",
-              out_channels, nerf_channels);
+    LOG_ERROR("ResUNetOptions: nerf_channels must be in [1, out_channels = {}], got {}", out_channels, nerf_channels);
     return false;
   }
   return true;
@@ -94,9 +88,8 @@ bool ResUNetOptions::Check() const {
 ResUNetImpl::ResUNetImpl(const ResUNetOptions& options) : options_(options) {
   TORCH_CHECK(options_.Check(), "ResUNet: invalid options");
   const auto& c = options_.layer_channels;
-  stem_ = register_module(
-      "stem", nn::Sequential(Conv(options_.in_channels, options_.stem_channels, 7, 2, false),
-                             Norm(options_.stem_channels), nn::ReLU()));
+  stem_ = register_module("stem", nn::Sequential(Conv(options_.in_channels, options_.stem_channels, 7, 2, false),
+                                                 Norm(options_.stem_channels), nn::ReLU()));
   int64_t in = options_.stem_channels;
   for (size_t l = 0; l < 3; ++l) {
     nn::Sequential layer;
@@ -110,13 +103,13 @@ ResUNetImpl::ResUNetImpl(const ResUNetOptions& options) : options_(options) {
   fuse3_ = register_module("fuse3", ConvNormElu(2 * c[1], c[1], 3));
   up2_ = register_module("up2", ConvNormElu(c[1], c[0], 3));
   fuse2_ = register_module("fuse2", ConvNormElu(2 * c[0], options_.out_channels, 3));
-  out_conv_ = register_module(
-      "out_conv", nn::Conv2d(nn::Conv2dOptions(options_.out_channels, options_.out_channels, 1)));
+  out_conv_ =
+      register_module("out_conv", nn::Conv2d(nn::Conv2dOptions(options_.out_channels, options_.out_channels, 1)));
 }
 
 torch::Tensor ResUNetImpl::forward(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4 && images.size(1) == options_.in_channels,
-              "ResUNet: images must be [V,", options_.in_channels, ",H,W], got ", images.sizes());
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == options_.in_channels, "ResUNet: images must be [V,",
+              options_.in_channels, ",H,W], got ", images.sizes());
   TORCH_CHECK(images.scalar_type() == torch::kFloat, "ResUNet: images must be float32");
   TORCH_CHECK(images.size(2) > 16 && images.size(3) > 16, "ResUNet: images must be larger than 16x16, got ",
               images.sizes());

@@ -8,9 +8,7 @@ namespace {
 // Below this squared angle the closed forms lose precision; use Taylor series (to theta^6).
 double SmallAngle2(const torch::Tensor& t) { return t.scalar_type() == torch::kDouble ? 1e-2 : 9e-2; }
 
-torch::Tensor Eye3Like(const torch::Tensor& t) {
-  return torch::eye(3, t.options());
-}
+torch::Tensor Eye3Like(const torch::Tensor& t) { return torch::eye(3, t.options()); }
 
 // Squared norm of the last dimension and a "safe" angle (1 where the series branch is used), so
 // that neither branch of a torch::where produces inf/nan gradients.
@@ -35,13 +33,12 @@ void ExpCoefficients(const Angle& a, torch::Tensor* ca, torch::Tensor* cb, torch
   const torch::Tensor th2 = a.theta * a.theta;
   *ca = torch::where(a.small, 1.0 - t2 / 6.0 + t4 / 120.0 - t6 / 5040.0, s / a.theta);
   *cb = torch::where(a.small, 0.5 - t2 / 24.0 + t4 / 720.0 - t6 / 40320.0, (1.0 - c) / th2);
-  *cc = torch::where(a.small, 1.0 / 6.0 - t2 / 120.0 + t4 / 5040.0 - t6 / 362880.0,
-                     (a.theta - s) / (th2 * a.theta));
+  *cc = torch::where(a.small, 1.0 / 6.0 - t2 / 120.0 + t4 / 5040.0 - t6 / 362880.0, (a.theta - s) / (th2 * a.theta));
 }
 
 torch::Tensor Vee(const torch::Tensor& m) {
-  return torch::stack({m.select(-1, 1).select(-1, 2), m.select(-1, 2).select(-1, 0),
-                       m.select(-1, 0).select(-1, 1)}, -1);
+  return torch::stack({m.select(-1, 1).select(-1, 2), m.select(-1, 2).select(-1, 0), m.select(-1, 0).select(-1, 1)},
+                      -1);
 }
 
 torch::Tensor MakeTransform(const torch::Tensor& rotation, const torch::Tensor& translation) {
@@ -55,8 +52,7 @@ torch::Tensor MakeTransform(const torch::Tensor& rotation, const torch::Tensor& 
 }
 
 void CheckTransform(const torch::Tensor& t, const char* name) {
-  TORCH_CHECK(t.dim() >= 2 && t.size(-1) == 4 && t.size(-2) == 4, name, ": expected [..., 4, 4], got ",
-              t.sizes());
+  TORCH_CHECK(t.dim() >= 2 && t.size(-1) == 4 && t.size(-2) == 4, name, ": expected [..., 4, 4], got ", t.sizes());
   TORCH_CHECK(t.is_floating_point(), name, ": expected a floating dtype");
 }
 
@@ -78,8 +74,7 @@ torch::Tensor So3Exp(const torch::Tensor& omega) {
   torch::Tensor ca, cb, cc;
   ExpCoefficients(a, &ca, &cb, &cc);
   const torch::Tensor w = So3Hat(omega);
-  return Eye3Like(omega) + ca.unsqueeze(-1).unsqueeze(-1) * w +
-         cb.unsqueeze(-1).unsqueeze(-1) * torch::matmul(w, w);
+  return Eye3Like(omega) + ca.unsqueeze(-1).unsqueeze(-1) * w + cb.unsqueeze(-1).unsqueeze(-1) * torch::matmul(w, w);
 }
 
 torch::Tensor So3Log(const torch::Tensor& rotation) {
@@ -98,18 +93,17 @@ torch::Tensor So3Log(const torch::Tensor& rotation) {
   // Small angles: theta / sin(theta) = 1 + t^2/6 + 7 t^4/360 + ...
   const torch::Tensor small_scale = 1.0 + t2 / 6.0 + 7.0 * t2 * t2 / 360.0;
   const torch::Tensor near_pi = c < -0.9;
-  const torch::Tensor general_ok = torch::logical_and(torch::logical_not(small),
-                                                      torch::logical_not(near_pi));
+  const torch::Tensor general_ok = torch::logical_and(torch::logical_not(small), torch::logical_not(near_pi));
   const torch::Tensor safe_sin = torch::where(general_ok, sin_theta, torch::ones_like(sin_theta));
   const torch::Tensor general_scale = theta / safe_sin;
   torch::Tensor omega = v * torch::where(general_ok, general_scale, small_scale).unsqueeze(-1);
 
   // Near pi: (R + R^T)/2 - c I = (1 - c) n n^T; take the column with the largest diagonal.
-  const torch::Tensor sym = 0.5 * (rotation + rotation.transpose(-1, -2)) -
-                            c.unsqueeze(-1).unsqueeze(-1) * Eye3Like(rotation);
+  const torch::Tensor sym =
+      0.5 * (rotation + rotation.transpose(-1, -2)) - c.unsqueeze(-1).unsqueeze(-1) * Eye3Like(rotation);
   const torch::Tensor one_minus_c = torch::where(near_pi, 1.0 - c, torch::ones_like(c));
   const torch::Tensor nn = sym / one_minus_c.unsqueeze(-1).unsqueeze(-1);
-  const torch::Tensor diag = nn.diagonal(0, -2, -1);  // [..., 3]
+  const torch::Tensor diag = nn.diagonal(0, -2, -1);          // [..., 3]
   const torch::Tensor k = diag.argmax(-1, /*keepdim=*/true);  // [..., 1]
   const torch::Tensor col = torch::gather(nn, -1, k.unsqueeze(-2).expand_as(nn.narrow(-1, 0, 1))).squeeze(-1);
   const torch::Tensor dk = torch::gather(diag, -1, k).squeeze(-1).clamp_min(1e-12);
@@ -143,8 +137,7 @@ torch::Tensor Se3Log(const torch::Tensor& transform) {
   // V^-1 = I - W/2 + D W^2, D = (1 - theta sin / (2 (1 - cos))) / theta^2.
   const torch::Tensor t2 = a.theta2;
   const torch::Tensor th2 = a.theta * a.theta;
-  const torch::Tensor d_general =
-      (1.0 - a.theta * torch::sin(a.theta) / (2.0 * (1.0 - torch::cos(a.theta)))) / th2;
+  const torch::Tensor d_general = (1.0 - a.theta * torch::sin(a.theta) / (2.0 * (1.0 - torch::cos(a.theta)))) / th2;
   const torch::Tensor d = torch::where(a.small, 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0, d_general);
   const torch::Tensor w = So3Hat(omega);
   const torch::Tensor v_inv = Eye3Like(transform) - 0.5 * w + d.unsqueeze(-1).unsqueeze(-1) * torch::matmul(w, w);
@@ -167,8 +160,7 @@ torch::Tensor Se3Inverse(const torch::Tensor& b_from_a) {
 
 torch::Tensor Se3Apply(const torch::Tensor& b_from_a, const torch::Tensor& x_in_a) {
   CheckTransform(b_from_a, "Se3Apply");
-  TORCH_CHECK(x_in_a.dim() >= 2 && x_in_a.size(-1) == 3, "Se3Apply: expected points [..., P, 3], got ",
-              x_in_a.sizes());
+  TORCH_CHECK(x_in_a.dim() >= 2 && x_in_a.size(-1) == 3, "Se3Apply: expected points [..., P, 3], got ", x_in_a.sizes());
   const torch::Tensor r = b_from_a.narrow(-2, 0, 3).narrow(-1, 0, 3);
   const torch::Tensor t = b_from_a.narrow(-2, 0, 3).select(-1, 3);
   return torch::matmul(x_in_a, r.transpose(-1, -2)) + t.unsqueeze(-2);
@@ -184,8 +176,8 @@ torch::Tensor Se3Update(const torch::Tensor& delta, const torch::Tensor& transfo
 }
 
 torch::Tensor So3GeodesicAngle(const torch::Tensor& a, const torch::Tensor& b) {
-  TORCH_CHECK(a.dim() >= 2 && b.dim() >= 2 && a.size(-1) == a.size(-2) && b.size(-1) == b.size(-2) &&
-                  a.size(-1) >= 3 && b.size(-1) >= 3,
+  TORCH_CHECK(a.dim() >= 2 && b.dim() >= 2 && a.size(-1) == a.size(-2) && b.size(-1) == b.size(-2) && a.size(-1) >= 3 &&
+                  b.size(-1) >= 3,
               "So3GeodesicAngle: expected [..., 3, 3] or [..., 4, 4]");
   const torch::Tensor ra = a.narrow(-2, 0, 3).narrow(-1, 0, 3);
   const torch::Tensor rb = b.narrow(-2, 0, 3).narrow(-1, 0, 3);

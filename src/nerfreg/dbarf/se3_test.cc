@@ -21,8 +21,8 @@ class Se3Test : public ::testing::Test {
 
 // Twists with rotation angles from 0 to just below pi along random axes.
 torch::Tensor TestTwists(torch::Dtype dtype) {
-  const std::vector<double> angles = {0.0, 1e-9, 1e-5, 1e-3, 0.05, 0.29, 0.31, 0.5, 1.5,
-                                      2.5, 3.0, kPi - 1e-3, kPi - 1e-6};
+  const std::vector<double> angles = {0.0, 1e-9, 1e-5, 1e-3, 0.05,       0.29,      0.31,
+                                      0.5, 1.5,  2.5,  3.0,  kPi - 1e-3, kPi - 1e-6};
   const int64_t n = static_cast<int64_t>(angles.size());
   torch::Tensor axis = torch::randn({n, 3}, torch::kDouble);
   axis = axis / axis.norm(2, 1, true);
@@ -134,11 +134,14 @@ TEST_F(Se3Test, ComposeInverseApplyAndGeodesicAngleAgree) {
   const torch::Tensor& cam2_from_world = b_from_c;
   const torch::Tensor cam1_from_cam2 = RelativeTransform(cam1_from_world, cam2_from_world);
   const torch::Tensor x_in_world = torch::randn({5, 4, 3}, torch::kDouble);
-  EXPECT_LT((Se3Apply(cam1_from_cam2, Se3Apply(cam2_from_world, x_in_world)) -
-             Se3Apply(cam1_from_world, x_in_world)).abs().max().item<double>(), 1e-12);
+  EXPECT_LT((Se3Apply(cam1_from_cam2, Se3Apply(cam2_from_world, x_in_world)) - Se3Apply(cam1_from_world, x_in_world))
+                .abs()
+                .max()
+                .item<double>(),
+            1e-12);
   // The geodesic angle between R and Exp(w) R is |w| (w below pi).
-  const torch::Tensor w = torch::tensor({{0.0, 0.0, 0.0}, {1e-4, 0.0, 0.0}, {0.3, -0.2, 0.1}, {0.0, 3.0, 0.0}},
-                                        torch::kDouble);
+  const torch::Tensor w =
+      torch::tensor({{0.0, 0.0, 0.0}, {1e-4, 0.0, 0.0}, {0.3, -0.2, 0.1}, {0.0, 3.0, 0.0}}, torch::kDouble);
   const torch::Tensor r = So3Exp(torch::randn({4, 3}, torch::kDouble));
   const torch::Tensor angle = So3GeodesicAngle(r, torch::matmul(So3Exp(w), r));
   EXPECT_LT((angle - w.norm(2, 1)).abs().max().item<double>(), 1e-10);

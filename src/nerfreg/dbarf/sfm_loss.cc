@@ -10,9 +10,7 @@ namespace {
 
 namespace F = torch::nn::functional;
 
-torch::Tensor Pool3(const torch::Tensor& x) {
-  return F::avg_pool2d(x, F::AvgPool2dFuncOptions(3).stride(1));
-}
+torch::Tensor Pool3(const torch::Tensor& x) { return F::avg_pool2d(x, F::AvgPool2dFuncOptions(3).stride(1)); }
 
 }  // namespace
 
@@ -46,20 +44,18 @@ torch::Tensor Ssim(const torch::Tensor& x, const torch::Tensor& y) {
   return num / den;
 }
 
-torch::Tensor PhotometricErrorMap(const torch::Tensor& pred, const torch::Tensor& target,
-                                  double ssim_weight) {
+torch::Tensor PhotometricErrorMap(const torch::Tensor& pred, const torch::Tensor& target, double ssim_weight) {
   TORCH_CHECK(pred.dim() == 4 && target.dim() == 4 && pred.size(1) == target.size(1) &&
                   pred.size(2) == target.size(2) && pred.size(3) == target.size(3),
-              "PhotometricErrorMap: pred [B, C, H, W] and target [1|B, C, H, W] differ: ", pred.sizes(),
-              " vs ", target.sizes());
+              "PhotometricErrorMap: pred [B, C, H, W] and target [1|B, C, H, W] differ: ", pred.sizes(), " vs ",
+              target.sizes());
   const torch::Tensor l1 = (pred - target).abs().mean(1, true);
   const torch::Tensor dssim = ((1.0 - Ssim(pred, target)) * 0.5).clamp(0.0, 1.0).mean(1, true);
   return ssim_weight * dssim + (1.0 - ssim_weight) * l1;
 }
 
 torch::Tensor ClipErrorMaps(const torch::Tensor& errors, double factor) {
-  TORCH_CHECK(errors.dim() == 4 && errors.size(1) == 1, "ClipErrorMaps: expected [B, 1, H, W], got ",
-              errors.sizes());
+  TORCH_CHECK(errors.dim() == 4 && errors.size(1) == 1, "ClipErrorMaps: expected [B, 1, H, W], got ", errors.sizes());
   if (factor < 0) return errors;
   const torch::Tensor flat = errors.detach().flatten(1);
   const torch::Tensor limit = (flat.mean(1) + factor * flat.std(1)).view({-1, 1, 1, 1});
@@ -79,10 +75,8 @@ torch::Tensor EdgeAwareSmoothness(const torch::Tensor& inv_depth, const torch::T
 }
 
 PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::Tensor& sources,
-                                      const torch::Tensor& tgt_inv_depth,
-                                      const torch::Tensor& src_from_tgt,
-                                      const torch::Tensor& intrinsics,
-                                      const SfmLossOptions& options,
+                                      const torch::Tensor& tgt_inv_depth, const torch::Tensor& src_from_tgt,
+                                      const torch::Tensor& intrinsics, const SfmLossOptions& options,
                                       const torch::Tensor& src_intrinsics) {
   TORCH_CHECK(target.dim() == 4 && target.size(0) == 1, "PhotometricLoss: target must be [1, C, H, W], got ",
               target.sizes());
@@ -90,12 +84,11 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
               "PhotometricLoss: sources must be [N, C, H, W] like the target, got ", sources.sizes());
   TORCH_CHECK(tgt_inv_depth.dim() == 4 && tgt_inv_depth.size(0) == 1 && tgt_inv_depth.size(1) == 1 &&
                   tgt_inv_depth.size(2) == target.size(2) && tgt_inv_depth.size(3) == target.size(3),
-              "PhotometricLoss: inverse depth must be [1, 1, H, W] at the image size, got ",
-              tgt_inv_depth.sizes());
+              "PhotometricLoss: inverse depth must be [1, 1, H, W] at the image size, got ", tgt_inv_depth.sizes());
   const InverseWarpResult warp = InverseWarp(sources, tgt_inv_depth, src_from_tgt, intrinsics,
                                              src_intrinsics.defined() ? src_intrinsics : intrinsics);
-  torch::Tensor warped_err = ClipErrorMaps(PhotometricErrorMap(warp.warped, target, options.ssim_weight),
-                                           options.clip_std_factor);
+  torch::Tensor warped_err =
+      ClipErrorMaps(PhotometricErrorMap(warp.warped, target, options.ssim_weight), options.clip_std_factor);
   warped_err = torch::where(warp.valid > 0.5, warped_err, torch::full_like(warped_err, kInvalidError));
   torch::Tensor all = warped_err;
   if (options.auto_mask) {
@@ -113,9 +106,8 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
 }
 
 SfmLossResult SfmLoss(const torch::Tensor& target, const torch::Tensor& sources,
-                      const std::vector<torch::Tensor>& inv_depths,
-                      const std::vector<torch::Tensor>& src_from_tgts, const torch::Tensor& intrinsics,
-                      const SfmLossOptions& options) {
+                      const std::vector<torch::Tensor>& inv_depths, const std::vector<torch::Tensor>& src_from_tgts,
+                      const torch::Tensor& intrinsics, const SfmLossOptions& options) {
   TORCH_CHECK(options.Check(), "SfmLoss: invalid options");
   TORCH_CHECK(!inv_depths.empty() && inv_depths.size() == src_from_tgts.size(),
               "SfmLoss: need K >= 1 inverse depths and as many pose sets, got ", inv_depths.size(), " and ",
@@ -124,8 +116,7 @@ SfmLossResult SfmLoss(const torch::Tensor& target, const torch::Tensor& sources,
   std::vector<torch::Tensor> photometric, smoothness;
   torch::Tensor total = torch::zeros({}, target.options());
   for (int64_t k = 0; k < k_count; ++k) {
-    photometric.push_back(
-        PhotometricLoss(target, sources, inv_depths[k], src_from_tgts[k], intrinsics, options).loss);
+    photometric.push_back(PhotometricLoss(target, sources, inv_depths[k], src_from_tgts[k], intrinsics, options).loss);
     smoothness.push_back(EdgeAwareSmoothness(inv_depths[k], target));
     const double w = std::pow(options.prediction_decay, static_cast<double>(k_count - 1 - k));
     const double s = options.smoothness_weight / std::pow(2.0, static_cast<double>(k));

@@ -39,8 +39,7 @@ torch::Tensor Ssim(const torch::Tensor& x, const torch::Tensor& y);
 
 // Per-pixel photometric error ssim_weight * clamp((1 - SSIM) / 2, 0, 1) + (1 - ssim_weight) * L1,
 // averaged over channels. pred [B, C, H, W], target [1 or B, C, H, W] -> [B, 1, H, W].
-torch::Tensor PhotometricErrorMap(const torch::Tensor& pred, const torch::Tensor& target,
-                                  double ssim_weight = 0.85);
+torch::Tensor PhotometricErrorMap(const torch::Tensor& pred, const torch::Tensor& target, double ssim_weight = 0.85);
 
 // Clips each map b of errors [B, 1, H, W] at its own mean + factor * std (detached statistics).
 torch::Tensor ClipErrorMaps(const torch::Tensor& errors, double factor);
@@ -71,10 +70,8 @@ constexpr double kInvalidError = 1e3;
 //  intrinsics:    [3, 3] or [N, 3, 3] float, pixels of the H x W images (the target's camera).
 //  src_intrinsics: undefined (the sources share `intrinsics`) or [3, 3] / [N, 3, 3] float.
 PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::Tensor& sources,
-                                      const torch::Tensor& tgt_inv_depth,
-                                      const torch::Tensor& src_from_tgt,
-                                      const torch::Tensor& intrinsics,
-                                      const SfmLossOptions& options = {},
+                                      const torch::Tensor& tgt_inv_depth, const torch::Tensor& src_from_tgt,
+                                      const torch::Tensor& intrinsics, const SfmLossOptions& options = {},
                                       const torch::Tensor& src_intrinsics = {});
 
 struct SfmLossResult {
@@ -86,8 +83,7 @@ struct SfmLossResult {
 // The full loss over K predictions (K >= 1): inv_depths[k] [1, 1, H, W], src_from_tgts[k]
 // [N, 4, 4]; other arguments as PhotometricLoss.
 SfmLossResult SfmLoss(const torch::Tensor& target, const torch::Tensor& sources,
-                      const std::vector<torch::Tensor>& inv_depths,
-                      const std::vector<torch::Tensor>& src_from_tgts, const torch::Tensor& intrinsics,
-                      const SfmLossOptions& options = {});
+                      const std::vector<torch::Tensor>& inv_depths, const std::vector<torch::Tensor>& src_from_tgts,
+                      const torch::Tensor& intrinsics, const SfmLossOptions& options = {});
 
 }  // namespace nerfreg

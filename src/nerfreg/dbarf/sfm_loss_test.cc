@@ -70,18 +70,21 @@ TEST_F(SfmLossTest, SmoothnessIsZeroForConstantDepthAndScaleInvariant) {
 
 TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
   const SfmLossOptions options;
-  const double at_truth = PhotometricLoss(target_, sources_, inv_depth_, src_from_tgt_, scene_.intrinsics, options)
-                              .loss.item<double>();
-  const torch::Tensor rot = torch::tensor({{0.0, 0.0, 0.0, 0.0, 0.03, 0.0}, {0.0, 0.0, 0.0, 0.02, 0.0, 0.01}},
-                                          torch::kFloat);
-  const torch::Tensor trans = torch::tensor({{0.08, 0.0, 0.0, 0.0, 0.0, 0.0}, {0.0, -0.08, 0.0, 0.0, 0.0, 0.0}},
-                                            torch::kFloat);
-  const double at_rot = PhotometricLoss(target_, sources_, inv_depth_, Se3Update(rot, src_from_tgt_),
-                                        scene_.intrinsics, options).loss.item<double>();
-  const double at_trans = PhotometricLoss(target_, sources_, inv_depth_, Se3Update(trans, src_from_tgt_),
-                                          scene_.intrinsics, options).loss.item<double>();
-  const double at_depth = PhotometricLoss(target_, sources_, 1.4 * inv_depth_, src_from_tgt_,
-                                          scene_.intrinsics, options).loss.item<double>();
+  const double at_truth =
+      PhotometricLoss(target_, sources_, inv_depth_, src_from_tgt_, scene_.intrinsics, options).loss.item<double>();
+  const torch::Tensor rot =
+      torch::tensor({{0.0, 0.0, 0.0, 0.0, 0.03, 0.0}, {0.0, 0.0, 0.0, 0.02, 0.0, 0.01}}, torch::kFloat);
+  const torch::Tensor trans =
+      torch::tensor({{0.08, 0.0, 0.0, 0.0, 0.0, 0.0}, {0.0, -0.08, 0.0, 0.0, 0.0, 0.0}}, torch::kFloat);
+  const double at_rot =
+      PhotometricLoss(target_, sources_, inv_depth_, Se3Update(rot, src_from_tgt_), scene_.intrinsics, options)
+          .loss.item<double>();
+  const double at_trans =
+      PhotometricLoss(target_, sources_, inv_depth_, Se3Update(trans, src_from_tgt_), scene_.intrinsics, options)
+          .loss.item<double>();
+  const double at_depth =
+      PhotometricLoss(target_, sources_, 1.4 * inv_depth_, src_from_tgt_, scene_.intrinsics, options)
+          .loss.item<double>();
   EXPECT_LT(at_truth, 0.01);
   EXPECT_GT(at_rot, 3.0 * at_truth);
   EXPECT_GT(at_trans, 3.0 * at_truth);
@@ -90,8 +93,9 @@ TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
   // The full loss over K = 2 predictions is the documented weighted sum.
   const auto full = SfmLoss(target_, sources_, {1.4 * inv_depth_, inv_depth_},
                             {Se3Update(rot, src_from_tgt_), src_from_tgt_}, scene_.intrinsics, options);
-  const double first = PhotometricLoss(target_, sources_, 1.4 * inv_depth_, Se3Update(rot, src_from_tgt_),
-                                       scene_.intrinsics, options).loss.item<double>();
+  const double first =
+      PhotometricLoss(target_, sources_, 1.4 * inv_depth_, Se3Update(rot, src_from_tgt_), scene_.intrinsics, options)
+          .loss.item<double>();
   EXPECT_NEAR(full.photometric[0].item<double>(), first, 1e-6);
   const double expected = 0.85 * first + 1.0 * at_truth + 0.01 * full.smoothness[0].item<double>() +
                           0.005 * full.smoothness[1].item<double>();
@@ -102,8 +106,8 @@ TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
 
 TEST_F(SfmLossTest, PhotometricLossGradientsMatchFiniteDifferences) {
   SfmLossOptions options;
-  options.auto_mask = false;      // the per-pixel minimum and
-  options.clip_std_factor = -1.0; // the clipping are piecewise; test the smooth core
+  options.auto_mask = false;       // the per-pixel minimum and
+  options.clip_std_factor = -1.0;  // the clipping are piecewise; test the smooth core
   const torch::Tensor tgt = target_.to(torch::kDouble), src = sources_.to(torch::kDouble);
   const torch::Tensor k = scene_.intrinsics.to(torch::kDouble);
   const torch::Tensor inv = inv_depth_.to(torch::kDouble);
@@ -146,8 +150,8 @@ PoseRecovery RecoverPoses(const PlaneScene& scene, int steps, const SfmLossOptio
   const torch::Tensor target = scene.Render(torch::eye(4));
   const torch::Tensor sources = torch::cat({scene.Render(truth[0]), scene.Render(truth[1])}, 0);
   const torch::Tensor inv_depth = scene.TargetInverseDepth();
-  const torch::Tensor perturb = torch::tensor({{0.04, -0.03, 0.02, 0.03, -0.035, 0.02},
-                                               {-0.03, 0.04, 0.03, -0.025, 0.03, 0.035}}, torch::kFloat);
+  const torch::Tensor perturb =
+      torch::tensor({{0.04, -0.03, 0.02, 0.03, -0.035, 0.02}, {-0.03, 0.04, 0.03, -0.025, 0.03, 0.035}}, torch::kFloat);
   const torch::Tensor start = Se3Update(perturb, truth);
   const auto rot_error = [&](const torch::Tensor& est) {
     return So3GeodesicAngle(est, truth).max().item<double>() * 180.0 / kPi;
@@ -209,8 +213,8 @@ namespace {
 // (a coarse log-inverse-depth grid, bilinearly upsampled), from a constant-depth start.
 TEST_F(SfmLossTest, JointPoseAndDepthRefinementFromAConstantDepth) {
   namespace F = torch::nn::functional;
-  const torch::Tensor perturb = torch::tensor({{0.03, -0.02, 0.01, 0.025, -0.03, 0.015},
-                                               {-0.02, 0.03, 0.02, -0.02, 0.025, 0.03}}, torch::kFloat);
+  const torch::Tensor perturb =
+      torch::tensor({{0.03, -0.02, 0.01, 0.025, -0.03, 0.015}, {-0.02, 0.03, 0.02, -0.02, 0.025, 0.03}}, torch::kFloat);
   const torch::Tensor start = Se3Update(perturb, src_from_tgt_);
   const auto rot_error = [&](const torch::Tensor& est) {
     return So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / kPi;
@@ -242,8 +246,8 @@ TEST_F(SfmLossTest, JointPoseAndDepthRefinementFromAConstantDepth) {
     adam.step();
   }
   const double rot1 = rot_error(Se3Update(delta.detach(), start)), depth1 = depth_error();
-  LOG_INFO("joint refinement: rotation {:.3f} -> {:.3f} deg, inverse-depth error {:.3f} -> {:.3f}", rot0, rot1,
-           depth0, depth1);
+  LOG_INFO("joint refinement: rotation {:.3f} -> {:.3f} deg, inverse-depth error {:.3f} -> {:.3f}", rot0, rot1, depth0,
+           depth1);
   EXPECT_LT(rot1, 0.5 * rot0);
   EXPECT_LT(depth1, 0.5 * depth0);
 }

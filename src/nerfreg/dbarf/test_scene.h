@@ -28,8 +28,8 @@ struct PlaneScene {
     s.height = height;
     s.width = width;
     const double f = 0.9 * static_cast<double>(width);
-    s.intrinsics = torch::tensor({f, 0.0, width / 2.0, 0.0, f, height / 2.0, 0.0, 0.0, 1.0},
-                                 torch::kFloat).view({3, 3});
+    s.intrinsics =
+        torch::tensor({f, 0.0, width / 2.0, 0.0, f, height / 2.0, 0.0, 0.0, 1.0}, torch::kFloat).view({3, 3});
     s.normal = torch::tensor({0.0f, 0.0f, 1.0f});
     s.offset = depth;
     return s;

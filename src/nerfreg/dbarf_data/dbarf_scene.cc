@@ -139,8 +139,8 @@ void WriteSfmCache(const std::string& file, const std::string& scene_path, const
 }  // namespace
 
 Image InverseDepthImage(const torch::Tensor& depth, const torch::Tensor& valid, double near, double far) {
-  const torch::Tensor inv = ((1.0 / depth.clamp_min(1e-6) - 1.0 / far) / (1.0 / near - 1.0 / far)).clamp(0, 1) *
-                            valid.to(torch::kFloat);
+  const torch::Tensor inv =
+      ((1.0 / depth.clamp_min(1e-6) - 1.0 / far) / (1.0 / near - 1.0 / far)).clamp(0, 1) * valid.to(torch::kFloat);
   return TensorToImage(inv.unsqueeze(0));
 }
 
@@ -199,11 +199,12 @@ Json ViewGraphToJson(const ViewGraph& graph) {
 std::vector<int> NearestViews(const DbarfScene& scene, const torch::Tensor& cam_from_world, int k) {
   TORCH_CHECK(scene.cam_from_world.defined(), "NearestViews: the scene has no cameras");
   const auto centre = [](const torch::Tensor& c) {  // -R^T t
-    return -torch::matmul(c.slice(-2, 0, 3).slice(-1, 0, 3).transpose(-1, -2), c.slice(-2, 0, 3).slice(-1, 3, 4)).squeeze(-1);
+    return -torch::matmul(c.slice(-2, 0, 3).slice(-1, 0, 3).transpose(-1, -2), c.slice(-2, 0, 3).slice(-1, 3, 4))
+                .squeeze(-1);
   };
   const auto axis = [](const torch::Tensor& c) { return c.slice(-2, 2, 3).slice(-1, 0, 3).squeeze(-2); };  // row 3 of R
-  const torch::Tensor centres = centre(scene.cam_from_world);  // [V, 3]
-  const torch::Tensor axes = axis(scene.cam_from_world);       // [V, 3]
+  const torch::Tensor centres = centre(scene.cam_from_world);                                              // [V, 3]
+  const torch::Tensor axes = axis(scene.cam_from_world);                                                   // [V, 3]
   // Scale: median over views of the distance to the nearest other view.
   const torch::Tensor d = torch::cdist(centres, centres) + 1e9 * torch::eye(centres.size(0));
   const double scale = std::max(1e-9, std::get<0>(d.min(1)).median().item<double>());
@@ -235,9 +236,9 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
   views.images = scene.images.index_select(0, idx).to(device);
   views.intrinsics = scene.intrinsics.index_select(0, idx).to(device);
   views.cam_from_world = scene.cam_from_world.index_select(0, idx).to(device);
-  const IbrRenderOutput out =
-      RenderIbrImage(model.nerf.feature_net, model.nerf.ibrnet, views, intrinsics.to(device, torch::kFloat),
-                     cam_from_world.to(device, torch::kFloat), height, width, scene.near, scene.far, model.options.nerf.render);
+  const IbrRenderOutput out = RenderIbrImage(
+      model.nerf.feature_net, model.nerf.ibrnet, views, intrinsics.to(device, torch::kFloat),
+      cam_from_world.to(device, torch::kFloat), height, width, scene.near, scene.far, model.options.nerf.render);
   // Back on the CPU, where images are written and scored.
   return {out.rgb.t().reshape({3, height, width}).contiguous().cpu(), out.depth.reshape({height, width}).cpu(),
           out.valid.reshape({height, width}).cpu()};
@@ -312,16 +313,18 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     const std::string file = d.ImagePath(f);
     Image image = ReadImage(file);
     if (image.width != f.camera.width || image.height != f.camera.height) {
-      ThrowInputError(file, "", "an image of the camera's size " + std::to_string(f.camera.width) + "x" +
-                                    std::to_string(f.camera.height) + ", got " + std::to_string(image.width) + "x" +
-                                    std::to_string(image.height));
+      ThrowInputError(file, "",
+                      "an image of the camera's size " + std::to_string(f.camera.width) + "x" +
+                          std::to_string(f.camera.height) + ", got " + std::to_string(image.width) + "x" +
+                          std::to_string(image.height));
     }
     torch::Tensor t = ImageToTensor(image);
     if (options.max_width > 0 && image.width > options.max_width) {
       const int64_t w = options.max_width;
       const int64_t h = std::max<int64_t>(1, std::lround(static_cast<double>(image.height) * w / image.width));
       t = torch::nn::functional::interpolate(
-              t.unsqueeze(0), torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea))
+              t.unsqueeze(0),
+              torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea))
               .squeeze(0);
       const double sx = static_cast<double>(w) / image.width, sy = static_cast<double>(h) / image.height;
       f.camera.fx *= sx;
@@ -333,8 +336,9 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
       image = TensorToImage(t);
     }
     if (!tensors.empty() && t.sizes() != tensors[0].sizes()) {
-      ThrowInputError(file, "", "images of one size (the first is " + std::to_string(tensors[0].size(2)) + "x" +
-                                    std::to_string(tensors[0].size(1)) + ")");
+      ThrowInputError(file, "",
+                      "images of one size (the first is " + std::to_string(tensors[0].size(2)) + "x" +
+                          std::to_string(tensors[0].size(1)) + ")");
     }
     tensors.push_back(t);
     intrinsics.push_back(IntrinsicsToTensor(f.camera));
@@ -367,7 +371,8 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     }
     scene.neighbours.resize(v);
     for (int64_t i = 0; i < v; ++i) {
-      std::stable_sort(weighted[i].begin(), weighted[i].end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+      std::stable_sort(weighted[i].begin(), weighted[i].end(),
+                       [](const auto& x, const auto& y) { return x.first > y.first; });
       for (const auto& [w, j] : weighted[i]) scene.neighbours[i].push_back(j);
     }
     scene.near = posed.near;
@@ -404,7 +409,8 @@ LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions
     }
     scene.cam_from_world = torch::stack(estimated);
     scene.neighbours.resize(v);
-    for (int64_t i = 0; i < v; ++i) scene.neighbours[i] = sfm.view_graph.Neighbors(static_cast<int>(i), static_cast<int>(v));
+    for (int64_t i = 0; i < v; ++i)
+      scene.neighbours[i] = sfm.view_graph.Neighbors(static_cast<int>(i), static_cast<int>(v));
     DepthRangeFromPoints(sfm, path, &scene.near, &scene.far);
     out.estimated_here = true;
     if (!cache_file.empty()) WriteSfmCache(cache_file, path, scene, sfm.posed);

@@ -37,8 +37,8 @@ struct DbarfSceneOptions {
   // With "ground-truth" the poses are put in the frame `dbarf poses` writes (the first usable
   // camera at the identity, the mean distance of the others to it 1), the view graph is the
   // nearest cameras (centre distance plus viewing angle), and the depth range is the frames' own
-  // near / far in that frame, widened as the SfM's estimate is; no SfM runs, so scenes the SfM cannot pose (low texture,
-  // repetition) can be trained on too.
+  // near / far in that frame, widened as the SfM's estimate is; no SfM runs, so scenes the SfM cannot pose (low
+  // texture, repetition) can be trained on too.
   std::string cameras = "estimated";
   void Check() const;  // throws InputError naming the option
 };

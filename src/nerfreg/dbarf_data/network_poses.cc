@@ -24,7 +24,8 @@ void NetworkPosesOptions::Check() const {
   if (!(graph_edge_weight >= 0)) throw InputError("graph_edge_weight: expected >= 0");
   if (max_width < 0) throw InputError("max_width: expected >= 0");
   if (!(near > 0) || !(far > near)) {
-    throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " + std::to_string(far));
+    throw InputError("--near / --far: expected 0 < near < far, got " + std::to_string(near) + " / " +
+                     std::to_string(far));
   }
   try {
     averaging.Check();
@@ -53,13 +54,15 @@ namespace {
 
 // Zero-mean, unit-norm grey 16 x 12 thumbnails' dot products. images: [V, 3, H, W]; returns [V, V].
 torch::Tensor ThumbnailSimilarity(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "ThumbnailSimilarity: expected [V, 3, H, W], got ", images.sizes());
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "ThumbnailSimilarity: expected [V, 3, H, W], got ",
+              images.sizes());
   torch::NoGradGuard no_grad;
   const int64_t v = images.size(0);
   namespace F = torch::nn::functional;
   const torch::Tensor grey = images.to(torch::kFloat).mean(1, true);  // [V, 1, H, W]
   torch::Tensor thumbs =
-      F::interpolate(grey, F::InterpolateFuncOptions().size(std::vector<int64_t>{12, 16}).mode(torch::kArea)).reshape({v, -1});
+      F::interpolate(grey, F::InterpolateFuncOptions().size(std::vector<int64_t>{12, 16}).mode(torch::kArea))
+          .reshape({v, -1});
   thumbs = thumbs - thumbs.mean(1, true);
   thumbs = thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);  // [V, 192]
   return torch::matmul(thumbs, thumbs.t()).contiguous();      // [V, V]
@@ -87,8 +90,8 @@ std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const V
   const int64_t v = images.size(0);
   TORCH_CHECK(static_cast<int64_t>(names.size()) == v, "ImageInputProblems: one name per image");
   const torch::Tensor grey = images.to(torch::kFloat).mean(1).reshape({v, -1});  // [V, H * W]
-  const torch::Tensor grey_std = grey.std(1);                                       // [V]
-  const torch::Tensor similarity = ThumbnailSimilarity(images);                    // [V, V]
+  const torch::Tensor grey_std = grey.std(1);                                    // [V]
+  const torch::Tensor similarity = ThumbnailSimilarity(images);                  // [V, V]
   std::vector<std::string> out(v);
   for (int64_t i = 0; i < v; ++i) {
     if (grey_std[i].item<double>() < kTexturelessGreyStd) {
@@ -100,7 +103,8 @@ std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const V
       if (j == i) continue;
       const double sim = similarity[i][j].item<float>();
       best = std::max(best, sim);
-      if (out[i].empty() && sim > 0.999 && (images[i] - images[j]).abs().max().item<double>() <= 2.0 / 255) out[i] = "identical to " + names[j];
+      if (out[i].empty() && sim > 0.999 && (images[i] - images[j]).abs().max().item<double>() <= 2.0 / 255)
+        out[i] = "identical to " + names[j];
     }
     if (!out[i].empty()) continue;
     bool has_edge = false;
@@ -128,7 +132,8 @@ std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::ve
 }
 
 NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, const torch::Tensor& intrinsics,
-                                int target, const std::vector<int>& sources, const std::vector<Rigid3d>& initial_src_from_tgt) {
+                                int target, const std::vector<int>& sources,
+                                const std::vector<Rigid3d>& initial_src_from_tgt) {
   TORCH_CHECK(!sources.empty(), "RunPoseNetwork: no sources");
   TORCH_CHECK(initial_src_from_tgt.empty() || initial_src_from_tgt.size() == sources.size(),
               "RunPoseNetwork: one initial pose per source");
@@ -145,13 +150,15 @@ NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, 
     for (const Rigid3d& p : initial_src_from_tgt) m.push_back(Matrix4ToTensor(p.ToMatrix()));
     initial = torch::stack(m).to(device);
   }
-  const PoseDepthPrediction pred = net->forward(images.slice(0, target, target + 1).to(device),
-                                                images.index_select(0, idx).to(device), intrinsics[target].to(device), initial);
+  const PoseDepthPrediction pred =
+      net->forward(images.slice(0, target, target + 1).to(device), images.index_select(0, idx).to(device),
+                   intrinsics[target].to(device), initial);
   const torch::Tensor src_from_tgt = pred.src_from_tgt.back().cpu();  // [N, 4, 4]
   NetworkTargetRun run;
   for (size_t k = 0; k < sources.size(); ++k) {
     const Eigen::Matrix4d m = TensorToMatrix4(src_from_tgt[static_cast<int64_t>(k)]);
-    run.poses.push_back({target, sources[k], Rigid3d(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>()))});
+    run.poses.push_back({target, sources[k],
+                         Rigid3d(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>()))});
   }
   const torch::Tensor depth = std::get<0>((1.0 / pred.inv_depths.back().reshape({-1}).cpu()).sort());  // [H * W]
   const int64_t last = depth.size(0) - 1;
@@ -218,7 +225,8 @@ NetworkRegistration RegisterFromRelativePoses(const std::vector<Rigid3d>& src_fr
 
 std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& cam_from_world,
                                                    const std::vector<bool>& posed,
-                                                   const std::vector<NetworkRelativePose>& poses, const ViewGraph& graph) {
+                                                   const std::vector<NetworkRelativePose>& poses,
+                                                   const ViewGraph& graph) {
   const int n = static_cast<int>(cam_from_world.size());
   std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   for (const NetworkRelativePose& p : poses) {
@@ -276,8 +284,10 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
     if (!averaged.posed[e.i] || !averaged.posed[e.j]) continue;
     const double length = e.j_from_i.translation.norm();
     if (averaged.edge_inlier[k] && length > 1e-9) {
-      scales.push_back((averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation).norm() /
-                       length);
+      scales.push_back(
+          (averaged.cam_from_world[e.j].Inverse().translation - averaged.cam_from_world[e.i].Inverse().translation)
+              .norm() /
+          length);
     }
   }
   out.scale = scales.empty() ? 1.0 : Median(scales);
@@ -300,14 +310,15 @@ torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
 }
 
 // The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
-std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                                                      int max_width) {
+std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images,
+                                                      const std::vector<Camera>& cameras, int max_width) {
   torch::Tensor stacked = StackImages(images), intrinsics = StackIntrinsics(cameras);
   const int64_t w = stacked.size(3), h = stacked.size(2);
   if (max_width <= 0 || w <= max_width) return {stacked, intrinsics};
   const int64_t new_w = max_width, new_h = std::max<int64_t>(1, std::lround(double(h) * max_width / w));
   namespace F = torch::nn::functional;
-  stacked = F::interpolate(stacked, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
+  stacked =
+      F::interpolate(stacked, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
   intrinsics = intrinsics.clone();
   intrinsics.select(1, 0) *= double(new_w) / w;  // fx, skew, cx
   intrinsics.select(1, 1) *= double(new_h) / h;  // fy, cy
@@ -438,8 +449,9 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
         // The last cameras, in the output frame (mean distance to the first camera 1: the frame of
         // the scenes the network is trained on, whose depth range options.near / far is).
         for (int s : sources[t])
-          initial.push_back(average.averaged.posed[s] ? average.averaged.cam_from_world[s] * average.averaged.cam_from_world[t].Inverse()
-                                                      : Rigid3d());
+          initial.push_back(average.averaged.posed[s]
+                                ? average.averaged.cam_from_world[s] * average.averaged.cam_from_world[t].Inverse()
+                                : Rigid3d());
       }
       const NetworkTargetRun run = RunPoseNetwork(model.pose_net, images, intrinsics, t, sources[t], initial);
       poses.insert(poses.end(), run.poses.begin(), run.poses.end());
@@ -455,8 +467,8 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     result->far = p98.empty() ? options.far : 1.4 * average.scale * Median(p98);
   }
   if (options.bundle_adjust) {
-    PhotometricRefine(images, intrinsics, inv_depths, sources, average.averaged.posed, average.scale, options.photometric_ba,
-                      &average.averaged.cam_from_world, &result->near, &result->far);
+    PhotometricRefine(images, intrinsics, inv_depths, sources, average.averaged.posed, average.scale,
+                      options.photometric_ba, &average.averaged.cam_from_world, &result->near, &result->far);
     average.confidence = NetworkConfidence(average.averaged.cam_from_world, average.averaged.posed, poses, graph);
   }
   for (int k = 0; k < n; ++k) {
@@ -483,7 +495,8 @@ double PhotometricCameraScore(const torch::Tensor& images, const torch::Tensor& 
   std::vector<torch::Tensor> depth_maps, cams;
   for (int t = 0; t < n; ++t) {
     const bool have_depth = net.inv_depths[t].defined();
-    depth_maps.push_back(have_depth ? net.inv_depths[t][0] / net.scale : torch::ones({1, images.size(2), images.size(3)}));
+    depth_maps.push_back(have_depth ? net.inv_depths[t][0] / net.scale
+                                    : torch::ones({1, images.size(2), images.size(3)}));
     cams.push_back(Matrix4ToTensor(cam_from_world[t].ToMatrix()).to(torch::kDouble));
     if (posed[t] && fixed < 0) fixed = t;
     if (!have_depth || !posed[t]) continue;
@@ -496,7 +509,8 @@ double PhotometricCameraScore(const torch::Tensor& images, const torch::Tensor& 
   o.optimize_depth = true;
   o.levels = 2;
   o.iterations_per_level = 30;
-  return PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, o).final_loss;
+  return PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, o)
+      .final_loss;
 }
 
 // Method auto: the images the SfM left out, each registered against posed sources.
@@ -526,10 +540,11 @@ void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, 
     result->confidence[u].edges = reg.pairs;
     result->confidence[u].rotation_residual_deg = reg.pair_rotation_error_deg;
     result->confidence[u].direction_residual_deg = reg.pair_direction_error_deg;
-    LOG_INFO("{}: posed by the network against {} SfM cameras (scale {:.3g}; on the edges between them, rotation "
-             "error {:.2f} deg, direction error {:.1f} deg)",
-             result->sfm.view_graph.names[u], sources.size(), reg.scale, reg.pair_rotation_error_deg,
-             reg.pair_direction_error_deg);
+    LOG_INFO(
+        "{}: posed by the network against {} SfM cameras (scale {:.3g}; on the edges between them, rotation "
+        "error {:.2f} deg, direction error {:.1f} deg)",
+        result->sfm.view_graph.names[u], sources.size(), reg.scale, reg.pair_rotation_error_deg,
+        reg.pair_direction_error_deg);
   }
   result->seconds_network += timer.Seconds();
 }
@@ -557,8 +572,8 @@ std::string DescribeLowConfidence(const ImagePosesResult& result, const std::vec
     const ImagePoseConfidence& c = result.confidence[k];
     if (!result.posed[k] || !c.low) continue;
     char buf[160];
-    std::snprintf(buf, sizeof(buf), "%s: rotation %.2f deg, direction %.1f deg over %d edges", result.posed_by[k].c_str(),
-                  c.rotation_residual_deg, c.direction_residual_deg, c.edges);
+    std::snprintf(buf, sizeof(buf), "%s: rotation %.2f deg, direction %.1f deg over %d edges",
+                  result.posed_by[k].c_str(), c.rotation_residual_deg, c.direction_residual_deg, c.edges);
     out += (out.empty() ? "" : ", ") + names[k] + " (" + buf;
     if (c.observations >= 0) out += ", " + std::to_string(c.observations) + " points";
     if (!c.problem.empty()) out += "; " + c.problem;
@@ -576,18 +591,19 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   }
   const int n = static_cast<int>(images.size());
   if (n < 3) {
-    ThrowInputError(names.empty() ? std::string("images") : names[0], "", "at least 3 images to pose, got " + std::to_string(n));
+    ThrowInputError(names.empty() ? std::string("images") : names[0], "",
+                    "at least 3 images to pose, got " + std::to_string(n));
   }
   // As the view graph checks them (the network method may not build one).
   for (int k = 0; k < n; ++k) {
     if (images[k].width != images[0].width || images[k].height != images[0].height) {
-      ThrowInputError(names[k], "size", std::to_string(images[0].width) + "x" + std::to_string(images[0].height) +
-                                            " like " + names[0] + ", got " + std::to_string(images[k].width) + "x" +
-                                            std::to_string(images[k].height));
+      ThrowInputError(names[k], "size",
+                      std::to_string(images[0].width) + "x" + std::to_string(images[0].height) + " like " + names[0] +
+                          ", got " + std::to_string(images[k].width) + "x" + std::to_string(images[k].height));
     }
     if (images[k].width != cameras[k].width || images[k].height != cameras[k].height) {
-      ThrowInputError(names[k], "size", "the camera's " + std::to_string(cameras[k].width) + "x" +
-                                            std::to_string(cameras[k].height));
+      ThrowInputError(names[k], "size",
+                      "the camera's " + std::to_string(cameras[k].width) + "x" + std::to_string(cameras[k].height));
     }
   }
   const Timer timer;
@@ -636,8 +652,10 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     // right where the network's cameras scored better (docs/poses_and_views.md).
     const double doubted = DoubtedFraction(result, options);
     if (doubted >= options.auto_doubt_fraction && !AssessSfm(result.sfm, cameras).WellConstrained()) {
-      LOG_WARN("the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
-               "that explain the images better", 100 * doubted);
+      LOG_WARN(
+          "the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
+          "that explain the images better",
+          100 * doubted);
       const Timer check;
       ImagePosesResult net = result;
       net.posed.assign(n, false);
@@ -700,7 +718,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   result.sfm.not_posed.clear();
   // Whatever a method made of them, images without the content to pose them are flagged.
   const bool matched = options.method != "network" || options.network.match_images;
-  const std::vector<std::string> problems = ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
+  const std::vector<std::string> problems =
+      ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
   for (int k = 0; k < n; ++k) {
     if (!result.posed[k]) {
       result.not_posed.push_back(names[k]);

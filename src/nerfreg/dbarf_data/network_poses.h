@@ -104,17 +104,17 @@ struct ImagePosesOptions {
   double low_confidence_direction_deg = 30.0;  // direction residual
   int low_confidence_observations = 10;
   torch::Device device = torch::kCPU;  // --device: where the network runs (the images stay on the CPU)
-  void Check() const;  // throws InputError naming the option
+  void Check() const;                  // throws InputError naming the option
 };
 
 struct ImagePoseConfidence {
-  int edges = 0;                        // pairwise measurements checked (see the top of this file)
-  double rotation_residual_deg = 180;   // their median rotation disagreement, degrees (180: none)
+  int edges = 0;                       // pairwise measurements checked (see the top of this file)
+  double rotation_residual_deg = 180;  // their median rotation disagreement, degrees (180: none)
   // The same for the translation directions: the angle between the measured direction and the
   // accepted poses' (180: none, or zero translations).
   double direction_residual_deg = 180;
-  int observations = -1;                // sfm: triangulated points seen; -1 for network
-  double reprojection_error_px = -1;    // sfm: their mean reprojection error; -1 for network
+  int observations = -1;              // sfm: triangulated points seen; -1 for network
+  double reprojection_error_px = -1;  // sfm: their mean reprojection error; -1 for network
   // What the pixels alone say against any pose of the image (ImageInputProblems); empty: nothing.
   std::string problem;
   bool low = false;
@@ -123,20 +123,20 @@ struct ImagePoseConfidence {
 struct ImagePosesResult {
   std::vector<Rigid3d> cam_from_world;  // per image; identity where !posed
   std::vector<bool> posed;
-  std::vector<std::string> posed_by;    // per image: "sfm", "network" or "" (not posed)
+  std::vector<std::string> posed_by;  // per image: "sfm", "network" or "" (not posed)
   std::vector<ImagePoseConfidence> confidence;
   std::vector<std::string> not_posed, low_confidence;  // image names
-  double near = 0, far = 0;             // depth range of the content in the output frame
+  double near = 0, far = 0;                            // depth range of the content in the output frame
   // The classical result (auto, classical: its points and view graph; cam_from_world / posed are
   // the final ones); network: the view graph only (keypoints empty when images were not matched).
   SfmResult sfm;
-  std::string method_used;              // classical | network | auto (auto may fall back to network)
+  std::string method_used;  // classical | network | auto (auto may fall back to network)
   // Auto's check of a doubtful SfM (ImagePosesOptions::auto_doubt_fraction): the photometric error
   // of the SfM's and of the network's cameras, and which were kept ("sfm" / "network"); empty and
   // -1 where the check did not run.
   std::string auto_choice;
   double auto_sfm_score = -1, auto_network_score = -1;
-  int num_network_edges = 0;            // relative poses predicted by the network
+  int num_network_edges = 0;  // relative poses predicted by the network
   // The (target, source) pairs the network was run on (once each, whatever the passes): neighbours
   // for dbarf finetune / render where the view graph has none (images without matches).
   std::vector<std::pair<int, int>> network_pairs;
@@ -205,7 +205,7 @@ NetworkTargetRun RunPoseNetwork(PoseDepthNet& net, const torch::Tensor& images, 
 struct NetworkEdgeAverage {
   RelativePoseAveragingResult averaged;
   std::vector<ImagePoseConfidence> confidence;  // per image
-  double scale = 1;  // output units per network unit: median over the kept edges
+  double scale = 1;                             // output units per network unit: median over the kept edges
 };
 // graph_edge_weight > 0: the graph's essential-matrix edges are averaged too, at that weight each
 // (NetworkPosesOptions::graph_edge_weight); the confidence still checks against them.
@@ -216,7 +216,8 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
 // graph's edges where the image has any between posed images, else against the network's edges.
 std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& cam_from_world,
                                                    const std::vector<bool>& posed,
-                                                   const std::vector<NetworkRelativePose>& poses, const ViewGraph& graph);
+                                                   const std::vector<NetworkRelativePose>& poses,
+                                                   const ViewGraph& graph);
 
 // A target registered against posed sources from the network's src_from_tgt per source.
 struct NetworkRegistration {

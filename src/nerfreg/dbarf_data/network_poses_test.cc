@@ -22,7 +22,8 @@ Rigid3d LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target) {
 TEST(NetworkPoses, RegistrationFromExactRelativePosesRecoversTheTargetAndTheNetworkScale) {
   const Rigid3d target = LookAt({0.3, 0.1, -4}, {0, 0, 0});
   std::vector<Rigid3d> src_from_world, src_from_tgt;
-  for (const Eigen::Vector3d c : {Eigen::Vector3d(-1, 0, -4), Eigen::Vector3d(1, 0.3, -4.2), Eigen::Vector3d(0, -0.8, -3.7)}) {
+  for (const Eigen::Vector3d c :
+       {Eigen::Vector3d(-1, 0, -4), Eigen::Vector3d(1, 0.3, -4.2), Eigen::Vector3d(0, -0.8, -3.7)}) {
     src_from_world.push_back(LookAt(c, {0.1, 0, 0.2}));
     Rigid3d rel = src_from_world.back() * target.Inverse();
     rel.translation /= 2.5;  // the network's units: 2.5 SfM units each
@@ -43,7 +44,8 @@ TEST(NetworkPoses, ANetworkThatPredictsIdentityIsCaughtOnTheSharedEdges) {
   std::vector<Rigid3d> src_from_world = {LookAt({-1.5, 0, -4}, {0, 0, 0}), LookAt({1.5, 0, -4}, {0, 0, 0})};
   const NetworkRegistration r = RegisterFromRelativePoses(src_from_world, {Rigid3d(), Rigid3d()});
   EXPECT_EQ(r.pairs, 1);
-  EXPECT_NEAR(r.pair_rotation_error_deg, RotationErrorDeg(src_from_world[1].rotation, src_from_world[0].rotation), 1e-9);
+  EXPECT_NEAR(r.pair_rotation_error_deg, RotationErrorDeg(src_from_world[1].rotation, src_from_world[0].rotation),
+              1e-9);
   EXPECT_GT(r.pair_rotation_error_deg, 20.0);
   // No translation: no direction, and no scale fitted from it (the depth range's units are kept).
   EXPECT_EQ(r.pair_direction_error_deg, 180.0);
@@ -73,7 +75,8 @@ TEST(NetworkPoses, ExactNetworkEdgesAverageToTheCamerasAndTheGraphChecksThem) {
   e.i = 0;
   e.j = 1;
   e.j_from_i = truth[1] * truth[0].Inverse();
-  e.j_from_i.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitY())) * e.j_from_i.rotation;
+  e.j_from_i.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitY())) * e.j_from_i.rotation;
   e.j_from_i.translation.normalize();
   graph.edges.push_back(e);
   const NetworkEdgeAverage a = AverageNetworkEdges(6, poses, graph, {});
@@ -93,7 +96,7 @@ TEST(NetworkPoses, ExactNetworkEdgesAverageToTheCamerasAndTheGraphChecksThem) {
   EXPECT_NEAR(a.confidence[1].rotation_residual_deg, 10.0, 1e-3);
   EXPECT_LT(a.confidence[3].rotation_residual_deg, 1e-4);  // no graph edge: the network's own edges
   EXPECT_LT(a.confidence[3].direction_residual_deg, 1e-3);
-  EXPECT_EQ(a.confidence[3].edges, 8);                     // 4 as target, 4 as source
+  EXPECT_EQ(a.confidence[3].edges, 8);  // 4 as target, 4 as source
 }
 
 // Two "places": images 0, 2, 4 show one texture, 1, 3 another, each slightly shifted.
@@ -102,7 +105,8 @@ torch::Tensor TwoPlaces() {
   const testing_scene::PlaneScene b = testing_scene::PlaneScene::Ridge(2.0);
   std::vector<torch::Tensor> images;
   for (int k = 0; k < 5; ++k) {
-    const torch::Tensor shift = Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
+    const torch::Tensor shift =
+        Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
     images.push_back(k % 2 == 0 ? a.Render(shift)[0] : 1.0 - b.Render(shift)[0]);
   }
   return torch::stack(images);  // [5, 3, 48, 64]
@@ -126,7 +130,8 @@ TEST(NetworkPoses, SourcesComeFromTheViewGraphAndFromAppearanceWhereItHasTooFewE
   graph.edges.push_back({0, 1, 50, 40, Rigid3d(), {}});
   graph.edges.push_back({0, 2, 50, 90, Rigid3d(), {}});
   graph.edges.push_back({3, 0, 50, 20, Rigid3d(), {}});
-  const std::vector<std::vector<int>> appearance = {{4, 1, 2, 3}, {0, 2, 3, 4}, {0, 1, 3, 4}, {4, 2, 1, 0}, {3, 2, 1, 0}};
+  const std::vector<std::vector<int>> appearance = {
+      {4, 1, 2, 3}, {0, 2, 3, 4}, {0, 1, 3, 4}, {4, 2, 1, 0}, {3, 2, 1, 0}};
   NetworkPosesOptions o;
   o.num_sources = 3;
   o.min_graph_neighbours = 2;
@@ -149,7 +154,8 @@ TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
   std::vector<Camera> cameras;
   std::vector<std::string> names;
   for (int k = 0; k < 5; ++k) {
-    const Rigid3d cam_from_plane(Eigen::Matrix3d(Eigen::AngleAxisd(0.03 * k, Eigen::Vector3d::UnitY())), Eigen::Vector3d(-0.2 * k, 0.02 * k, 0));
+    const Rigid3d cam_from_plane(Eigen::Matrix3d(Eigen::AngleAxisd(0.03 * k, Eigen::Vector3d::UnitY())),
+                                 Eigen::Vector3d(-0.2 * k, 0.02 * k, 0));
     images.push_back(TensorToImage(plane.Render(Matrix4ToTensor(cam_from_plane.ToMatrix()))[0]));
     const float f = plane.intrinsics[0][0].item<float>();
     cameras.push_back(Camera::Pinhole(64, 48, f, f, 32, 24));
@@ -251,7 +257,8 @@ TEST(NetworkPoses, EssentialMatrixEdgesAveragedWithTheNetworksAnchorTheCameras) 
     double worst = 0;
     for (int k = 0; k < 6; ++k) {
       EXPECT_TRUE(a.averaged.posed[k]);
-      worst = std::max(worst, RotationErrorDeg(a.averaged.cam_from_world[k].rotation, (truth[k] * truth[0].Inverse()).rotation));
+      worst = std::max(
+          worst, RotationErrorDeg(a.averaged.cam_from_world[k].rotation, (truth[k] * truth[0].Inverse()).rotation));
     }
     return worst;
   };
@@ -269,20 +276,22 @@ TEST(NetworkPoses, InputProblemsNameTexturelessIdenticalAndUnrelatedImages) {
   const testing_scene::PlaneScene b = testing_scene::PlaneScene::Ridge(2.0);
   std::vector<torch::Tensor> images;
   for (int k = 0; k < 4; ++k) {
-    const torch::Tensor shift = Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
+    const torch::Tensor shift =
+        Matrix4ToTensor(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.05 * k, 0, 0)).ToMatrix());
     images.push_back(a.Render(shift)[0]);
   }
   images.push_back(1.0 - b.Render(Matrix4ToTensor(Eigen::Matrix4d::Identity()))[0]);  // 4: another place
-  images.push_back(torch::full_like(images[0], 0.5));                                  // 5: flat
-  images.push_back(images[1].clone());                                                  // 6: a copy of 1
-  const torch::Tensor stacked = torch::stack(images);                                   // [7, 3, 48, 64]
+  images.push_back(torch::full_like(images[0], 0.5));                                 // 5: flat
+  images.push_back(images[1].clone());                                                // 6: a copy of 1
+  const torch::Tensor stacked = torch::stack(images);                                 // [7, 3, 48, 64]
   const std::vector<std::string> names = {"a0", "a1", "a2", "a3", "b", "grey", "copy"};
   ViewGraph graph;
   graph.names = names;
   graph.keypoints.resize(7);
   for (int i = 0; i < 3; ++i) graph.edges.push_back({i, i + 1, 50, 50, Rigid3d(), {}});
   const std::vector<std::string> p = ImageInputProblems(stacked, graph, true, names);
-  EXPECT_EQ(p, (std::vector<std::string>{"", "identical to copy", "", "", "unrelated", "textureless", "identical to a1"}));
+  EXPECT_EQ(p,
+            (std::vector<std::string>{"", "identical to copy", "", "", "unrelated", "textureless", "identical to a1"}));
   // Without matching there is no view graph to say an image is unrelated.
   EXPECT_EQ(ImageInputProblems(stacked, graph, false, names)[4], "");
 }

@@ -16,7 +16,8 @@ Json ConfidenceToJson(const ImagePoseConfidence& c) {
                {"rotation_residual_deg", c.rotation_residual_deg},
                {"direction_residual_deg", c.direction_residual_deg},
                {"low", c.low}};
-  if (c.observations >= 0) conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
+  if (c.observations >= 0)
+    conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
   if (!c.problem.empty()) conf["problem"] = c.problem;
   return conf;
 }
@@ -66,7 +67,8 @@ PosedImagesInfo ReadPosedImagesInfo(const Json& json, const std::string& path) {
 void WriteRefinedPosedImages(const std::string& input, Dataset refined, const std::string& path) {
   const Json original = ReadJsonFile(TransformsJsonPath(input));
   const fs::path out_dir = fs::absolute(fs::path(path)).parent_path();
-  for (Frame& f : refined.frames) f.file_path = fs::relative(fs::absolute(refined.ImagePath(f)), out_dir).generic_string();
+  for (Frame& f : refined.frames)
+    f.file_path = fs::relative(fs::absolute(refined.ImagePath(f)), out_dir).generic_string();
   refined.root = out_dir.string();
   Json json = TransformsJsonFromDataset(refined);
   for (const char* key : {"view_graph", "not_posed", "dbarf_poses"})

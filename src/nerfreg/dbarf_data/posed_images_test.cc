@@ -25,7 +25,8 @@ PosedImages ThreeImages(const std::string& dir) {
     posed.confidence.push_back(ImagePoseConfidence{});
   }
   posed.not_posed = {"im_3.png"};
-  posed.view_graph = Json::array({{"im_0.png", "im_1.png", 120}, {"im_1.png", "im_2.png", 0}, {"im_3.png", "im_0.png", 7}});
+  posed.view_graph =
+      Json::array({{"im_0.png", "im_1.png", 120}, {"im_1.png", "im_2.png", 0}, {"im_3.png", "im_0.png", 7}});
   posed.info = {{"near", 0.25}, {"far", 9.5}, {"method", "auto"}};
   return posed;
 }
@@ -73,7 +74,8 @@ TEST(PosedImagesTest, RefinedCamerasKeepTheViewGraphAndAreMarked) {
   EXPECT_EQ(json["not_posed"][0], "im_3.png");
   EXPECT_TRUE(json["dbarf_poses"].contains("refined"));
   // Image paths now relative to the output's folder.
-  EXPECT_EQ(json["frames"][0]["file_path"].get<std::string>().rfind("../images/", 0), 0u) << json["frames"][0]["file_path"];
+  EXPECT_EQ(json["frames"][0]["file_path"].get<std::string>().rfind("../images/", 0), 0u)
+      << json["frames"][0]["file_path"];
   const Dataset d = ReadCameras(tmp.File("out/refined.json"));
   EXPECT_LT((d.frames[0].cam_from_world.translation - Eigen::Vector3d(0, 0, 1)).norm(), 1e-6);
 }

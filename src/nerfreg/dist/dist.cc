@@ -39,7 +39,8 @@ DistEnv DistEnv::FromEnvironment() {
   env.rank = EnvInt("RANK", 0, 0);
   env.world_size = EnvInt("WORLD_SIZE", 1, 1);
   env.local_rank = EnvInt("LOCAL_RANK", env.rank, 0);
-  if (env.rank >= env.world_size) ThrowInputError("RANK", "", "a rank below WORLD_SIZE (" + std::to_string(env.world_size) + ")");
+  if (env.rank >= env.world_size)
+    ThrowInputError("RANK", "", "a rank below WORLD_SIZE (" + std::to_string(env.world_size) + ")");
   if (const char* a = std::getenv("MASTER_ADDR"); a != nullptr && *a != '\0') env.master_addr = a;
   env.master_port = EnvInt("MASTER_PORT", 0, 1);
   if (env.world_size > 1 && (env.master_port < 1 || env.master_port > 65535)) {
@@ -91,7 +92,8 @@ std::unique_ptr<DistGroup> DistGroup::Join(const DistEnv& env, double timeout_s)
     } else {
       options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
     }
-    group->impl_->pg = c10::make_intrusive<c10d::ProcessGroupGloo>(group->impl_->store, env.rank, env.world_size, options);
+    group->impl_->pg =
+        c10::make_intrusive<c10d::ProcessGroupGloo>(group->impl_->store, env.rank, env.world_size, options);
   } catch (const std::exception& e) {
     throw DistError("rank " + std::to_string(env.rank) + ": no rendezvous with " + std::to_string(env.world_size) +
                     " processes at " + env.master_addr + ":" + std::to_string(env.master_port) + " within " +
@@ -102,7 +104,9 @@ std::unique_ptr<DistGroup> DistGroup::Join(const DistEnv& env, double timeout_s)
   return group;
 }
 
-std::unique_ptr<DistGroup> DistGroup::FromEnvironment(double timeout_s) { return Join(DistEnv::FromEnvironment(), timeout_s); }
+std::unique_ptr<DistGroup> DistGroup::FromEnvironment(double timeout_s) {
+  return Join(DistEnv::FromEnvironment(), timeout_s);
+}
 
 namespace {
 

@@ -27,7 +27,8 @@ void DistOptions::Check() const {
   if (nnodes < 1 || nnodes > 1024) ThrowInputError("--nnodes", "", "a number of machines in [1, 1024]");
   if (node_rank < 0 || node_rank >= nnodes) ThrowInputError("--node-rank", "", "an index in [0, --nnodes)");
   if (master_port < 0 || master_port > 65535) ThrowInputError("--master-port", "", "a TCP port in [0, 65535]");
-  if (nnodes > 1 && master_port == 0) ThrowInputError("--master-port", "", "a port every machine knows (with --nnodes > 1)");
+  if (nnodes > 1 && master_port == 0)
+    ThrowInputError("--master-port", "", "a port every machine knows (with --nnodes > 1)");
   if (master_addr.empty()) ThrowInputError("--master-addr", "", "a host name or address");
   if (!(timeout_s >= 1)) ThrowInputError("--dist-timeout", "", "seconds >= 1");
 }
@@ -94,9 +95,10 @@ int LaunchWorkers(const DistOptions& options, const std::vector<std::string>& ar
   const int port = options.master_port > 0 ? options.master_port : FreePort();
   const bool omp_set = std::getenv("OMP_NUM_THREADS") != nullptr;
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  LOG_INFO("distributed: launching {} workers (ranks {}..{} of {}), {} threads each, rendezvous at {}:{}", options.nproc,
-           options.node_rank * options.nproc, options.node_rank * options.nproc + options.nproc - 1,
-           options.world_size(), omp_set ? std::string(std::getenv("OMP_NUM_THREADS")) : std::to_string(std::max(1u, cores / options.nproc)),
+  LOG_INFO("distributed: launching {} workers (ranks {}..{} of {}), {} threads each, rendezvous at {}:{}",
+           options.nproc, options.node_rank * options.nproc, options.node_rank * options.nproc + options.nproc - 1,
+           options.world_size(),
+           omp_set ? std::string(std::getenv("OMP_NUM_THREADS")) : std::to_string(std::max(1u, cores / options.nproc)),
            options.master_addr, port);
   std::fflush(stdout);
   std::fflush(stderr);
@@ -128,7 +130,7 @@ int LaunchWorkers(const DistOptions& options, const std::vector<std::string>& ar
     if (pid < 0) throw DistError("could not start worker " + std::to_string(i) + " (" + std::strerror(errno) + ")");
     if (pid == 0) {
       prctl(PR_SET_PDEATHSIG, SIGTERM);
-      if (getppid() != launcher) _exit(4);  // the launcher died before prctl
+      if (getppid() != launcher) _exit(4);             // the launcher died before prctl
       if (devnull >= 0) dup2(devnull, STDOUT_FILENO);  // one result on stdout: rank 0's
       execve(exe.c_str(), argv.data(), envp.data());
       _exit(127);
@@ -185,7 +187,8 @@ int LaunchWorkers(const DistOptions& options, const std::vector<std::string>& ar
     }
   }
   if (WIFEXITED(cause->status) && WEXITSTATUS(cause->status) == 2) return 2;
-  std::fprintf(stderr, "error: distributed: rank %d (pid %d) %s; the other ranks were stopped; continue with --resume\n",
+  std::fprintf(stderr,
+               "error: distributed: rank %d (pid %d) %s; the other ranks were stopped; continue with --resume\n",
                cause->rank, static_cast<int>(cause->pid), Describe(cause->status).c_str());
   return 4;
 }

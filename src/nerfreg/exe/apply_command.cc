@@ -20,8 +20,10 @@ int RunRegApply(int argc, char** argv) {
   ApplyTransformOptions options;
   app.add_option("transform", options.transform, "T.json written by reg register")->required();
   app.add_option("input", options.input, "File (or COLMAP / dataset folder) to move")->required();
-  app.add_option("--out", options.output, "Output: a file of the input's kind (a folder for a COLMAP model)")->required();
-  app.add_flag("--inverse", options.inverse, "Apply source_from_target (moves target-frame files into the source frame)");
+  app.add_option("--out", options.output, "Output: a file of the input's kind (a folder for a COLMAP model)")
+      ->required();
+  app.add_flag("--inverse", options.inverse,
+               "Apply source_from_target (moves target-frame files into the source frame)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.force = common.force;
   const ApplyTransformResult r = ApplyTransformFile(options);

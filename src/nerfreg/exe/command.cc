@@ -17,7 +17,8 @@ void AddCommonOptions(CLI::App& app, CommonOptions* options) {
 }
 
 void AddDeviceOption(CLI::App& app, std::string* device) {
-  app.add_option("--device", *device, "Where the networks run: cpu (default), cuda, cuda:N or auto (a GPU when present)");
+  app.add_option("--device", *device,
+                 "Where the networks run: cpu (default), cuda, cuda:N or auto (a GPU when present)");
 }
 
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common) {
@@ -41,8 +42,10 @@ void AddDistOptions(CLI::App& app, DistOptions* options) {
   app.add_option("--nnodes", options->nnodes, "Machines in the job (default 1); run the command on each");
   app.add_option("--node-rank", options->node_rank, "This machine's index in [0, --nnodes)");
   app.add_option("--master-addr", options->master_addr, "Address of rank 0's machine (default 127.0.0.1)");
-  app.add_option("--master-port", options->master_port, "Rendezvous port (default 0: a free one; needed with --nnodes > 1)");
-  app.add_option("--dist-timeout", options->timeout_s, "Seconds a rank waits for the others before failing (default 120)");
+  app.add_option("--master-port", options->master_port,
+                 "Rendezvous port (default 0: a free one; needed with --nnodes > 1)");
+  app.add_option("--dist-timeout", options->timeout_s,
+                 "Seconds a rank waits for the others before failing (default 120)");
 }
 
 int LaunchIfAsked(const DistOptions& options, int argc, char** argv) {

@@ -49,27 +49,30 @@ std::string DefaultDbarfPoseWeights();
 // Reports (exe/report_command.cc)
 int RunReport(int argc, char** argv);
 
-#define NERFREG_COMMAND_TABLE                                                            \
-  {"render", RunRender, "Render a mesh or procedural object into a dataset (and blocks)"}, \
-  {"convert", RunConvert, "Convert camera files: transforms.json, LLFF, COLMAP"}, \
-  {"nerf train", RunNerfTrain, "Train a NeRF block on a posed dataset"}, \
-  {"nerf render", RunNerfRender, "Render views of a trained block"}, \
-  {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"}, \
-  {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"}, \
-  {"nerf import", RunNerfImport, "Import an instant-ngp snapshot (.msgpack / .ingp) as a NeRF block"}, \
-  {"reg register", RunRegRegister, "Register two NeRF blocks or splat sets from their fields (target_from_source)"}, \
-  {"reg apply", RunRegApply, "Apply T.json's Sim(3) to splats, a PLY, cameras or a block checkpoint"}, \
-  {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"}, \
-  {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \
-  {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"}, \
-  {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"}, \
-  {"reg average", RunRegAverage, "Average weights files of one architecture (a model soup)"}, \
-  {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"}, \
-  {"dbarf poses", RunDbarfPoses, "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}, \
-  {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \
-  {"dbarf pretrain", RunDbarfPretrain, "Pretrain DBARF on many scenes (resumable)"}, \
-  {"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"}, \
-  {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"}, \
-  {"dbarf eval", RunDbarfEval, "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"}, \
-  {"dbarf eval-net", RunDbarfEvalNet, "The pose network's relative poses (from the identity) against ground truth"}, \
-  {"report", RunReport, "Write one self-contained HTML page for a run directory"},
+#define NERFREG_COMMAND_TABLE                                                                                          \
+  {"render", RunRender, "Render a mesh or procedural object into a dataset (and blocks)"},                             \
+      {"convert", RunConvert, "Convert camera files: transforms.json, LLFF, COLMAP"},                                  \
+      {"nerf train", RunNerfTrain, "Train a NeRF block on a posed dataset"},                                           \
+      {"nerf render", RunNerfRender, "Render views of a trained block"},                                               \
+      {"nerf eval", RunNerfEval, "PSNR / SSIM of a block on a dataset's test views"},                                  \
+      {"nerf export", RunNerfExport, "Export a block as a coloured point cloud or mesh (PLY)"},                        \
+      {"nerf import", RunNerfImport, "Import an instant-ngp snapshot (.msgpack / .ingp) as a NeRF block"},             \
+      {"reg register", RunRegRegister,                                                                                 \
+       "Register two NeRF blocks or splat sets from their fields (target_from_source)"},                               \
+      {"reg apply", RunRegApply, "Apply T.json's Sim(3) to splats, a PLY, cameras or a block checkpoint"},             \
+      {"reg register-many", RunRegRegisterMany, "Register many blocks into one frame (pairwise + pose graph)"},        \
+      {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"},                       \
+      {"reg make-data", RunRegMakeData, "Make registration training / evaluation pairs (resumable)"},                  \
+      {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"},                                           \
+      {"reg average", RunRegAverage, "Average weights files of one architecture (a model soup)"},                      \
+      {"reg eval", RunRegEval, "Rotation / translation errors of a registration against ground truth"},                \
+      {"dbarf poses", RunDbarfPoses,                                                                                   \
+       "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"},                              \
+      {"dbarf eval-poses", RunDbarfEvalPoses, "Rotation / centre errors of estimated cameras after Sim(3) alignment"}, \
+      {"dbarf pretrain", RunDbarfPretrain, "Pretrain DBARF on many scenes (resumable)"},                               \
+      {"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"},                         \
+      {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"},                   \
+      {"dbarf eval", RunDbarfEval, "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"},    \
+      {"dbarf eval-net", RunDbarfEvalNet,                                                                              \
+       "The pose network's relative poses (from the identity) against ground truth"},                                  \
+      {"report", RunReport, "Write one self-contained HTML page for a run directory"},

@@ -10,6 +10,36 @@
 
 using namespace nerfreg;
 
+namespace {
+
+// --size W or WxH.
+void ParseRenderSize(const std::string& size, RenderDatasetOptions* options) {
+  if (size.empty()) return;
+  const size_t x = size.find('x');
+  try {
+    options->width = std::stoi(size.substr(0, x));
+    options->height = x == std::string::npos ? 0 : std::stoi(size.substr(x + 1));
+  } catch (const std::exception&) {
+    ThrowInputError("--size", "", "W or WxH, got " + size);
+  }
+  if (options->width <= 0 || (x != std::string::npos && options->height <= 0))
+    ThrowInputError("--size", "", "positive W[xH]");
+}
+
+// --block-scale-range A,B (or A).
+void ParseScaleRange(const std::string& range, BlockFrameOptions* frame) {
+  if (range.empty()) return;
+  const size_t comma = range.find(',');
+  try {
+    frame->min_scale = std::stod(range.substr(0, comma));
+    frame->max_scale = comma == std::string::npos ? frame->min_scale : std::stod(range.substr(comma + 1));
+  } catch (const std::exception&) {
+    ThrowInputError("--block-scale-range", "", "A,B, got " + range);
+  }
+}
+
+}  // namespace
+
 int RunRender(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
@@ -26,23 +56,32 @@ int RunRender(int argc, char** argv) {
   auto* mesh_opt = app.add_option("--mesh", mesh_path, "Mesh file (OFF, PLY, OBJ, STL, glTF, GLB)");
   auto* proc_opt = app.add_option("--procedural", procedural, "Seed of a procedural object (orbit) or scene (forward)");
   mesh_opt->excludes(proc_opt);
-  app.add_option("--trajectory", options.trajectory, "orbit (objects) or forward (scenes)")->check(CLI::IsMember({"orbit", "forward"}));
+  app.add_option("--trajectory", options.trajectory, "orbit (objects) or forward (scenes)")
+      ->check(CLI::IsMember({"orbit", "forward"}));
   app.add_option("--views", options.views, "Number of views (default 120 orbit, 20 forward)");
   app.add_option("--size", size, "Image size W or WxH (default 100 orbit, 128x96 forward)");
   app.add_option("--blocks", options.blocks, "Split the views into K blocks by k-means on camera centres");
-  app.add_option("--block-rotation", options.block_frame.max_rotation_deg, "Cap on each block's random rotation, degrees (default: unbounded)");
-  app.add_option("--block-translation", options.block_frame.max_translation, "Bound on each translation coordinate (default 0.2)");
+  app.add_option("--block-rotation", options.block_frame.max_rotation_deg,
+                 "Cap on each block's random rotation, degrees (default: unbounded)");
+  app.add_option("--block-translation", options.block_frame.max_translation,
+                 "Bound on each translation coordinate (default 0.2)");
   app.add_option("--block-scale-range", scale_range, "A,B: each block's Sim(3) scale drawn in [A, B] (default 1,1)");
   std::string material = "textured";
-  app.add_option("--material", material, "Procedural forward scenes: textured, low-texture or repetitive (default textured)");
-  app.add_option("--spread", options.forward_spread, "Forward: half-extent of the camera spiral (default 0.35; wider baselines above)");
+  app.add_option("--material", material,
+                 "Procedural forward scenes: textured, low-texture or repetitive (default textured)");
+  app.add_option("--spread", options.forward_spread,
+                 "Forward: half-extent of the camera spiral (default 0.35; wider baselines above)");
   app.add_option("--test-every", options.test_every, "Every n-th view of a block is a test view (default 20)");
   app.add_option("--supersample", options.render.supersample, "Rays per pixel side (default 2)");
   app.add_flag("--depth", options.write_depth, "Also write z-depth maps as depth/r_XXX.npy");
-  app.add_flag("--splats", options.write_splats, "Also write 3D Gaussian splats of the seen surface: splats.ply, block_k/splats.ply");
+  app.add_flag("--splats", options.write_splats,
+               "Also write 3D Gaussian splats of the seen surface: splats.ply, block_k/splats.ply");
   std::vector<double> distortion;
-  app.add_option("--distortion", distortion, "K1[,K2]: radial lens distortion of the cameras (OpenCV; default 0)")->delimiter(',')->expected(1, 2);
-  app.add_option("--noise", options.noise_sigma, "Gaussian pixel noise, standard deviation in [0, 1] units (default 0)");
+  app.add_option("--distortion", distortion, "K1[,K2]: radial lens distortion of the cameras (OpenCV; default 0)")
+      ->delimiter(',')
+      ->expected(1, 2);
+  app.add_option("--noise", options.noise_sigma,
+                 "Gaussian pixel noise, standard deviation in [0, 1] units (default 0)");
   app.add_option("--jpeg", options.jpeg_quality, "Write JPEG images of this quality (1..100) instead of PNG");
   app.add_option("--seed", options.seed, "Seed of the block split and frames");
   app.add_option("--out", out, "Output dataset folder")->required();
@@ -51,33 +90,17 @@ int RunRender(int argc, char** argv) {
   if (!distortion.empty()) options.k1 = distortion[0], options.k2 = distortion.size() > 1 ? distortion[1] : 0.0;
   if (mesh_path.empty() && procedural < 0) throw InputError("render: give --mesh FILE or --procedural SEED");
   CheckCanWriteOutput(out, common.force, {mesh_path});
-  if (!size.empty()) {
-    const size_t x = size.find('x');
-    try {
-      options.width = std::stoi(size.substr(0, x));
-      options.height = x == std::string::npos ? 0 : std::stoi(size.substr(x + 1));
-    } catch (const std::exception&) {
-      ThrowInputError("--size", "", "W or WxH, got " + size);
-    }
-    if (options.width <= 0 || (x != std::string::npos && options.height <= 0)) ThrowInputError("--size", "", "positive W[xH]");
-  }
-  if (!scale_range.empty()) {
-    const size_t comma = scale_range.find(',');
-    try {
-      options.block_frame.min_scale = std::stod(scale_range.substr(0, comma));
-      options.block_frame.max_scale = comma == std::string::npos ? options.block_frame.min_scale : std::stod(scale_range.substr(comma + 1));
-    } catch (const std::exception&) {
-      ThrowInputError("--block-scale-range", "", "A,B, got " + scale_range);
-    }
-  }
+  ParseRenderSize(size, &options);
+  ParseScaleRange(scale_range, &options.block_frame);
   TriangleMesh mesh;
   if (!mesh_path.empty()) {
     mesh = LoadMesh(mesh_path);
     NormalizeMesh(&mesh, 2.5f);
     if (options.trajectory == "forward") mesh = WithBackdrop(mesh);
   } else {
-    mesh = options.trajectory == "orbit" ? ProceduralObject(static_cast<unsigned>(procedural))
-                                         : ProceduralForwardScene(static_cast<unsigned>(procedural), 2.0f, ParseSceneMaterial(material));
+    mesh = options.trajectory == "orbit"
+               ? ProceduralObject(static_cast<unsigned>(procedural))
+               : ProceduralForwardScene(static_cast<unsigned>(procedural), 2.0f, ParseSceneMaterial(material));
     options.render.texture_modulation = MaterialTextureModulation(ParseSceneMaterial(material));
   }
   const auto summary = RenderDataset(mesh, options, out);
@@ -89,15 +112,18 @@ int RunConvert(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Convert cameras between transforms.json (NeRF-synthetic / instant-ngp / nerfstudio), LLFF poses_bounds.npy and "
-                  "COLMAP sparse models (text or binary). The input format is detected.",
-                  "nerfreg convert scene/transforms.json --to colmap --out scene/sparse/0");
+  DescribeCommand(
+      app,
+      "Convert cameras between transforms.json (NeRF-synthetic / instant-ngp / nerfstudio), LLFF poses_bounds.npy and "
+      "COLMAP sparse models (text or binary). The input format is detected.",
+      "nerfreg convert scene/transforms.json --to colmap --out scene/sparse/0");
   std::string input, out;
   ConvertOptions options;
-  app.add_option("input", input, "transforms.json, poses_bounds.npy (or its folder), or a COLMAP model folder")->required();
+  app.add_option("input", input, "transforms.json, poses_bounds.npy (or its folder), or a COLMAP model folder")
+      ->required();
   app.add_option("--to", options.to, "Output format: nerf, nerfstudio, llff or colmap")->required();
-  app.add_option("--out", out, "Output: a transforms.json path or folder (nerf, nerfstudio), a folder (llff, colmap)")->required();
+  app.add_option("--out", out, "Output: a transforms.json path or folder (nerf, nerfstudio), a folder (llff, colmap)")
+      ->required();
   app.add_flag("--binary", options.binary, "COLMAP output as .bin instead of .txt");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.force = common.force;

@@ -41,33 +41,44 @@ int RunDbarfPoses(int argc, char** argv) {
   // The network here starts from the identity: the weights trained for that (models/dbarf_pose_cpu.md).
   options.weights = DefaultDbarfPoseWeights();
   app.add_option("images", job.images_dir, "Folder of PNG / JPEG images (sorted by name)")->required();
-  auto* t_opt = app.add_option("--intrinsics", job.intrinsics, "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
+  auto* t_opt = app.add_option("--intrinsics", job.intrinsics,
+                               "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
   auto* f_opt = app.add_option("--focal", job.focal, "Focal length in pixels (principal point at the image centre)");
   t_opt->excludes(f_opt);
   app.add_option("--out", job.out, "Output folder")->required();
   app.add_option("--method", options.method, "classical, network or auto (default auto)");
-  app.add_option("--weights", options.weights, "DBARF weights for the network (default: models/dbarf_pose_cpu.pt, trained to pose from the identity)");
+  app.add_option(
+      "--weights", options.weights,
+      "DBARF weights for the network (default: models/dbarf_pose_cpu.pt, trained to pose from the identity)");
   app.add_option("--sources", options.network.num_sources, "Network: neighbours per target image (default 5)");
   app.add_option("--neighbours", job.neighbours,
                  "Network method: graph (SIFT view-graph neighbours, appearance where an image has too few) or "
                  "appearance (thumbnail similarity only, no SIFT) (default graph)");
-  app.add_option("--near", options.network.near, "Network method: nearest depth the network predicts, in units of the mean camera distance to the first camera (default 7)");
-  app.add_option("--far", options.network.far, "Network method: farthest depth the network predicts, same units (default 40)");
+  app.add_option("--near", options.network.near,
+                 "Network method: nearest depth the network predicts, in units of the mean camera distance to the "
+                 "first camera (default 7)");
+  app.add_option("--far", options.network.far,
+                 "Network method: farthest depth the network predicts, same units (default 40)");
   app.add_option("--graph-edge-weight", options.network.graph_edge_weight,
-                 "Network method: weight of the essential-matrix edges averaged with the network's (default 0: none; auto uses 10 where the SfM poses too few)");
+                 "Network method: weight of the essential-matrix edges averaged with the network's (default 0: none; "
+                 "auto uses 10 where the SfM poses too few)");
   app.add_option("--refine-passes", options.network.refine_passes,
                  "Network method: passes after the first, each starting from the last cameras (default 0)");
   app.add_option("--bundle-adjust", options.network.bundle_adjust,
-                 "Network method: 1 refines the averaged cameras by photometric bundle adjustment with the network's depths, 0 not");
+                 "Network method: 1 refines the averaged cameras by photometric bundle adjustment with the network's "
+                 "depths, 0 not");
   app.add_option("--auto-doubt", options.auto_doubt_fraction,
                  "Auto: share of low-confidence SfM images at which the network poses all images too and the "
                  "photometrically better cameras are kept (default 0.25; 1: off)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   app.add_option("--max-features", options.sfm.view_graph.max_features, "SIFT keypoints per image (default 4000)");
-  app.add_option("--min-inliers", options.sfm.view_graph.min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
-  app.add_option("--sift-contrast", options.sfm.view_graph.contrast_threshold, "SIFT contrast threshold (default 0.005)");
-  app.add_option("--sift-upsample", options.sfm.view_graph.upsample, "Enlarge images by this factor before SIFT (default 2)");
+  app.add_option("--min-inliers", options.sfm.view_graph.min_inliers,
+                 "Fewest essential-matrix inliers of an edge (default 15)");
+  app.add_option("--sift-contrast", options.sfm.view_graph.contrast_threshold,
+                 "SIFT contrast threshold (default 0.005)");
+  app.add_option("--sift-upsample", options.sfm.view_graph.upsample,
+                 "Enlarge images by this factor before SIFT (default 2)");
   std::string device = "cpu";
   AddDeviceOption(app, &device);
   app.add_option("--sift-upsample-max-side", options.sfm.view_graph.upsample_max_side,
@@ -83,15 +94,16 @@ int RunDbarfEvalPoses(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Rotation and camera-centre errors of estimated cameras against ground truth, after a Sim(3) "
-                  "alignment: Umeyama on the centres (--align centers, as DBARF evaluates) or the rotations then the "
-                  "centres (--align rotations, also defined for collinear or 2-3 cameras). Frames are matched by image "
-                  "name; ground-truth frames missing from the estimate count as not posed. With --png, a picture of the "
-                  "aligned estimated cameras (red) against the ground truth (blue) seen from above, grey lines "
-                  "joining matching cameras, with a scale bar in ground-truth units (its length is logged).",
-                  "nerfreg dbarf eval-poses runs/poses/transforms.json --ground-truth data/scene/transforms.json "
-                  "--png runs/poses/eval_cameras.png");
+  DescribeCommand(
+      app,
+      "Rotation and camera-centre errors of estimated cameras against ground truth, after a Sim(3) "
+      "alignment: Umeyama on the centres (--align centers, as DBARF evaluates) or the rotations then the "
+      "centres (--align rotations, also defined for collinear or 2-3 cameras). Frames are matched by image "
+      "name; ground-truth frames missing from the estimate count as not posed. With --png, a picture of the "
+      "aligned estimated cameras (red) against the ground truth (blue) seen from above, grey lines "
+      "joining matching cameras, with a scale bar in ground-truth units (its length is logged).",
+      "nerfreg dbarf eval-poses runs/poses/transforms.json --ground-truth data/scene/transforms.json "
+      "--png runs/poses/eval_cameras.png");
   std::string estimate_path, gt_path, align = "centers", png;
   app.add_option("estimate", estimate_path, "Estimated transforms.json (e.g. from dbarf poses)")->required();
   app.add_option("--ground-truth", gt_path, "Ground-truth transforms.json")->required();
@@ -115,8 +127,11 @@ int RunDbarfEvalPoses(int argc, char** argv) {
     e.push_back(it->second);
     g.push_back(f.cam_from_world);
   }
-  const PoseEvaluation r = EvaluatePoses(e, g, align == "centers" ? PoseAlignment::kCenters : PoseAlignment::kRotationsAndCenters);
-  if (!r.aligned) ThrowInputError(estimate_path, "frames", "at least 3 cameras (not collinear for --align centers) matching the ground truth by name");
+  const PoseEvaluation r =
+      EvaluatePoses(e, g, align == "centers" ? PoseAlignment::kCenters : PoseAlignment::kRotationsAndCenters);
+  if (!r.aligned)
+    ThrowInputError(estimate_path, "frames",
+                    "at least 3 cameras (not collinear for --align centers) matching the ground truth by name");
   if (!png.empty()) {
     // The estimate moved into the ground truth's frame by the alignment the errors were measured after.
     std::vector<Rigid3d> aligned;
@@ -143,8 +158,8 @@ int RunDbarfEvalPoses(int argc, char** argv) {
   } else {
     std::printf("posed            %zu / %zu\n", e.size(), gt.frames.size());
     std::printf("rotation (deg)   mean %.4f  median %.4f\n", r.mean_rotation_deg, r.median_rotation_deg);
-    std::printf("centre           mean %.5f  median %.5f  (%.3f %% / %.3f %% of the widest baseline %.4f)\n", r.mean_center,
-                r.median_center, r.mean_center * base, r.median_center_percent, r.widest_baseline);
+    std::printf("centre           mean %.5f  median %.5f  (%.3f %% / %.3f %% of the widest baseline %.4f)\n",
+                r.mean_center, r.median_center, r.mean_center * base, r.median_center_percent, r.widest_baseline);
     for (const auto& name : missing) std::printf("not posed        %s\n", name.c_str());
   }
   return 0;

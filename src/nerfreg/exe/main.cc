@@ -29,15 +29,14 @@ struct CommandEntry {
 
 // The contract is docs/cli.md; keep names stable.
 const std::vector<CommandEntry>& Commands() {
-  static const std::vector<CommandEntry> commands = {
-      NERFREG_COMMAND_TABLE
-  };
+  static const std::vector<CommandEntry> commands = {NERFREG_COMMAND_TABLE};
   return commands;
 }
 
 void PrintUsage() {
-  std::printf("nerfreg: register NeRF blocks and pose unposed images.\n\nUsage: nerfreg COMMAND [options]"
-              " (COMMAND --help for details)\n\nCommands:\n");
+  std::printf(
+      "nerfreg: register NeRF blocks and pose unposed images.\n\nUsage: nerfreg COMMAND [options]"
+      " (COMMAND --help for details)\n\nCommands:\n");
   for (const auto& c : Commands()) std::printf("  %-22s %s\n", c.name, c.summary);
 }
 

@@ -24,11 +24,12 @@ int RunNerfTrain(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Train a NeRF block (instant-NGP-style field, fused CPU kernels) on a posed dataset: a transforms.json "
-                  "(or its folder), an LLFF scene or a COLMAP model. Writes BLOCK.ckpt, BLOCK.ckpt.json "
-                  "{psnr_test, seconds, iters} and the curves in BLOCK.ckpt.log.jsonl.",
-                  "nerfreg nerf train data/spider/block_0 --out runs/spider/block_0.ckpt --preset fast");
+  DescribeCommand(
+      app,
+      "Train a NeRF block (instant-NGP-style field, fused CPU kernels) on a posed dataset: a transforms.json "
+      "(or its folder), an LLFF scene or a COLMAP model. Writes BLOCK.ckpt, BLOCK.ckpt.json "
+      "{psnr_test, seconds, iters} and the curves in BLOCK.ckpt.log.jsonl.",
+      "nerfreg nerf train data/spider/block_0 --out runs/spider/block_0.ckpt --preset fast");
   std::string dataset_path, out, preset = "fast";
   int iters = 0, stop_after = 0, checkpoint_every = -1;
   std::int64_t samples = 0;
@@ -36,7 +37,8 @@ int RunNerfTrain(int argc, char** argv) {
   bool resume = false;
   std::string device = "cpu";
   AddDeviceOption(app, &device);
-  app.add_option("dataset", dataset_path, "Dataset: transforms.json, its folder, an LLFF scene or a COLMAP model")->required();
+  app.add_option("dataset", dataset_path, "Dataset: transforms.json, its folder, an LLFF scene or a COLMAP model")
+      ->required();
   app.add_option("--out", out, "Checkpoint to write")->required();
   app.add_option("--preset", preset, "fast (2 CPU cores) or default (the paper's settings)");
   app.add_option("--iters", iters, "Training iterations (default: the preset's)");
@@ -46,8 +48,10 @@ int RunNerfTrain(int argc, char** argv) {
   app.add_option("--samples", samples, "Target samples per batch (default: the preset's)");
   app.add_flag("--resume", resume, "Continue the run in --out from its last checkpoint");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  if (app.count("--iters") && iters < 1) ThrowInputError("--iters", "", "at least 1 iteration, got " + std::to_string(iters));
-  if (app.count("--stop-after") && stop_after < 1) ThrowInputError("--stop-after", "", "a step >= 1, got " + std::to_string(stop_after));
+  if (app.count("--iters") && iters < 1)
+    ThrowInputError("--iters", "", "at least 1 iteration, got " + std::to_string(iters));
+  if (app.count("--stop-after") && stop_after < 1)
+    ThrowInputError("--stop-after", "", "a step >= 1, got " + std::to_string(stop_after));
   if (app.count("--checkpoint-every") && checkpoint_every < 0) ThrowInputError("--checkpoint-every", "", ">= 0");
   if (app.count("--samples") && samples < 1) ThrowInputError("--samples", "", ">= 1");
   NerfTrainOptions options = NerfTrainOptions::Preset(preset);
@@ -60,7 +64,8 @@ int RunNerfTrain(int argc, char** argv) {
   const Dataset dataset = ReadCameras(dataset_path);
   const std::vector<std::string> inputs = DatasetInputs(dataset_path, dataset);
   if (resume) {
-    if (!FileExists(out)) ThrowInputError(out, "", "an existing checkpoint to resume (drop --resume to start a new run)");
+    if (!FileExists(out))
+      ThrowInputError(out, "", "an existing checkpoint to resume (drop --resume to start a new run)");
     CheckCanWriteOutput(out, /*force=*/true, inputs);  // writable, and not an input
   } else {
     CheckCanWriteOutput(out, common.force, inputs);
@@ -69,8 +74,9 @@ int RunNerfTrain(int argc, char** argv) {
   CheckImagesMatchCameras(dataset);
   const NerfTrainResult r = TrainNerfBlock(dataset, options, out, resume);
   if (r.iterations == options.iterations) {
-    WriteJsonFile(out + ".json", {{"psnr_test", r.psnr_test}, {"seconds", r.seconds}, {"iters", r.iterations},
-                                  {"options", options.ToJson()}});
+    WriteJsonFile(
+        out + ".json",
+        {{"psnr_test", r.psnr_test}, {"seconds", r.seconds}, {"iters", r.iterations}, {"options", options.ToJson()}});
   }
   std::printf("{\"psnr_test\": %.3f, \"seconds\": %.1f, \"iters\": %d}\n", r.psnr_test, r.seconds, r.iterations);
   return 0;
@@ -80,8 +86,9 @@ int RunNerfRender(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app, "Render one PNG per frame of a transforms.json with a trained block (named as the frame's image).",
-                  "nerfreg nerf render runs/block_0.ckpt --transforms data/spider/block_0/transforms.json --out renders");
+  DescribeCommand(
+      app, "Render one PNG per frame of a transforms.json with a trained block (named as the frame's image).",
+      "nerfreg nerf render runs/block_0.ckpt --transforms data/spider/block_0/transforms.json --out renders");
   std::string ckpt, transforms, out, device = "cpu";
   AddDeviceOption(app, &device);
   app.add_option("checkpoint", ckpt, "NeRF block checkpoint")->required();
@@ -122,7 +129,8 @@ int RunNerfEval(int argc, char** argv) {
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {ckpt, dataset_path});
   NerfBlock block = LoadNerfBlock(ckpt, nullptr, dev);
   const Dataset dataset = ReadCameras(dataset_path);
-  if (dataset.IndicesOfSplit("test").empty()) ThrowInputError(dataset_path, "frames", "at least one frame with \"split\": \"test\"");
+  if (dataset.IndicesOfSplit("test").empty())
+    ThrowInputError(dataset_path, "frames", "at least one frame with \"split\": \"test\"");
   const NerfEvalResult r = EvaluateNerfBlock(block, dataset);
   const Json j = {{"psnr", r.psnr}, {"ssim", r.ssim}, {"views", r.views}};
   if (!out.empty()) WriteJsonFile(out, j);
@@ -203,18 +211,20 @@ int RunNerfImport(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Import an instant-ngp snapshot (.msgpack, or gzip/zlib-compressed .ingp) as a NeRF block: its hash grid "
-                  "and MLP weights (field flavor instant-ngp, same densities and colours), its density grid as the "
-                  "occupancy grid. The block lives in the frame of the transforms.json ngp trained on (ngp's "
-                  "scale/offset/axis cycle undone; --frame ngp keeps ngp's unit cube); --transforms adds that "
-                  "file's cameras to the block (needed by registration).",
-                  "nerfreg nerf import fox/base.ingp --transforms data/fox/transforms.json --out runs/fox.ckpt");
+  DescribeCommand(
+      app,
+      "Import an instant-ngp snapshot (.msgpack, or gzip/zlib-compressed .ingp) as a NeRF block: its hash grid "
+      "and MLP weights (field flavor instant-ngp, same densities and colours), its density grid as the "
+      "occupancy grid. The block lives in the frame of the transforms.json ngp trained on (ngp's "
+      "scale/offset/axis cycle undone; --frame ngp keeps ngp's unit cube); --transforms adds that "
+      "file's cameras to the block (needed by registration).",
+      "nerfreg nerf import fox/base.ingp --transforms data/fox/transforms.json --out runs/fox.ckpt");
   std::string snapshot_path, out, transforms;
   NgpImportOptions options;
   app.add_option("snapshot", snapshot_path, "instant-ngp snapshot (.msgpack or .ingp)")->required();
   app.add_option("--out", out, "Checkpoint to write")->required();
-  app.add_option("--transforms", transforms, "The transforms.json the snapshot was trained on (cameras, scale, offset)");
+  app.add_option("--transforms", transforms,
+                 "The transforms.json the snapshot was trained on (cameras, scale, offset)");
   app.add_option("--frame", options.frame, "Block frame: nerf (the transforms.json frame, default) or ngp");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   if (options.frame != "nerf" && options.frame != "ngp") throw InputError("nerf import: --frame must be nerf or ngp");
@@ -225,7 +235,7 @@ int RunNerfImport(int argc, char** argv) {
   NerfBlock block = SnapshotToNerfBlock(snapshot, snapshot_path, options, cameras ? &*cameras : nullptr);
   SaveNerfBlock(block, out);
   LOG_INFO("imported {} ({} levels x {} features, {} params, {:.1f}% occupied) to {}", snapshot_path,
-           snapshot.encoding.levels, snapshot.encoding.features, snapshot.params.size(), 100 * block.grid->OccupiedFraction(),
-           out);
+           snapshot.encoding.levels, snapshot.encoding.features, snapshot.params.size(),
+           100 * block.grid->OccupiedFraction(), out);
   return 0;
 }

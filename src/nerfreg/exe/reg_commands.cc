@@ -1,12 +1,9 @@
 // Commands of the registration layer: reg register | reg eval.
 #include <fmt/format.h>
 
-#include <cmath>
-
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
-#include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/pipeline/evaluate_pairs.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
@@ -90,7 +87,8 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                  "occupied points, see --no-block-icp) or field (ICP, then the two density fields aligned: finer than "
                  "the grid)")
       ->check(CLI::IsMember({"none", "icp", "field"}));
-  app.add_option("--field-iterations", o.field.iterations, "field: Levenberg-Marquardt iterations at most (default 30)");
+  app.add_option("--field-iterations", o.field.iterations,
+                 "field: Levenberg-Marquardt iterations at most (default 30)");
   app.add_option("--field-occupancy-scale", o.field.occupancy_scale,
                  "field: occupancy = 1 - exp(-scale * density) (default 0.05)");
   app.add_option("--field-samples", o.field.max_samples, "field: samples per block at most (default 6000)");
@@ -129,7 +127,8 @@ int RunRegRegister(int argc, char** argv) {
   AddCommonOptions(app, &common);
   DescribeCommand(app,
                   "Register two NeRF blocks (or 3D Gaussian splat PLYs, or one of each) from their fields alone: "
-                  "target_from_source maps points of the source's frame into the target's. Methods: ransac (FPFH + RANSAC), fgr (FPFH + fast global "
+                  "target_from_source maps points of the source's frame into the target's. Methods: ransac (FPFH + "
+                  "RANSAC), fgr (FPFH + fast global "
                   "registration), dreg (the learned DReg-NeRF network; needs trained weights), auto (dreg and "
                   "ransac, the best on the fields kept). Refinement: icp (on the grids, then on the blocks' occupied "
                   "points), then by default field (the two density fields aligned). Writes T.json (with the options "
@@ -168,7 +167,8 @@ namespace {
 // `reg eval --pairs`: every method on every pair's grids, one table.
 int EvalPairs(const PairsFileEvaluationOptions& o) {
   const auto header = [] {
-    std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf", "time (s)");
+    std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf",
+                "time (s)");
   };
   const PairsFileEvaluation r = EvaluatePairsFile(o, header, [](const PairEvaluation& row) {
     std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
@@ -183,8 +183,8 @@ int EvalPairs(const PairsFileEvaluationOptions& o) {
 int EvalPair(const std::string& pair, const std::string& gt_path, int source, int target, const std::string& out) {
   const RegistrationError r = EvaluateRegistrationFile(pair, gt_path, source, target, out);
   std::printf("%-22s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
-  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", r.method.c_str(), r.rotation_deg, r.translation, r.translation_fraction,
-              r.success ? "yes" : "no");
+  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", r.method.c_str(), r.rotation_deg, r.translation,
+              r.translation_fraction, r.success ? "yes" : "no");
   return 0;
 }
 
@@ -194,12 +194,13 @@ int RunRegEval(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Registration errors against the ground truth: rotation (geodesic, degrees) and translation (full "
-                  "norm, also as a fraction of the object extent 2.5). Either one result (--pair + --ground-truth) or a "
-                  "table of every method on every pair of a reg make-data folder (--pairs), with mean, median and "
-                  "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
-                  "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
+  DescribeCommand(
+      app,
+      "Registration errors against the ground truth: rotation (geodesic, degrees) and translation (full "
+      "norm, also as a fraction of the object extent 2.5). Either one result (--pair + --ground-truth) or a "
+      "table of every method on every pair of a reg make-data folder (--pairs), with mean, median and "
+      "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
+      "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
   std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights(), device = "cpu";
   AddDeviceOption(app, &device);
   std::vector<std::string> methods = {"ransac"}, refines = {"icp"}, dreg_solvers = {"procrustes"};
@@ -220,9 +221,11 @@ int RunRegEval(int argc, char** argv) {
                  "points, as reg register; real NeRF pairs only), field (block-icp, then the density fields aligned; "
                  "real NeRF pairs only), comma separated")
       ->delimiter(',');
-  app.add_option("--dreg-solver", dreg_solvers, "With --pairs: dreg's pose by ransac, procrustes or both (comma separated)")
+  app.add_option("--dreg-solver", dreg_solvers,
+                 "With --pairs: dreg's pose by ransac, procrustes or both (comma separated)")
       ->delimiter(',');
-  app.add_option("--dreg-passes", dreg_passes, "With --pairs: dreg's network passes, e.g. 1,2 (comma separated; default 1)")
+  app.add_option("--dreg-passes", dreg_passes,
+                 "With --pairs: dreg's network passes, e.g. 1,2 (comma separated; default 1)")
       ->delimiter(',')
       ->check(CLI::Range(1, 10));
   app.add_option("--split", split, "With --pairs: the pairs of this split (train, val or all; default val)");
@@ -252,7 +255,8 @@ int RunRegEval(int argc, char** argv) {
     eo.Check();
     return EvalPairs({pairs_path, split, weights, out, max_pairs, overlap_threshold, eo});
   }
-  if (pair.empty() || gt_path.empty()) ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
+  if (pair.empty() || gt_path.empty())
+    ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   return EvalPair(pair, gt_path, source, target, out);
 }
 
@@ -269,10 +273,13 @@ int RunRegRegisterMany(int argc, char** argv) {
   std::vector<std::string> paths;
   std::string out, refine = "field";
   ManyBlockRegistrationOptions o;
-  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")->required()->expected(2, 1000);
+  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")
+      ->required()
+      ->expected(2, 1000);
   app.add_option("--out", out, "Output JSON")->required();
   std::string merged;
-  app.add_option("--merged-splats", merged, "Also write the splat inputs moved into the world frame, merged, to this PLY");
+  app.add_option("--merged-splats", merged,
+                 "Also write the splat inputs moved into the world frame, merged, to this PLY");
   app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
   AddMaxPointsOption(app, &o.max_points);
@@ -287,6 +294,7 @@ int RunRegRegisterMany(int argc, char** argv) {
   const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
   WriteJsonFile(out, r.json);
   if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
-  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs, r.json["seconds"].get<double>());
+  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
+           r.json["seconds"].get<double>());
   return 0;
 }

@@ -19,18 +19,22 @@ using namespace nerfreg;
 namespace {
 
 void AddGridOptions(CLI::App& app, GridExtractionOptions* g) {
-  app.add_option("--grid-resolution", g->resolution, "Voxels per side of the grid (default 32, the shipped model's; the paper 128)");
+  app.add_option("--grid-resolution", g->resolution,
+                 "Voxels per side of the grid (default 32, the shipped model's; the paper 128)");
   app.add_option("--grid-side", g->side, "Side of the grid's cube, block units (default 3.6)");
   app.add_option("--min-density", g->min_density, "Density mask threshold (default 0.7, the paper's)");
   app.add_option("--variant", g->variant, "surface (density AND surface field) or df (density only)")
       ->check(CLI::IsMember({"surface", "df"}));
-  app.add_option("--surface-cameras", g->surface.max_cameras, "Training cameras the surface field marches from (default 16)");
+  app.add_option("--surface-cameras", g->surface.max_cameras,
+                 "Training cameras the surface field marches from (default 16)");
   app.add_option("--surface-mode", g->surface.mode,
                  "Surface field per ray: max_weight (the paper's max alpha*T), opacity (1 - T at the point) or window "
                  "(the ray's weight within --surface-window of the point)")
       ->check(CLI::IsMember({"max_weight", "opacity", "window"}));
-  app.add_option("--surface-window", g->surface.window, "Mode window: the stretch around the point, block units (default one cell)");
-  app.add_option("--samples-per-voxel", g->samples_per_voxel, "Jittered density samples per voxel, the densest kept (default 8; the paper 1)");
+  app.add_option("--surface-window", g->surface.window,
+                 "Mode window: the stretch around the point, block units (default one cell)");
+  app.add_option("--samples-per-voxel", g->samples_per_voxel,
+                 "Jittered density samples per voxel, the densest kept (default 8; the paper 1)");
 }
 
 }  // namespace
@@ -56,7 +60,8 @@ int RunRegExtract(int argc, char** argv) {
   NerfBlock block = LoadNerfBlock(block_path, nullptr, dev);
   const RegGrid grid = ExtractRegGrid(block, g);
   const std::int64_t masked = grid.mask.sum().item<std::int64_t>();
-  if (masked < 100) LOG_WARN("{}: only {} voxels in the mask: is the block trained / its occupancy grid empty?", block_path, masked);
+  if (masked < 100)
+    LOG_WARN("{}: only {} voxels in the mask: is the block trained / its occupancy grid empty?", block_path, masked);
   SaveRegGrid(grid, out);
   std::printf("%s\n", Json({{"grid", out}, {"masked_voxels", masked}, {"seconds", timer.Seconds()}}).dump().c_str());
   return 0;
@@ -66,13 +71,14 @@ int RunRegMakeData(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Make registration training / evaluation pairs, one object at a time (resumable: objects already in "
-                  "OUT/pairs.json are skipped). Each object gives --mesh-pairs pairs synthesised from the mesh with "
-                  "NeRF-like artefacts (cheap) and, for the first --nerf-objects objects, pairs of real NeRF blocks "
-                  "(rendered, trained, grids extracted; ~3 min a block on 2 cores). Meshes reserved for independent "
-                  "evaluation (docs/data.md) must not be used.",
-                  "nerfreg reg make-data --meshes /usr/share/assimp/models/OBJ/spider.obj --procedural 20 --out data/reg");
+  DescribeCommand(
+      app,
+      "Make registration training / evaluation pairs, one object at a time (resumable: objects already in "
+      "OUT/pairs.json are skipped). Each object gives --mesh-pairs pairs synthesised from the mesh with "
+      "NeRF-like artefacts (cheap) and, for the first --nerf-objects objects, pairs of real NeRF blocks "
+      "(rendered, trained, grids extracted; ~3 min a block on 2 cores). Meshes reserved for independent "
+      "evaluation (docs/data.md) must not be used.",
+      "nerfreg reg make-data --meshes /usr/share/assimp/models/OBJ/spider.obj --procedural 20 --out data/reg");
   std::string out;
   MakeDataOptions o;
   o.nerf = NerfTrainOptions::Preset("fast");
@@ -86,7 +92,8 @@ int RunRegMakeData(int argc, char** argv) {
   app.add_option("--mesh-pairs", o.mesh_pairs, "Synthesised pairs per object (default 4)");
   app.add_option("--nerf-objects", o.nerf_objects, "The first N objects also get real trained NeRF blocks (default 0)");
   app.add_option("--blocks", o.blocks, "Blocks per object: 2 (the paper) or 4 (adjacent pairs: low overlap)");
-  app.add_option("--split", o.split, "Split written for every pair: train or val")->check(CLI::IsMember({"train", "val"}));
+  app.add_option("--split", o.split, "Split written for every pair: train or val")
+      ->check(CLI::IsMember({"train", "val"}));
   app.add_option("--image-size", o.image_size, "NeRF render size, pixels (default 100)");
   app.add_option("--nerf-preset", preset, "Block training preset (default fast)");
   app.add_option("--nerf-iters", nerf_iters, "Block training iterations (default 500)");
@@ -99,8 +106,11 @@ int RunRegMakeData(int argc, char** argv) {
   o.synthetic.resolution = o.grid.resolution;
   o.synthetic.side = o.grid.side;
   const MakeDataSummary s = MakeRegistrationData(o, out);
-  std::printf("%s\n", Json({{"pairs_json", JoinPaths(out, "pairs.json")}, {"objects_done", s.objects_done},
-                            {"objects_skipped", s.objects_skipped}, {"pairs", s.pairs}, {"seconds", s.seconds}})
+  std::printf("%s\n", Json({{"pairs_json", JoinPaths(out, "pairs.json")},
+                            {"objects_done", s.objects_done},
+                            {"objects_skipped", s.objects_skipped},
+                            {"pairs", s.pairs},
+                            {"seconds", s.seconds}})
                           .dump()
                           .c_str());
   return 0;
@@ -126,7 +136,8 @@ int RunRegTrain(int argc, char** argv) {
   app.add_option("--out", out, "Output weights")->required();
   app.add_option("--config", o.config, "Network size: cpu or paper")->check(CLI::IsMember({"cpu", "paper"}));
   app.add_option("--iters", o.iterations, "Iterations (default 20000)");
-  app.add_option("--batch", o.batch, "Pairs per step over all processes; their gradients averaged (default: 1 per process)");
+  app.add_option("--batch", o.batch,
+                 "Pairs per step over all processes; their gradients averaged (default: 1 per process)");
   app.add_option("--lr", o.lr, "AdamW learning rate (default 1e-4)");
   app.add_option("--lr-step", o.lr_step, "StepLR period (default 8000)");
   app.add_option("--val-every", o.val_every, "Validate every n steps (default 500)");
@@ -134,7 +145,8 @@ int RunRegTrain(int argc, char** argv) {
   app.add_option("--stop-after", o.stop_after, "Checkpoint and stop at this step (train in slices)");
   app.add_option("--nerf-fraction", o.nerf_fraction, "Chance per step of a real-NeRF pair (default 0: by count)");
   app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--init", o.init_weights, "Start from these weights with a fresh optimizer (fine-tuning; same --config)");
+  app.add_option("--init", o.init_weights,
+                 "Start from these weights with a fresh optimizer (fine-tuning; same --config)");
   app.add_option("--move-deg", o.move_deg,
                  "Augmentation: the largest rotation of the rigid move of one grid, deg (default 10 as the paper; "
                  "up to 180: any relative rotation)");
@@ -155,8 +167,12 @@ int RunRegTrain(int argc, char** argv) {
   const auto group = DistGroup::FromEnvironment(dist.timeout_s);
   const DregTrainResult r = TrainDreg(data, o, out, resume, group.get());
   if (!group->is_main()) return 0;
-  std::printf("%s\n", Json({{"weights", out}, {"iterations", r.iterations}, {"seconds", r.seconds}, {"final_loss", r.final_loss},
-                            {"val_median_rotation_deg", r.val.median_rotation_deg}, {"val_success_rate", r.val.success_rate},
+  std::printf("%s\n", Json({{"weights", out},
+                            {"iterations", r.iterations},
+                            {"seconds", r.seconds},
+                            {"final_loss", r.final_loss},
+                            {"val_median_rotation_deg", r.val.median_rotation_deg},
+                            {"val_success_rate", r.val.success_rate},
                             {"val_pairs", r.val.pairs}})
                           .dump()
                           .c_str());
@@ -167,13 +183,16 @@ int RunRegAverage(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Average several DReg-NeRF weights files of one architecture into one (a model soup: runs "
-                  "fine-tuned from the same weights, e.g. with different --seed). Parameters are averaged element-wise.",
-                  "nerfreg reg average runs/a/dreg_cpu.pt runs/b/dreg_cpu.pt --out runs/soup.pt");
+  DescribeCommand(
+      app,
+      "Average several DReg-NeRF weights files of one architecture into one (a model soup: runs "
+      "fine-tuned from the same weights, e.g. with different --seed). Parameters are averaged element-wise.",
+      "nerfreg reg average runs/a/dreg_cpu.pt runs/b/dreg_cpu.pt --out runs/soup.pt");
   std::vector<std::string> inputs;
   std::string out;
-  app.add_option("weights", inputs, "Weights files (reg train), all of one architecture")->required()->expected(1, 1000);
+  app.add_option("weights", inputs, "Weights files (reg train), all of one architecture")
+      ->required()
+      ->expected(1, 1000);
   app.add_option("--out", out, "Output weights file")->required();
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, inputs);

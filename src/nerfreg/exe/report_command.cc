@@ -20,7 +20,8 @@ int RunReport(int argc, char** argv) {
   app.add_option("run_dir", run_dir, "Run directory")->required();
   app.add_option("--out", out, "Output HTML file")->required();
   app.add_option("--title", options.title, "Page title (default: the directory name)");
-  app.add_option("--three-js", options.three_js, "three.min.js inlined for the 3D views (default: Debian's libjs-three)");
+  app.add_option("--three-js", options.three_js,
+                 "three.min.js inlined for the 3D views (default: Debian's libjs-three)");
   app.add_option("--max-points", options.max_points_per_block, "3D view: points kept per block (default 20000)");
   app.add_option("--max-views", options.max_views, "Renders shown beside their ground truth per folder (default 8)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;

@@ -14,8 +14,10 @@ void InitThreads() {
   bool capped = false;
   const int threads = ThreadCount(std::thread::hardware_concurrency(), std::getenv("OMP_NUM_THREADS"), &capped);
   if (capped) {
-    LOG_WARN("OMP_NUM_THREADS={} asks for more threads than this machine's {}: using {} (more threads than cores "
-             "only slow every step down)", std::getenv("OMP_NUM_THREADS"), threads, threads);
+    LOG_WARN(
+        "OMP_NUM_THREADS={} asks for more threads than this machine's {}: using {} (more threads than cores "
+        "only slow every step down)",
+        std::getenv("OMP_NUM_THREADS"), threads, threads);
   }
   torch::set_num_threads(threads);
 }

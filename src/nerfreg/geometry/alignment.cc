@@ -12,9 +12,8 @@ void AlignmentOptions::Check() const {
   if (!(min_total_weight > 0)) throw std::invalid_argument("AlignmentOptions: min_total_weight must be > 0");
 }
 
-bool EstimateSim3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                   const Eigen::VectorXd& weights, const AlignmentOptions& options,
-                   Sim3d* tgt_from_src) {
+bool EstimateSim3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Eigen::VectorXd& weights,
+                   const AlignmentOptions& options, Sim3d* tgt_from_src) {
   options.Check();
   const Eigen::Index n = src.cols();
   if (tgt.cols() != n) throw std::invalid_argument("EstimateSim3d: src and tgt sizes differ");
@@ -147,8 +146,8 @@ RobustAlignmentResult EstimateSim3dRansac(const Eigen::Matrix3Xd& src, const Eig
   return result;
 }
 
-bool EstimateRigid3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                     const Eigen::VectorXd& weights, Rigid3d* tgt_from_src) {
+bool EstimateRigid3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Eigen::VectorXd& weights,
+                     Rigid3d* tgt_from_src) {
   Sim3d sim;
   if (!EstimateSim3d(src, tgt, weights, AlignmentOptions{}, &sim)) return false;
   *tgt_from_src = sim.ToRigid();

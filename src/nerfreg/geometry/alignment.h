@@ -7,7 +7,7 @@
 namespace nerfreg {
 
 struct AlignmentOptions {
-  bool estimate_scale = false;  // Sim(3) (Umeyama) vs SE(3) (Kabsch)
+  bool estimate_scale = false;      // Sim(3) (Umeyama) vs SE(3) (Kabsch)
   double min_total_weight = 1e-12;  // below this the weights are degenerate
   void Check() const;
 };
@@ -17,9 +17,8 @@ struct AlignmentOptions {
 // Returns false (expected failure, no exception) when fewer than 3 points carry weight, the
 // weights sum to ~0, or the points are collinear/degenerate; the reflection case is fixed so
 // the result is always a proper rotation.
-bool EstimateSim3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                   const Eigen::VectorXd& weights, const AlignmentOptions& options,
-                   Sim3d* tgt_from_src);
+bool EstimateSim3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Eigen::VectorXd& weights,
+                   const AlignmentOptions& options, Sim3d* tgt_from_src);
 
 // RANSAC over weighted correspondences, for matches of which many are wrong (a learned
 // matcher's; DReg-NeRF's weighted Kabsch over all of them is pulled away from the truth by every
@@ -32,8 +31,8 @@ struct RobustAlignmentOptions {
   double inlier_radius = 0.1;  // in the units of the points
   int iterations = 2000;       // hypotheses drawn
   int refine_iterations = 3;
-  unsigned seed = 0;           // the draws are deterministic given the seed
-  void Check() const;          // throws std::invalid_argument naming the field
+  unsigned seed = 0;   // the draws are deterministic given the seed
+  void Check() const;  // throws std::invalid_argument naming the field
 };
 
 struct RobustAlignmentResult {
@@ -49,7 +48,7 @@ RobustAlignmentResult EstimateSim3dRansac(const Eigen::Matrix3Xd& src, const Eig
                                           const Eigen::VectorXd& weights, const RobustAlignmentOptions& options);
 
 // Convenience: rigid (Kabsch) alignment.
-bool EstimateRigid3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
-                     const Eigen::VectorXd& weights, Rigid3d* tgt_from_src);
+bool EstimateRigid3d(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Eigen::VectorXd& weights,
+                     Rigid3d* tgt_from_src);
 
 }  // namespace nerfreg

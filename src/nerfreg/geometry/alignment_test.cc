@@ -45,8 +45,7 @@ TEST(Alignment, RecoversRandomSim3AndRigid) {
 
 TEST(Alignment, WeightsIgnoreOutliers) {
   std::mt19937 rng(8);
-  const Sim3d gt(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitY())),
-                 Eigen::Vector3d(1, 2, 3));
+  const Sim3d gt(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
   const Eigen::Matrix3Xd src = RandomPoints(rng, 40);
   Eigen::Matrix3Xd tgt = Apply(gt, src);
   Eigen::VectorXd w = Eigen::VectorXd::Ones(40);

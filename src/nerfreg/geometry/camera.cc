@@ -97,9 +97,9 @@ Camera Camera::Resized(int new_width, int new_height) const {
 
 void Camera::Check() const {
   if (width <= 0 || height <= 0) throw std::invalid_argument("Camera: size must be positive: " + ToString());
-  if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy) || !std::isfinite(cx) ||
-      !std::isfinite(cy) || !std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) ||
-      !std::isfinite(p2) || !std::isfinite(k3) || !std::isfinite(k4)) {
+  if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy) || !std::isfinite(cx) || !std::isfinite(cy) ||
+      !std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2) || !std::isfinite(k3) ||
+      !std::isfinite(k4)) {
     throw std::invalid_argument("Camera: focal lengths must be positive and finite: " + ToString());
   }
 }
@@ -107,8 +107,10 @@ void Camera::Check() const {
 std::string Camera::ToString() const {
   std::ostringstream s;
   s << width << "x" << height << " f=(" << fx << "," << fy << ") c=(" << cx << "," << cy << ")";
-  if (model == CameraModel::kOpenCVFisheye) s << " fisheye k=(" << k1 << "," << k2 << "," << k3 << "," << k4 << ")";
-  else if (HasDistortion()) s << " k=(" << k1 << "," << k2 << "," << p1 << "," << p2 << "," << k3 << "," << k4 << ")";
+  if (model == CameraModel::kOpenCVFisheye)
+    s << " fisheye k=(" << k1 << "," << k2 << "," << k3 << "," << k4 << ")";
+  else if (HasDistortion())
+    s << " k=(" << k1 << "," << k2 << "," << p1 << "," << p2 << "," << k3 << "," << k4 << ")";
   return s.str();
 }
 

@@ -32,7 +32,8 @@ TEST(Camera, FisheyeIsEquidistantAndRoundTrips) {
   c.k3 = 0.002;
   c.k4 = -0.0005;
   EXPECT_TRUE(c.HasDistortion());
-  for (const Eigen::Vector3d x : {Eigen::Vector3d(0.3, -0.2, 1), Eigen::Vector3d(1.5, 1.0, 1), Eigen::Vector3d(0, 0, 2)}) {
+  for (const Eigen::Vector3d x :
+       {Eigen::Vector3d(0.3, -0.2, 1), Eigen::Vector3d(1.5, 1.0, 1), Eigen::Vector3d(0, 0, 2)}) {
     const Eigen::Vector3d back = c.CamFromImg(c.ImgFromCam(x));
     EXPECT_NEAR(back.x(), x.x() / x.z(), 1e-8);
     EXPECT_NEAR(back.y(), x.y() / x.z(), 1e-8);

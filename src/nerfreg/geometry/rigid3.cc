@@ -84,8 +84,7 @@ Rigid3d Rigid3d::Exp(const Vector6d& xi) {
   const Eigen::Vector3d v = xi.tail<3>();
   const double theta = w.norm();
   const Eigen::Quaterniond q =
-      theta < 1e-12 ? Eigen::Quaterniond::Identity()
-                    : Eigen::Quaterniond(Eigen::AngleAxisd(theta, w / theta));
+      theta < 1e-12 ? Eigen::Quaterniond::Identity() : Eigen::Quaterniond(Eigen::AngleAxisd(theta, w / theta));
   return Rigid3d(q, LeftJacobian(w) * v);
 }
 
@@ -157,8 +156,8 @@ double TranslationError(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { re
 
 Eigen::Quaterniond RandomRotation(double u1, double u2, double u3) {
   const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
-  return Eigen::Quaterniond(a * std::sin(2 * M_PI * u2), a * std::cos(2 * M_PI * u2),
-                            b * std::sin(2 * M_PI * u3), b * std::cos(2 * M_PI * u3))
+  return Eigen::Quaterniond(a * std::sin(2 * M_PI * u2), a * std::cos(2 * M_PI * u2), b * std::sin(2 * M_PI * u3),
+                            b * std::cos(2 * M_PI * u3))
       .normalized();
 }
 

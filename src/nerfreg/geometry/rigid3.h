@@ -24,7 +24,7 @@ struct Rigid3d {
   static Rigid3d FromMatrix(const Eigen::Matrix4d& m, double tol = 1e-4);
   static Rigid3d FromMatrix(const Matrix3x4d& m, double tol = 1e-4);
 
-  Eigen::Matrix4d ToMatrix() const;      // homogeneous 4x4
+  Eigen::Matrix4d ToMatrix() const;  // homogeneous 4x4
   Matrix3x4d ToMatrix3x4() const;
   Eigen::Matrix3d RotationMatrix() const { return rotation.toRotationMatrix(); }
 

@@ -37,7 +37,8 @@ torch::Tensor Move(const Sim3d& t, const torch::Tensor& points) {
   const torch::Tensor p = points.to(torch::kDouble).contiguous();
   Eigen::Matrix3Xf q(3, p.size(0));
   const double* d = p.data_ptr<double>();
-  for (Eigen::Index i = 0; i < q.cols(); ++i) q.col(i) = (t * Eigen::Vector3d(d[3 * i], d[3 * i + 1], d[3 * i + 2])).cast<float>();
+  for (Eigen::Index i = 0; i < q.cols(); ++i)
+    q.col(i) = (t * Eigen::Vector3d(d[3 * i], d[3 * i + 1], d[3 * i + 2])).cast<float>();
   return torch::from_blob(q.data(), {q.cols(), 3}, torch::kFloat32).clone();
 }
 

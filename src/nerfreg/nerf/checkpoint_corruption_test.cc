@@ -148,7 +148,8 @@ TEST(CheckpointCorruption, AChangedEntryNameIsRefusedBeforeLibTorchOpensTheFile)
   moved[name - 1] = static_cast<char>(moved[name - 1] ^ 0x40);  // the folder's last byte
   EXPECT_NE(ZipArchiveProblem(renamed).find("another name in its local header"), std::string::npos)
       << ZipArchiveProblem(renamed);
-  EXPECT_NE(ZipArchiveProblem(moved).find("outside the archive's folder"), std::string::npos) << ZipArchiveProblem(moved);
+  EXPECT_NE(ZipArchiveProblem(moved).find("outside the archive's folder"), std::string::npos)
+      << ZipArchiveProblem(moved);
   for (const std::string* b : {&renamed, &moved}) {
     const std::string path = dir.File(b == &renamed ? "renamed.ckpt" : "moved.ckpt");
     WriteFileAtomic(path, *b);

@@ -8,20 +8,25 @@ namespace nerfreg {
 
 void FieldOptions::Check() const {
   encoding.Check();
-  if (hidden_dim < 1 || geo_feature_dim < 0 || color_hidden_layers < 1 || aabb_min.size() != 3 || aabb_max.size() != 3) {
+  if (hidden_dim < 1 || geo_feature_dim < 0 || color_hidden_layers < 1 || aabb_min.size() != 3 ||
+      aabb_max.size() != 3) {
     throw std::invalid_argument("FieldOptions: out of range");
   }
   for (int k = 0; k < 3; ++k)
     if (!(aabb_max[k] > aabb_min[k])) throw std::invalid_argument("FieldOptions: aabb_max must exceed aabb_min");
-  if (flavor != "nerfreg" && flavor != "instant-ngp") throw std::invalid_argument("FieldOptions: flavor must be nerfreg or instant-ngp");
+  if (flavor != "nerfreg" && flavor != "instant-ngp")
+    throw std::invalid_argument("FieldOptions: flavor must be nerfreg or instant-ngp");
   if ((flavor == "instant-ngp") != (encoding.grid_rule == "instant-ngp")) {
-    throw std::invalid_argument("FieldOptions: the instant-ngp flavor goes with the instant-ngp grid rule, and only it");
+    throw std::invalid_argument(
+        "FieldOptions: the instant-ngp flavor goes with the instant-ngp grid rule, and only it");
   }
   auto sorted = axis_order;
   std::sort(sorted.begin(), sorted.end());
   if (sorted != std::vector<int>{0, 1, 2}) throw std::invalid_argument("FieldOptions: axis_order must permute 0, 1, 2");
-  if (!InstantNgp() && axis_order != std::vector<int>{0, 1, 2}) throw std::invalid_argument("FieldOptions: axis_order needs the instant-ngp flavor");
-  if (!(density_scale > 0) || !std::isfinite(density_scale)) throw std::invalid_argument("FieldOptions: density_scale must be positive");
+  if (!InstantNgp() && axis_order != std::vector<int>{0, 1, 2})
+    throw std::invalid_argument("FieldOptions: axis_order needs the instant-ngp flavor");
+  if (!(density_scale > 0) || !std::isfinite(density_scale))
+    throw std::invalid_argument("FieldOptions: density_scale must be positive");
 }
 
 namespace {
@@ -63,9 +68,9 @@ NerfFieldImpl::NerfFieldImpl(const FieldOptions& options) : options_(options) {
   const int h = options_.hidden_dim;
   using torch::nn::Linear;
   using torch::nn::LinearOptions;
-  density_mlp_ = register_module("density_mlp", torch::nn::Sequential(Linear(LinearOptions(e.OutputDim(), h).bias(false)),
-                                                                      torch::nn::ReLU(),
-                                                                      Linear(LinearOptions(h, 1 + options_.geo_feature_dim).bias(false))));
+  density_mlp_ = register_module(
+      "density_mlp", torch::nn::Sequential(Linear(LinearOptions(e.OutputDim(), h).bias(false)), torch::nn::ReLU(),
+                                           Linear(LinearOptions(h, 1 + options_.geo_feature_dim).bias(false))));
   torch::nn::Sequential color;
   const int color_inputs = 16 + options_.geo_feature_dim + (options_.InstantNgp() ? 1 : 0);
   color->push_back(Linear(LinearOptions(color_inputs, h).bias(false)));
@@ -77,7 +82,8 @@ NerfFieldImpl::NerfFieldImpl(const FieldOptions& options) : options_(options) {
   color->push_back(Linear(LinearOptions(h, 3).bias(false)));
   color_mlp_ = register_module("color_mlp", color);
   if (options_.InstantNgp()) {
-    axes_ = register_buffer("axis_order", torch::tensor(std::vector<std::int64_t>(options_.axis_order.begin(), options_.axis_order.end())));
+    axes_ = register_buffer(
+        "axis_order", torch::tensor(std::vector<std::int64_t>(options_.axis_order.begin(), options_.axis_order.end())));
   }
 }
 
@@ -100,7 +106,8 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const 
   return {sigma, h.slice(1, 1)};
 }
 
-std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions, const torch::Tensor& dirs) {
+std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions,
+                                                               const torch::Tensor& dirs) {
   const torch::Device device = table.device();
   if (positions.device() != device) {
     // The caller's samples (marched on the CPU) go to the field's device and the answers come
@@ -109,8 +116,9 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tens
     return {sigma.to(positions.device()), rgb.to(positions.device())};
   }
   auto [sigma, features] = DensityAndFeatures(positions);
-  const auto color_in = options_.InstantNgp() ? torch::cat({features, SphericalHarmonics16(dirs.index_select(1, axes_))}, 1)
-                                              : torch::cat({SphericalHarmonics16(dirs), features}, 1);
+  const auto color_in = options_.InstantNgp()
+                            ? torch::cat({features, SphericalHarmonics16(dirs.index_select(1, axes_))}, 1)
+                            : torch::cat({SphericalHarmonics16(dirs), features}, 1);
   const auto rgb = torch::sigmoid(color_mlp_->forward(color_in));
   return {sigma, rgb};
 }

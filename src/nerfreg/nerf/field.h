@@ -17,8 +17,8 @@ namespace nerfreg {
 
 struct FieldOptions {
   HashEncodingOptions encoding;
-  int hidden_dim = 64;          // width of both MLPs
-  int geo_feature_dim = 15;     // density MLP outputs besides density
+  int hidden_dim = 64;       // width of both MLPs
+  int geo_feature_dim = 15;  // density MLP outputs besides density
   int color_hidden_layers = 2;
   // Axis-aligned box the field lives in (world units of the block); outside, density is 0.
   std::vector<double> aabb_min = {-1.5, -1.5, -1.5};

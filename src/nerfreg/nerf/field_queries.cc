@@ -7,11 +7,13 @@
 namespace nerfreg {
 
 void SurfaceFieldOptions::Check() const {
-  if (max_cameras < 1 || step_size < 0 || stop_before < 0) throw std::invalid_argument("SurfaceFieldOptions: out of range");
+  if (max_cameras < 1 || step_size < 0 || stop_before < 0)
+    throw std::invalid_argument("SurfaceFieldOptions: out of range");
   if (mode != "max_weight" && mode != "opacity" && mode != "window") {
     throw std::invalid_argument("SurfaceFieldOptions: mode must be max_weight, opacity or window");
   }
-  if (mode == "window" && !(window > 0)) throw std::invalid_argument("SurfaceFieldOptions: mode window needs window > 0");
+  if (mode == "window" && !(window > 0))
+    throw std::invalid_argument("SurfaceFieldOptions: mode window needs window > 0");
 }
 
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) { return BlockDensity(block, positions); }
@@ -49,23 +51,24 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
     const Eigen::Vector3d centre = CameraCenter(f.cam_from_world);
     const auto o = torch::tensor({float(centre.x()), float(centre.y()), float(centre.z())});
     const auto x = points.index_select(0, idx);
-    const auto dist = (x - o).norm(2, 1);                 // [M]
-    const auto dir = (x - o) / dist.unsqueeze(1);         // [M, 3]
+    const auto dist = (x - o).norm(2, 1);          // [M]
+    const auto dir = (x - o) / dist.unsqueeze(1);  // [M, 3]
     // Each ray starts where it enters the field's box (density is zero outside it), so only the
     // stretch inside the box is marched.
     const auto inv = 1.0 / torch::where(dir.abs() < 1e-9, torch::full_like(dir, 1e-9), dir);
     const auto t_a = (aabb_min - o) * inv, t_b = (aabb_max - o) * inv;
     const auto t_enter = torch::clamp_min(torch::minimum(t_a, t_b).amax(1), 0.0);  // [M]
     for (std::int64_t s = 0; s < idx.numel(); s += 4096) {
-      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096), t0 = t_enter.slice(0, s, s + 4096);
+      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096),
+                 t0 = t_enter.slice(0, s, s + 4096);
       const std::int64_t m = d_s.size(0);
       const double reach = window_mode ? 0.5 * options.window : 0.0;
       const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>() + reach) / step)));
       const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [m, K]
       // Window mode marches on to half a window past X; the others stop at X.
-      const auto d_end = window_mode ? d_s + 0.5 * options.window : d_s - options.stop_before;     // [m]
-      const auto valid = ts <= d_end.unsqueeze(1);                                                // [m, K]
-      const auto pos = o + dir_s.unsqueeze(1) * ts.unsqueeze(2);                                    // [m, K, 3]
+      const auto d_end = window_mode ? d_s + 0.5 * options.window : d_s - options.stop_before;  // [m]
+      const auto valid = ts <= d_end.unsqueeze(1);                                              // [m, K]
+      const auto pos = o + dir_s.unsqueeze(1) * ts.unsqueeze(2);                                // [m, K, 3]
       // Density only where the sample is valid and its occupancy cell is occupied.
       const auto cell = ((pos - aabb_min) / (aabb_max - aabb_min) * g).floor().to(torch::kInt64);  // [m, K, 3]
       const auto in_box = ((cell >= 0) & (cell < g)).all(2);
@@ -76,7 +79,8 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
       if (query.numel() > 0) {
         const auto q = pos.reshape({-1, 3}).index_select(0, query);
         std::vector<torch::Tensor> parts;
-        for (std::int64_t k = 0; k < q.size(0); k += 1 << 17) parts.push_back(block.field->Density(q.slice(0, k, k + (1 << 17))));
+        for (std::int64_t k = 0; k < q.size(0); k += 1 << 17)
+          parts.push_back(block.field->Density(q.slice(0, k, k + (1 << 17))));
         sigma.index_copy_(0, query, torch::cat(parts));
       }
       sigma = sigma.view({m, max_steps});

@@ -21,9 +21,9 @@ namespace nerfreg {
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions);
 
 struct SurfaceFieldOptions {
-  int max_cameras = 16;        // the training cameras used per point: the nearest in viewing direction order
-  double step_size = 0.0;      // march step; 0: the block's marching step
-  double stop_before = 0.0;    // stop this far before X (0: at X, as the spec says)
+  int max_cameras = 16;      // the training cameras used per point: the nearest in viewing direction order
+  double step_size = 0.0;    // march step; 0: the block's marching step
+  double stop_before = 0.0;  // stop this far before X (0: at X, as the spec says)
   // Per ray: "max_weight" is the spec's max_i alpha_i T_i; "opacity" is the opacity accumulated
   // up to X, 1 - T(X) = sum_i alpha_i T_i. On a sharp surface both are ~1; on the blurrier blocks
   // a CPU trains in minutes a surface spreads its weight over several samples, so the maximum
@@ -42,10 +42,10 @@ struct SurfaceFieldOptions {
 torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const SurfaceFieldOptions& options);
 
 struct BlockPoints {
-  torch::Tensor xyz;      // [N, 3] block frame
-  torch::Tensor rgb;      // [N, 3] colour averaged over 6 viewing directions
-  torch::Tensor sigma;    // [N]
-  torch::Tensor alpha;    // [N] clip(1 - exp(-0.01 sigma), 0, 1) (spec section 3)
+  torch::Tensor xyz;    // [N, 3] block frame
+  torch::Tensor rgb;    // [N, 3] colour averaged over 6 viewing directions
+  torch::Tensor sigma;  // [N]
+  torch::Tensor alpha;  // [N] clip(1 - exp(-0.01 sigma), 0, 1) (spec section 3)
 };
 
 // Colour averaged over the six axis directions at positions [N, 3] (block frame) -> [N, 3].

@@ -43,10 +43,10 @@ constexpr std::uint32_t kPrime1 = 2654435761u, kPrime2 = 805459861u;
 struct LevelInfo {
   int resolution;
   bool dense;
-  float scale;          // position scale: p * scale + 0.5, as instant-NGP's grid_scale
-  std::uint32_t stride; // dense index x + y * stride + z * stride^2
-  bool wrap;            // dense index mod rows (instant-ngp), else & (T - 1)
-  std::uint32_t rows;   // rows of the level's table in use
+  float scale;           // position scale: p * scale + 0.5, as instant-NGP's grid_scale
+  std::uint32_t stride;  // dense index x + y * stride + z * stride^2
+  bool wrap;             // dense index mod rows (instant-ngp), else & (T - 1)
+  std::uint32_t rows;    // rows of the level's table in use
 };
 
 std::vector<LevelInfo> Levels(const HashEncodingOptions& o) {
@@ -71,7 +71,8 @@ std::vector<LevelInfo> Levels(const HashEncodingOptions& o) {
   return out;
 }
 
-inline std::uint32_t GridIndex(const LevelInfo& li, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t mask) {
+inline std::uint32_t GridIndex(const LevelInfo& li, std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                               std::uint32_t mask) {
   if (li.dense) {
     const std::uint32_t i = x + y * li.stride + z * li.stride * li.stride;
     return li.wrap ? i % li.rows : i & mask;
@@ -173,7 +174,8 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     return out;
   }
 
-  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx, torch::autograd::tensor_list grads) {
+  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
+                                               torch::autograd::tensor_list grads) {
     HashEncodingOptions o;
     o.levels = static_cast<int>(ctx->saved_data["levels"].toInt());
     o.features = static_cast<int>(ctx->saved_data["features"].toInt());
@@ -184,7 +186,8 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
     const auto positions = ctx->get_saved_variables()[0];
     const auto grad_out = grads[0].contiguous();
 #ifdef NERFREG_WITH_CUDA
-    if (positions.is_cuda()) return {torch::Tensor(), HashEncodeBackwardCuda(positions, grad_out, CudaGrid(o)), torch::Tensor()};
+    if (positions.is_cuda())
+      return {torch::Tensor(), HashEncodeBackwardCuda(positions, grad_out, CudaGrid(o)), torch::Tensor()};
 #endif
     const auto levels = Levels(o);
     const std::int64_t n = positions.size(0);
@@ -223,9 +226,11 @@ class HashEncodingFunction : public torch::autograd::Function<HashEncodingFuncti
 torch::Tensor HashEncode(const torch::Tensor& positions, const torch::Tensor& table, const HashEncodingOptions& o) {
   o.Check();
   TORCH_CHECK(positions.dim() == 2 && positions.size(1) == 3, "HashEncode: positions must be [N, 3]");
-  TORCH_CHECK(positions.scalar_type() == torch::kFloat32 && table.scalar_type() == torch::kFloat32, "HashEncode: float32 expected");
-  TORCH_CHECK(table.dim() == 3 && table.size(0) == o.levels && table.size(1) == o.TableSize() && table.size(2) == o.features,
-              "HashEncode: table must be [L, T, F]");
+  TORCH_CHECK(positions.scalar_type() == torch::kFloat32 && table.scalar_type() == torch::kFloat32,
+              "HashEncode: float32 expected");
+  TORCH_CHECK(
+      table.dim() == 3 && table.size(0) == o.levels && table.size(1) == o.TableSize() && table.size(2) == o.features,
+      "HashEncode: table must be [L, T, F]");
   TORCH_CHECK(positions.device() == table.device(), "HashEncode: positions and table must be on one device");
   if (HashEncodeHasKernel(positions.device())) return HashEncodingFunction::apply(positions.contiguous(), table, o);
   return HashEncodeReference(positions, table, o);
@@ -238,7 +243,8 @@ bool HashEncodeHasKernel(const torch::Device& device) {
   return device.is_cpu();
 }
 
-torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table, const HashEncodingOptions& o) {
+torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::Tensor& table,
+                                  const HashEncodingOptions& o) {
   o.Check();
   const auto levels = Levels(o);
   const std::int64_t mask = o.TableSize() - 1;
@@ -256,7 +262,8 @@ torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::T
       torch::Tensor index;
       if (li.dense) {
         const std::int64_t s = li.stride;
-        index = li.wrap ? (x + y * s + z * s * s).remainder(std::int64_t(li.rows)) : (x + y * s + z * s * s).bitwise_and(mask);
+        index = li.wrap ? (x + y * s + z * s * s).remainder(std::int64_t(li.rows))
+                        : (x + y * s + z * s * s).bitwise_and(mask);
       } else {
         // uint32 arithmetic emulated in int64: multiply, then keep the low 32 bits.
         const std::int64_t low32 = 0xffffffffLL;
@@ -264,7 +271,8 @@ torch::Tensor HashEncodeReference(const torch::Tensor& positions, const torch::T
                     .bitwise_xor((z * static_cast<std::int64_t>(kPrime2)).bitwise_and(low32))
                     .bitwise_and(mask);
       }
-      const auto w = (dx ? frac.select(1, 0) : 1 - frac.select(1, 0)) * (dy ? frac.select(1, 1) : 1 - frac.select(1, 1)) *
+      const auto w = (dx ? frac.select(1, 0) : 1 - frac.select(1, 0)) *
+                     (dy ? frac.select(1, 1) : 1 - frac.select(1, 1)) *
                      (dz ? frac.select(1, 2) : 1 - frac.select(1, 2));
       const auto values = table[l].index_select(0, index);  // [N, F]
       const auto term = values * w.unsqueeze(1);

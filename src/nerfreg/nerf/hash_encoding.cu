@@ -94,7 +94,7 @@ at::Tensor HashEncodeForwardCuda(const at::Tensor& positions, const at::Tensor& 
   if (n == 0) return out;
   const auto stream = c10::cuda::getCurrentCUDAStream();
   ForwardKernel<<<Blocks(n * grid.levels), kThreads, 0, stream>>>(pos.data_ptr<float>(), tab.data_ptr<float>(),
-                                                                   out.data_ptr<float>(), n, grid);
+                                                                  out.data_ptr<float>(), n, grid);
   C10_CUDA_KERNEL_LAUNCH_CHECK();
   return out;
 }
@@ -109,7 +109,7 @@ at::Tensor HashEncodeBackwardCuda(const at::Tensor& positions, const at::Tensor&
   if (n == 0) return grad_table;
   const auto stream = c10::cuda::getCurrentCUDAStream();
   BackwardKernel<<<Blocks(n * grid.levels), kThreads, 0, stream>>>(pos.data_ptr<float>(), g.data_ptr<float>(),
-                                                                    grad_table.data_ptr<float>(), n, grid);
+                                                                   grad_table.data_ptr<float>(), n, grid);
   C10_CUDA_KERNEL_LAUNCH_CHECK();
   return grad_table;
 }

@@ -27,13 +27,13 @@
 namespace nerfreg {
 
 struct HashEncodingOptions {
-  int levels = 16;              // L
-  int features = 2;             // F per level
-  int log2_table_size = 19;     // T = 2^19 entries per level
-  int base_resolution = 16;     // N_0
+  int levels = 16;                              // L
+  int features = 2;                             // F per level
+  int log2_table_size = 19;                     // T = 2^19 entries per level
+  int base_resolution = 16;                     // N_0
   double per_level_scale = 1.4472692012786865;  // s; 16 * s^15 = 4096 (instant-NGP / DReg-NeRF)
   std::string grid_rule = "nerfreg";            // level layout: "nerfreg" or "instant-ngp" (above)
-  void Check() const;           // throws std::invalid_argument
+  void Check() const;                           // throws std::invalid_argument
   int OutputDim() const { return levels * features; }
   std::int64_t TableSize() const { return std::int64_t(1) << log2_table_size; }
 };

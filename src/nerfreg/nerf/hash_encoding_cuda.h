@@ -10,18 +10,18 @@ namespace nerfreg {
 constexpr int kMaxHashLevels = 32;  // HashEncodingOptions::Check()'s bound
 
 struct HashLevelParams {
-  std::int32_t dense;   // index x + y * stride + z * stride^2, else the spatial hash
-  float scale;          // position scale: p * scale + 0.5
+  std::int32_t dense;  // index x + y * stride + z * stride^2, else the spatial hash
+  float scale;         // position scale: p * scale + 0.5
   std::uint32_t stride;
-  std::int32_t wrap;    // dense index mod rows (instant-ngp), else & mask
+  std::int32_t wrap;  // dense index mod rows (instant-ngp), else & mask
   std::uint32_t rows;
 };
 
 struct HashGridParams {
   HashLevelParams level[kMaxHashLevels];
-  std::int32_t levels = 0;    // L
-  std::int32_t features = 0;  // F (<= 8)
-  std::uint32_t mask = 0;     // T - 1
+  std::int32_t levels = 0;      // L
+  std::int32_t features = 0;    // F (<= 8)
+  std::uint32_t mask = 0;       // T - 1
   std::int64_t table_size = 0;  // T
 };
 

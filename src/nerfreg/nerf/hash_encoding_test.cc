@@ -58,7 +58,8 @@ TEST_P(HashEncodingRule, FusedBackwardEqualsReferenceAndFiniteDifferences) {
     plus[l][i][f] += eps;
     minus[l][i][f] -= eps;
     const double fd = ((HashEncode(x, plus.to(torch::kFloat32), o) * w).sum().item<double>() -
-                       (HashEncode(x, minus.to(torch::kFloat32), o) * w).sum().item<double>()) / (2 * eps);
+                       (HashEncode(x, minus.to(torch::kFloat32), o) * w).sum().item<double>()) /
+                      (2 * eps);
     EXPECT_NEAR(fd, t1.grad()[l][i][f].item<double>(), 2e-2 + 1e-2 * std::abs(fd));
   }
 }
@@ -138,7 +139,8 @@ class HashEncodingDevice : public ::testing::TestWithParam<std::tuple<std::strin
   }
 };
 INSTANTIATE_TEST_SUITE_P(Devices, HashEncodingDevice,
-                         ::testing::Combine(::testing::Values("cpu", "cuda"), ::testing::Values("nerfreg", "instant-ngp")),
+                         ::testing::Combine(::testing::Values("cpu", "cuda"),
+                                            ::testing::Values("nerfreg", "instant-ngp")),
                          [](const ::testing::TestParamInfo<HashEncodingDevice::ParamType>& info) {
                            std::string name = std::get<0>(info.param) + "_" + std::get<1>(info.param);
                            std::replace(name.begin(), name.end(), '-', '_');

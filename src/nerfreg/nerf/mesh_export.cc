@@ -17,8 +17,8 @@ void MeshExportOptions::Check() const {
 
 ColoredMesh MarchingCubes(const torch::Tensor& values_in, double iso, const std::vector<double>& box_min,
                           const std::vector<double>& box_max) {
-  TORCH_CHECK(values_in.dim() == 3 && values_in.size(0) == values_in.size(1) && values_in.size(0) == values_in.size(2) &&
-                  values_in.size(0) >= 2,
+  TORCH_CHECK(values_in.dim() == 3 && values_in.size(0) == values_in.size(1) &&
+                  values_in.size(0) == values_in.size(2) && values_in.size(0) >= 2,
               "MarchingCubes: values must be [G+1, G+1, G+1]");
   TORCH_CHECK(box_min.size() == 3 && box_max.size() == 3, "MarchingCubes: 3D box expected");
   const auto values = values_in.to(torch::kFloat32).contiguous();
@@ -66,7 +66,8 @@ ColoredMesh MarchingCubes(const torch::Tensor& values_in, double iso, const std:
     }
   }
   ColoredMesh m;
-  m.vertices = torch::from_blob(verts.data(), {static_cast<std::int64_t>(verts.size() / 3), 3}, torch::kFloat32).clone();
+  m.vertices =
+      torch::from_blob(verts.data(), {static_cast<std::int64_t>(verts.size() / 3), 3}, torch::kFloat32).clone();
   m.triangles = torch::from_blob(tris.data(), {static_cast<std::int64_t>(tris.size() / 3), 3}, torch::kInt64).clone();
   return m;
 }
@@ -93,7 +94,8 @@ ColoredMesh ExtractMesh(NerfBlock& block, const MeshExportOptions& options) {
   const auto points = torch::stack({grid[0], grid[1], grid[2]}, -1).reshape({-1, 3}).contiguous();
   constexpr std::int64_t kChunk = 1 << 16;
   std::vector<torch::Tensor> sigma;
-  for (std::int64_t s = 0; s < points.size(0); s += kChunk) sigma.push_back(block.field->Density(points.slice(0, s, s + kChunk)));
+  for (std::int64_t s = 0; s < points.size(0); s += kChunk)
+    sigma.push_back(block.field->Density(points.slice(0, s, s + kChunk)));
   // Marched in the field's frame, where its box is; a moved block's threshold is per unit length
   // of its own frame (BlockDensity).
   ColoredMesh m = MarchingCubes(torch::cat(sigma).view({G + 1, G + 1, G + 1}),
@@ -116,7 +118,9 @@ void WriteMeshPly(const ColoredMesh& mesh, const std::string& path) {
   const std::int64_t V = mesh.vertices.size(0), T = mesh.triangles.size(0);
   const auto pos = mesh.vertices.to(torch::kFloat32).contiguous();
   const auto nrm = (mesh.normals.defined() ? mesh.normals : torch::zeros({V, 3})).to(torch::kFloat32).contiguous();
-  const auto col = ((mesh.colors.defined() ? mesh.colors : torch::ones({V, 3})).clamp(0, 1) * 255 + 0.5).to(torch::kUInt8).contiguous();
+  const auto col = ((mesh.colors.defined() ? mesh.colors : torch::ones({V, 3})).clamp(0, 1) * 255 + 0.5)
+                       .to(torch::kUInt8)
+                       .contiguous();
   const auto tri = mesh.triangles.to(torch::kInt32).contiguous();
   std::string out = "ply\nformat binary_little_endian 1.0\ncomment nerfreg nerf export --mesh\nelement vertex " +
                     std::to_string(V) +

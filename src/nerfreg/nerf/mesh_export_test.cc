@@ -37,7 +37,8 @@ TEST(MeshExport, MarchingCubesBallIsClosedOutwardAndOnTheSphere) {
   }
   // Counter-clockwise seen from outside: face normals point away from the centre, and the
   // enclosed volume (divergence theorem) is the ball's.
-  const auto a = m.vertices.index_select(0, m.triangles.select(1, 0)), b = m.vertices.index_select(0, m.triangles.select(1, 1)),
+  const auto a = m.vertices.index_select(0, m.triangles.select(1, 0)),
+             b = m.vertices.index_select(0, m.triangles.select(1, 1)),
              c = m.vertices.index_select(0, m.triangles.select(1, 2));
   const auto face = torch::cross(b - a, c - a, 1);
   EXPECT_GT(((face * (a + b + c)).sum(1) > 0).to(torch::kFloat32).mean().item<float>(), 0.99f);

@@ -8,7 +8,8 @@
 
 namespace nerfreg {
 
-NerfBlock NerfBlock::Create(const FieldOptions& fo, const OccupancyGridOptions& go, const MarchOptions& march, unsigned seed) {
+NerfBlock NerfBlock::Create(const FieldOptions& fo, const OccupancyGridOptions& go, const MarchOptions& march,
+                            unsigned seed) {
   torch::manual_seed(seed);
   NerfBlock b;
   b.field_options = fo;
@@ -33,7 +34,8 @@ namespace {
 
 // world_from_field's rotation [3, 3] (row-major) and translation [3] as float32 tensors on `like`'s device.
 std::pair<torch::Tensor, torch::Tensor> FrameTensors(const NerfBlock& block, const torch::Tensor& like) {
-  const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> r = block.world_from_field.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> r =
+      block.world_from_field.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f t = block.world_from_field.translation.cast<float>();
   const auto opts = torch::TensorOptions().dtype(torch::kFloat32).device(like.device());
   return {torch::from_blob(const_cast<float*>(r.data()), {3, 3}, torch::kFloat32).clone().to(opts),
@@ -64,7 +66,8 @@ torch::Tensor BlockDensity(NerfBlock& block, const torch::Tensor& positions) {
   torch::NoGradGuard no_grad;
   const torch::Tensor p = ToFieldFrame(block, positions);
   std::vector<torch::Tensor> out;
-  for (std::int64_t s = 0; s < p.size(0); s += 1 << 17) out.push_back(block.field->Density(p.slice(0, s, s + (1 << 17))));
+  for (std::int64_t s = 0; s < p.size(0); s += 1 << 17)
+    out.push_back(block.field->Density(p.slice(0, s, s + (1 << 17))));
   const torch::Tensor sigma = out.empty() ? torch::zeros({0}) : torch::cat(out);
   // A length of the block's frame is `scale` lengths of the field's: the density per unit length shrinks.
   return block.Moved() ? sigma / block.world_from_field.scale : sigma;
@@ -102,8 +105,9 @@ RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& block_origins, co
     const auto comp = Composite(sigma, rgb, samples.t_starts, samples.t_ends, samples.offsets);
     rgbs.push_back(comp.rgb + (1 - comp.opacity).unsqueeze(1) * background);
     opacities.push_back(comp.opacity);
-    depths.push_back(torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)) *
-                     block.world_from_field.scale);
+    depths.push_back(
+        torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)) *
+        block.world_from_field.scale);
   }
   return {torch::cat(rgbs), torch::cat(opacities), torch::cat(depths)};
 }
@@ -131,7 +135,8 @@ void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old) {
   if (cams.aabb_min && cams.aabb_max) {
     Eigen::AlignedBox3d moved;
     const Eigen::AlignedBox3d box(*cams.aabb_min, *cams.aabb_max);
-    for (int k = 0; k < 8; ++k) moved.extend(new_from_old * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
+    for (int k = 0; k < 8; ++k)
+      moved.extend(new_from_old * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
     cams.aabb_min = moved.min();
     cams.aabb_max = moved.max();
   }
@@ -146,14 +151,22 @@ void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old) {
 namespace {
 const char* kFormatTag = "nerfreg-nerf-block";
 
-
 Json FieldOptionsToJson(const FieldOptions& f) {
   const auto& e = f.encoding;
-  return {{"levels", e.levels}, {"features", e.features}, {"log2_table_size", e.log2_table_size},
-          {"base_resolution", e.base_resolution}, {"per_level_scale", e.per_level_scale}, {"hidden_dim", f.hidden_dim},
-          {"geo_feature_dim", f.geo_feature_dim}, {"color_hidden_layers", f.color_hidden_layers},
-          {"aabb_min", f.aabb_min}, {"aabb_max", f.aabb_max}, {"grid_rule", e.grid_rule}, {"flavor", f.flavor},
-          {"axis_order", f.axis_order}, {"density_scale", f.density_scale}};
+  return {{"levels", e.levels},
+          {"features", e.features},
+          {"log2_table_size", e.log2_table_size},
+          {"base_resolution", e.base_resolution},
+          {"per_level_scale", e.per_level_scale},
+          {"hidden_dim", f.hidden_dim},
+          {"geo_feature_dim", f.geo_feature_dim},
+          {"color_hidden_layers", f.color_hidden_layers},
+          {"aabb_min", f.aabb_min},
+          {"aabb_max", f.aabb_max},
+          {"grid_rule", e.grid_rule},
+          {"flavor", f.flavor},
+          {"axis_order", f.axis_order},
+          {"density_scale", f.density_scale}};
 }
 
 FieldOptions FieldOptionsFromJson(const JsonField& j) {
@@ -191,11 +204,16 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                {"version", kNerfCheckpointVersion},
                {"step", block.step},
                {"field", FieldOptionsToJson(block.field_options)},
-               {"grid", {{"resolution", block.grid_options.resolution}, {"update_every", block.grid_options.update_every},
-                         {"warmup_steps", block.grid_options.warmup_steps}, {"ema_decay", block.grid_options.ema_decay},
-                         {"threshold", block.grid_options.threshold}}},
-               {"march", {{"step_size", block.march.step_size}, {"near", block.march.near},
-                          {"max_samples_per_ray", block.march.max_samples_per_ray}}},
+               {"grid",
+                {{"resolution", block.grid_options.resolution},
+                 {"update_every", block.grid_options.update_every},
+                 {"warmup_steps", block.grid_options.warmup_steps},
+                 {"ema_decay", block.grid_options.ema_decay},
+                 {"threshold", block.grid_options.threshold}}},
+               {"march",
+                {{"step_size", block.march.step_size},
+                 {"near", block.march.near},
+                 {"max_samples_per_ray", block.march.max_samples_per_ray}}},
                {"cameras", TransformsJsonFromDataset(block.cameras)},
                {"world_from_field", MatrixToJson(block.world_from_field.ToMatrix())},
                {"train_options", block.train_options}};
@@ -253,8 +271,9 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   const double h = b.field_options.hidden_dim, geo = b.field_options.geo_feature_dim;
   const double g = b.grid_options.resolution;
   CheckArchiveCanHold(path, "field",
-                      double(enc.levels) * double(enc.TableSize()) * enc.features + h * enc.OutputDim() + h * (1 + geo) +
-                          h * (16 + geo) + (b.field_options.color_hidden_layers - 1) * h * h + 3 * h + g * g * g);
+                      double(enc.levels) * double(enc.TableSize()) * enc.features + h * enc.OutputDim() +
+                          h * (1 + geo) + h * (16 + geo) + (b.field_options.color_hidden_layers - 1) * h * h + 3 * h +
+                          g * g * g);
   b.field = NerfField(b.field_options);
   b.grid = std::make_unique<OccupancyGrid>(b.grid_options, b.field_options.aabb_min, b.field_options.aabb_max);
   try {
@@ -272,9 +291,11 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   // The training cameras, kept as transforms.json inside the checkpoint (with sizes: no image needed).
   // A block may have no cameras (an instant-ngp import without --transforms).
   // (meta is const: operator[] on a missing key would be undefined behaviour, found by fuzzing.)
-  if (!meta.contains("cameras")) ThrowInputError(path, "cameras", "the block's cameras (transforms.json, frames may be empty)");
+  if (!meta.contains("cameras"))
+    ThrowInputError(path, "cameras", "the block's cameras (transforms.json, frames may be empty)");
   const Json& cams = meta["cameras"];
-  const bool no_cameras = cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
+  const bool no_cameras =
+      cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
   if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));
   b.field->to(device);
   return b;

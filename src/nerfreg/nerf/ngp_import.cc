@@ -33,16 +33,19 @@ namespace {
 // Copies a row-major [rows, cols] block of ngp params (a matrix stored as [rows_stored, cols_stored])
 // into a Linear weight [rows, cols].
 void CopyMatrix(const std::vector<float>& p, std::int64_t offset, int cols_stored, torch::Tensor weight) {
-  const auto src = torch::from_blob(const_cast<float*>(p.data() + offset), {weight.size(0), cols_stored}, torch::kFloat32);
+  const auto src =
+      torch::from_blob(const_cast<float*>(p.data() + offset), {weight.size(0), cols_stored}, torch::kFloat32);
   weight.copy_(src.slice(1, 0, weight.size(1)));
 }
 
 // Occupancy in the block's grid cells from ngp's cascades: a cell takes the finest cascade that
 // contains its centre; a coarse cell over a finer cascade is the max over its children (the finer
 // cascade is what instant-ngp marches there).
-void ImportOccupancy(const NgpSnapshot& s, const NgpFrame& frame, const NgpImportOptions& options, OccupancyGrid* grid) {
+void ImportOccupancy(const NgpSnapshot& s, const NgpFrame& frame, const NgpImportOptions& options,
+                     OccupancyGrid* grid) {
   const int g = s.density_grid_size, cascades = s.density_cascades;
-  const auto raw = torch::from_blob(const_cast<float*>(s.density_grid.data()), {cascades, g, g, g}, torch::kFloat32);  // [c][z][y][x]
+  const auto raw = torch::from_blob(const_cast<float*>(s.density_grid.data()), {cascades, g, g, g},
+                                    torch::kFloat32);  // [c][z][y][x]
   const double mean0 = raw[0].clamp_min(0).mean().item<double>();
   const double thr = std::min(options.occupancy_threshold, mean0);
   std::vector<torch::Tensor> occ, sigma;
@@ -51,7 +54,9 @@ void ImportOccupancy(const NgpSnapshot& s, const NgpFrame& frame, const NgpImpor
     // Optical thickness -> density per block length: / ngp step at this cascade * world scale.
     auto d = raw[c].clamp_min(0) / (std::sqrt(3.0) / 1024 * std::ldexp(1.0, c)) * frame.scale;
     if (c > 0 && g >= 4) {
-      const auto pool = [g](const torch::Tensor& t) { return torch::max_pool3d(t.view({1, 1, g, g, g}), 2).view({g / 2, g / 2, g / 2}); };
+      const auto pool = [g](const torch::Tensor& t) {
+        return torch::max_pool3d(t.view({1, 1, g, g, g}), 2).view({g / 2, g / 2, g / 2});
+      };
       const auto inner = torch::indexing::Slice(g / 4, g / 4 + g / 2);
       o.index_put_({inner, inner, inner}, pool(occ.back()));
       d.index_put_({inner, inner, inner}, pool(sigma.back()));
@@ -63,7 +68,8 @@ void ImportOccupancy(const NgpSnapshot& s, const NgpFrame& frame, const NgpImpor
   // Block cell centres -> ngp space.
   const auto centres = grid->CellCenters().to(torch::kFloat64);  // [G^3, 3] block frame
   std::vector<torch::Tensor> cols;
-  for (int k = 0; k < 3; ++k) cols.push_back(centres.select(1, frame.axis_order[k]) * frame.scale + frame.offset[frame.axis_order[k]]);
+  for (int k = 0; k < 3; ++k)
+    cols.push_back(centres.select(1, frame.axis_order[k]) * frame.scale + frame.offset[frame.axis_order[k]]);
   const auto x_ngp = torch::stack(cols, 1);
   // One cascade for every cell: the finest one containing the whole grid (its cells already hold
   // the max over finer cascades), so a cell never samples a single child of a finer cascade.
@@ -88,7 +94,8 @@ NerfBlock SnapshotToNerfBlock(const NgpSnapshot& s, const std::string& source, c
   const auto& dn = s.density_network;
   const auto& rn = s.rgb_network;
   if (dn.hidden_layers != 1) ThrowInputError(source, "network.n_hidden_layers", "1 (the density MLP of our field)");
-  if (dn.width != rn.width) ThrowInputError(source, "rgb_network.n_neurons", std::to_string(dn.width) + " (as network.n_neurons)");
+  if (dn.width != rn.width)
+    ThrowInputError(source, "rgb_network.n_neurons", std::to_string(dn.width) + " (as network.n_neurons)");
   if (s.sh_degree != 4) ThrowInputError(source, "dir_encoding", "spherical harmonics of degree 4");
   const NgpFrame frame = ImportFrame(s, options, cameras);
   if (s.has_dataset_transform && cameras && cameras->ngp_scale && std::abs(*cameras->ngp_scale - s.scale) > 1e-9) {
@@ -151,8 +158,11 @@ NerfBlock SnapshotToNerfBlock(const NgpSnapshot& s, const std::string& source, c
   }
 
   if (s.density_cascades > 0 && s.density_grid_size >= 4) ImportOccupancy(s, frame, options, block.grid.get());
-  block.train_options = {{"imported_from", "instant-ngp"}, {"source", source}, {"frame", options.frame},
-                         {"ngp_scale", frame.scale}, {"ngp_offset", frame.offset}};
+  block.train_options = {{"imported_from", "instant-ngp"},
+                         {"source", source},
+                         {"frame", options.frame},
+                         {"ngp_scale", frame.scale},
+                         {"ngp_offset", frame.offset}};
 
   if (cameras) {
     block.cameras = *cameras;
@@ -166,7 +176,8 @@ NerfBlock SnapshotToNerfBlock(const NgpSnapshot& s, const std::string& source, c
       const Eigen::Vector3d o(nerf.offset[0], nerf.offset[1], nerf.offset[2]);
       for (auto& f : block.cameras.frames) {
         const Eigen::Matrix3d R = f.cam_from_world.rotation.toRotationMatrix();
-        f.cam_from_world = Rigid3d(Eigen::Matrix3d(R * C.transpose()), nerf.scale * f.cam_from_world.translation - R * o);
+        f.cam_from_world =
+            Rigid3d(Eigen::Matrix3d(R * C.transpose()), nerf.scale * f.cam_from_world.translation - R * o);
         f.near *= nerf.scale;
         f.far *= nerf.scale;
       }

@@ -22,7 +22,7 @@
 namespace nerfreg {
 
 struct NgpImportOptions {
-  std::string frame = "nerf";         // "nerf" or "ngp" (above)
+  std::string frame = "nerf";  // "nerf" or "ngp" (above)
   // A density-grid cell is occupied when its value (ngp's optical thickness density * step)
   // exceeds min(threshold, mean of cascade 0), as instant-ngp marks its bitfield.
   double occupancy_threshold = 0.01;
@@ -42,7 +42,7 @@ NgpFrame ImportFrame(const NgpSnapshot& snapshot, const NgpImportOptions& option
 
 // `source` names the snapshot in errors (InputError for configurations the field cannot express,
 // e.g. MLPs of different widths). `cameras`: optional, in the transforms.json frame.
-NerfBlock SnapshotToNerfBlock(const NgpSnapshot& snapshot, const std::string& source, const NgpImportOptions& options = {},
-                              const Dataset* cameras = nullptr);
+NerfBlock SnapshotToNerfBlock(const NgpSnapshot& snapshot, const std::string& source,
+                              const NgpImportOptions& options = {}, const Dataset* cameras = nullptr);
 
 }  // namespace nerfreg

@@ -14,7 +14,8 @@ namespace {
 // An independent plain-loop evaluation of instant-ngp's NeRF model from the documented formulas
 // (tiny-cuda-nn grid + FullyFusedMLP layouts, NerfNetwork wiring), at a point x and direction d
 // of the transforms.json frame. Returns {sigma per transforms.json length, r, g, b}.
-std::array<double, 4> ReferenceNgp(const TestNgpSnapshot& t, const TestNgpSnapshotOptions& o, const double x[3], const double d[3]) {
+std::array<double, 4> ReferenceNgp(const TestNgpSnapshot& t, const TestNgpSnapshotOptions& o, const double x[3],
+                                   const double d[3]) {
   const double s = o.dataset_scale;
   const double v[3] = {s * x[0] + o.dataset_offset[0], s * x[1] + o.dataset_offset[1], s * x[2] + o.dataset_offset[2]};
   const double p[3] = {v[1], v[2], v[0]};  // nerf_matrix_to_ngp cycles xyz <- yzx
@@ -41,7 +42,8 @@ std::array<double, 4> ReferenceNgp(const TestNgpSnapshot& t, const TestNgpSnapsh
       const std::uint32_t cx = g[0] + (c & 1), cy = g[1] + ((c >> 1) & 1), cz = g[2] + ((c >> 2) & 1);
       const std::uint32_t idx = dense ? (cx + cy * res + cz * res * res) % std::uint32_t(rows)
                                       : (cx ^ (cy * 2654435761u) ^ (cz * 805459861u)) % std::uint32_t(T);
-      const double wgt = ((c & 1) ? frac[0] : 1 - frac[0]) * ((c & 2) ? frac[1] : 1 - frac[1]) * ((c & 4) ? frac[2] : 1 - frac[2]);
+      const double wgt =
+          ((c & 1) ? frac[0] : 1 - frac[0]) * ((c & 2) ? frac[1] : 1 - frac[1]) * ((c & 4) ? frac[2] : 1 - frac[2]);
       for (int f = 0; f < F; ++f) enc[l * F + f] += wgt * t.params[grid_off + (level_off + idx) * F + f];
     }
     level_off += rows;
@@ -92,7 +94,9 @@ TEST(NgpImport, FieldEqualsIndependentReferenceOfTheNgpModel) {
   std::vector<std::array<double, 4>> want;
   for (int i = 0; i < N; ++i) {
     double x[3], d[3];
-    for (int j = 0; j < 3; ++j) x[j] = block.field_options.aabb_min[j] + u(rng) * (block.field_options.aabb_max[j] - block.field_options.aabb_min[j]);
+    for (int j = 0; j < 3; ++j)
+      x[j] = block.field_options.aabb_min[j] +
+             u(rng) * (block.field_options.aabb_max[j] - block.field_options.aabb_min[j]);
     double len = 0;
     for (int j = 0; j < 3; ++j) len += (d[j] = n(rng)) * d[j];
     for (int j = 0; j < 3; ++j) d[j] /= std::sqrt(len);
@@ -137,13 +141,15 @@ TEST(NgpImport, OccupancyGridEqualsTheWrittenDensityGrid) {
     int c1[3];
     for (int k = 0; k < 3; ++k) c1[k] = static_cast<int>(std::floor(((p[k] - 0.5) / 2 + 0.5) * g));
     bool want;
-    const bool inner = c1[0] >= g / 4 && c1[0] < 3 * g / 4 && c1[1] >= g / 4 && c1[1] < 3 * g / 4 && c1[2] >= g / 4 && c1[2] < 3 * g / 4;
+    const bool inner = c1[0] >= g / 4 && c1[0] < 3 * g / 4 && c1[1] >= g / 4 && c1[1] < 3 * g / 4 && c1[2] >= g / 4 &&
+                       c1[2] < 3 * g / 4;
     if (!inner) {
       want = raw(1, c1[0], c1[1], c1[2]);
     } else {
       want = false;
       for (int c = 0; c < 8; ++c)
-        want |= raw(0, 2 * (c1[0] - g / 4) + (c & 1), 2 * (c1[1] - g / 4) + ((c >> 1) & 1), 2 * (c1[2] - g / 4) + ((c >> 2) & 1));
+        want |= raw(0, 2 * (c1[0] - g / 4) + (c & 1), 2 * (c1[1] - g / 4) + ((c >> 1) & 1),
+                    2 * (c1[2] - g / 4) + ((c >> 2) & 1));
     }
     ASSERT_EQ(occupied[i].item<bool>(), want) << i;
     count += want;
@@ -181,7 +187,8 @@ TEST(NgpImport, NgpFrameIsTheSameFieldInInstantNgpUnits) {
   const auto x_ngp = (x * o.dataset_scale + off).index_select(1, perm), d_ngp = d.index_select(1, perm);
   torch::NoGradGuard no_grad;
   const auto fa = a.field->Forward(x, d), fb = b.field->Forward(x_ngp, d_ngp);
-  EXPECT_LT((fa.first - fb.first * o.dataset_scale).abs().max().item<float>(), 1e-3 * fa.first.abs().max().item<float>() + 1e-6);
+  EXPECT_LT((fa.first - fb.first * o.dataset_scale).abs().max().item<float>(),
+            1e-3 * fa.first.abs().max().item<float>() + 1e-6);
   EXPECT_LT((fa.second - fb.second).abs().max().item<float>(), 1e-5);
   EXPECT_EQ(a.grid->occupied().sum().item<int>(), b.grid->occupied().sum().item<int>());
 }

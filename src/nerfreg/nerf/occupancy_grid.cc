@@ -29,8 +29,8 @@ torch::Tensor OccupancyGrid::CellCenters() const {
   return mn + unit * (mx - mn);
 }
 
-void OccupancyGrid::Update(int step, double step_size, const std::function<torch::Tensor(const torch::Tensor&)>& density_fn,
-                           torch::Generator gen) {
+void OccupancyGrid::Update(int step, double step_size,
+                           const std::function<torch::Tensor(const torch::Tensor&)>& density_fn, torch::Generator gen) {
   if (step % options_.update_every != 0) return;
   torch::NoGradGuard no_grad;
   const int g = options_.resolution;
@@ -42,12 +42,15 @@ void OccupancyGrid::Update(int step, double step_size, const std::function<torch
     // A quarter of the cells at random plus a quarter of the occupied ones (instant-NGP).
     const auto random = torch::randint(n, {n / 4}, gen, torch::kInt64);
     const auto occ = occupied_.reshape(-1).nonzero().squeeze(1);
-    const auto pick = occ.numel() > 0 ? occ.index_select(0, torch::randint(occ.numel(), {std::min<std::int64_t>(n / 4, occ.numel())}, gen, torch::kInt64))
-                                      : torch::empty({0}, torch::kInt64);
+    const auto pick =
+        occ.numel() > 0 ? occ.index_select(0, torch::randint(occ.numel(), {std::min<std::int64_t>(n / 4, occ.numel())},
+                                                             gen, torch::kInt64))
+                        : torch::empty({0}, torch::kInt64);
     cells = torch::cat({random, pick});
   }
   const auto mn = torch::tensor(aabb_min_, torch::kFloat32), mx = torch::tensor(aabb_max_, torch::kFloat32);
-  const auto i = cells.div(std::int64_t(g) * g, "floor"), j = cells.div(g, "floor").remainder(g), k = cells.remainder(g);
+  const auto i = cells.div(std::int64_t(g) * g, "floor"), j = cells.div(g, "floor").remainder(g),
+             k = cells.remainder(g);
   const auto jitter = torch::rand({cells.numel(), 3}, gen);
   const auto unit = (torch::stack({i, j, k}, 1).to(torch::kFloat32) + jitter) / g;
   const auto pos = mn + unit * (mx - mn);

@@ -9,24 +9,25 @@
 namespace nerfreg {
 
 struct OccupancyGridOptions {
-  int resolution = 128;          // G
-  int update_every = 16;         // training steps between updates
-  int warmup_steps = 256;        // all cells are updated during warm-up, a quarter afterwards
+  int resolution = 128;    // G
+  int update_every = 16;   // training steps between updates
+  int warmup_steps = 256;  // all cells are updated during warm-up, a quarter afterwards
   double ema_decay = 0.95;
-  double threshold = 0.01;       // on density * step_size (the sample's opacity scale)
+  double threshold = 0.01;  // on density * step_size (the sample's opacity scale)
   void Check() const;
 };
 
 class OccupancyGrid {
  public:
-  OccupancyGrid(const OccupancyGridOptions& options, const std::vector<double>& aabb_min, const std::vector<double>& aabb_max);
+  OccupancyGrid(const OccupancyGridOptions& options, const std::vector<double>& aabb_min,
+                const std::vector<double>& aabb_max);
 
   // density_fn: positions [N, 3] world -> sigma [N] (called without grad, in chunks).
   void Update(int step, double step_size, const std::function<torch::Tensor(const torch::Tensor&)>& density_fn,
               torch::Generator gen = {});
 
-  const torch::Tensor& density() const { return density_; }     // [G, G, G] float EMA
-  const torch::Tensor& occupied() const { return occupied_; }   // [G, G, G] bool
+  const torch::Tensor& density() const { return density_; }    // [G, G, G] float EMA
+  const torch::Tensor& occupied() const { return occupied_; }  // [G, G, G] bool
   double OccupiedFraction() const;
   int resolution() const { return options_.resolution; }
   const std::vector<double>& aabb_min() const { return aabb_min_; }

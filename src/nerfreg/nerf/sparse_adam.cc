@@ -4,7 +4,8 @@
 
 namespace nerfreg {
 
-SparseAdam::SparseAdam(const torch::Tensor& param, const SparseAdamOptions& options) : param_(param), options_(options) {
+SparseAdam::SparseAdam(const torch::Tensor& param, const SparseAdamOptions& options)
+    : param_(param), options_(options) {
   TORCH_CHECK(param.device().is_cpu() && param.scalar_type() == torch::kFloat32 && param.is_contiguous(),
               "SparseAdam: a contiguous float32 CPU tensor expected");
   m_ = torch::zeros_like(param, torch::TensorOptions().requires_grad(false));

@@ -31,7 +31,7 @@ class SparseAdam {
  private:
   torch::Tensor param_, m_, v_, steps_;
   SparseAdamOptions options_;
-  std::int64_t calls_ = 0;          // Step() calls so far: the largest step count an entry can have
+  std::int64_t calls_ = 0;         // Step() calls so far: the largest step count an entry can have
   std::vector<float> step_sizes_;  // [t] the bias-corrected step size after t steps of an entry
 };
 

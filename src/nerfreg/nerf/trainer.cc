@@ -39,7 +39,8 @@ NerfTrainOptions NerfTrainOptions::Preset(const std::string& name) {
 
 void NerfTrainOptions::Check() const {
   if (iterations < 1) ThrowInputError("--iters", "", ">= 1");
-  if (sparse_table_adam && !device.is_cpu()) ThrowInputError("--device", device.str(), "cpu with the sparse table Adam (a CPU kernel)");
+  if (sparse_table_adam && !device.is_cpu())
+    ThrowInputError("--device", device.str(), "cpu with the sparse table Adam (a CPU kernel)");
   if (target_samples < 1024 || initial_rays < 1 || max_rays < initial_rays || !(lr > 0) || eval_every < 0 ||
       checkpoint_every < 0) {
     throw InputError("nerf train: invalid options");
@@ -54,9 +55,15 @@ void NerfTrainOptions::Check() const {
 }
 
 Json NerfTrainOptions::ToJson() const {
-  return {{"preset", preset}, {"iterations", iterations}, {"target_samples", target_samples},
-          {"lr", lr}, {"seed", seed}, {"random_background", random_background}, {"sparse_table_adam", sparse_table_adam},
-          {"grid_resolution", grid.resolution}, {"step_size", march.step_size},
+  return {{"preset", preset},
+          {"iterations", iterations},
+          {"target_samples", target_samples},
+          {"lr", lr},
+          {"seed", seed},
+          {"random_background", random_background},
+          {"sparse_table_adam", sparse_table_adam},
+          {"grid_resolution", grid.resolution},
+          {"step_size", march.step_size},
           {"log2_table_size", field.encoding.log2_table_size}};
 }
 
@@ -72,15 +79,17 @@ TrainRays LoadRays(const Dataset& dataset, const std::vector<int>& indices) {
     const Frame& f = dataset.frames[i];
     const Image im = ReadImage(dataset.ImagePath(f), 4);
     if (im.width != f.camera.width || im.height != f.camera.height) {
-      ThrowInputError(dataset.ImagePath(f), "size", std::to_string(f.camera.width) + "x" + std::to_string(f.camera.height) +
-                                                      " as its camera says, image is " + std::to_string(im.width) + "x" +
-                                                      std::to_string(im.height));
+      ThrowInputError(dataset.ImagePath(f), "size",
+                      std::to_string(f.camera.width) + "x" + std::to_string(f.camera.height) +
+                          " as its camera says, image is " + std::to_string(im.width) + "x" +
+                          std::to_string(im.height));
     }
     torch::Tensor o, d;
     CameraRays(f.camera, f.cam_from_world, &o, &d);
     os.push_back(o);
     ds.push_back(d);
-    cs.push_back(torch::from_blob(const_cast<float*>(im.data.data()), {im.width * im.height, 4}, torch::kFloat32).clone());
+    cs.push_back(
+        torch::from_blob(const_cast<float*>(im.data.data()), {im.width * im.height, 4}, torch::kFloat32).clone());
   }
   return {torch::cat(os), torch::cat(ds), torch::cat(cs)};
 }
@@ -122,7 +131,8 @@ NerfEvalResult EvaluateNerfBlock(NerfBlock& block, const Dataset& dataset, int m
   return r;
 }
 
-NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& options_in, const std::string& ckpt, bool resume) {
+NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& options_in, const std::string& ckpt,
+                               bool resume) {
   NerfTrainOptions options = options_in;
   options.Check();
   const auto train_idx = dataset.IndicesOfSplit("train");
@@ -148,8 +158,9 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     if (options.sparse_table_adam) {
       table_adam = std::make_unique<SparseAdam>(block.field->table, SparseAdamOptions{0.9, 0.999, 1e-15});
     } else {
-      groups.emplace_back(std::vector<torch::Tensor>{block.field->table},
-                          std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(options.lr).eps(1e-15)));
+      groups.emplace_back(
+          std::vector<torch::Tensor>{block.field->table},
+          std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(options.lr).eps(1e-15)));
     }
     groups.emplace_back(mlp, std::make_unique<torch::optim::AdamOptions>(
                                  torch::optim::AdamOptions(options.lr).eps(1e-15).weight_decay(1e-6)));
@@ -273,8 +284,13 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     if ((options.eval_every > 0 && block.step % options.eval_every == 0) || last) {
       psnr_test = EvaluateNerfBlock(block, dataset, last ? 0 : options.max_eval_views).psnr;
       bar.SetMetric("test_psnr", psnr_test);
-      log << Json{{"step", block.step}, {"loss", loss_value}, {"test_psnr", psnr_test}, {"rays", n_rays},
-                  {"occupied", block.grid->OccupiedFraction()}, {"seconds", seconds_before + timer.Seconds()}}.dump()
+      log << Json{{"step", block.step},
+                  {"loss", loss_value},
+                  {"test_psnr", psnr_test},
+                  {"rays", n_rays},
+                  {"occupied", block.grid->OccupiedFraction()},
+                  {"seconds", seconds_before + timer.Seconds()}}
+                 .dump()
           << "\n";
       log.flush();
     } else if (block.step % 50 == 0) {
@@ -282,12 +298,14 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       log << Json{{"step", block.step}, {"loss", loss_value}}.dump() << "\n";
       log.flush();
     }
-    if ((options.checkpoint_every > 0 && block.step % options.checkpoint_every == 0) || last || block.step == end_step) save();
+    if ((options.checkpoint_every > 0 && block.step % options.checkpoint_every == 0) || last || block.step == end_step)
+      save();
   }
   bar.Finish();
   // Resuming a finished run trains nothing; its test PSNR is measured again rather than reported
   // as the 0 of a loop that never ran.
-  if (block.step == first_step && block.step == options.iterations) psnr_test = EvaluateNerfBlock(block, dataset, 0).psnr;
+  if (block.step == first_step && block.step == options.iterations)
+    psnr_test = EvaluateNerfBlock(block, dataset, 0).psnr;
   NerfTrainResult r;
   r.psnr_test = psnr_test;
   r.seconds = seconds_before + timer.Seconds();

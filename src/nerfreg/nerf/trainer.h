@@ -12,18 +12,18 @@
 namespace nerfreg {
 
 struct NerfTrainOptions {
-  std::string preset = "fast";            // "fast" (2 CPU cores) or "default" (the paper's)
+  std::string preset = "fast";  // "fast" (2 CPU cores) or "default" (the paper's)
   int iterations = 2000;
   std::int64_t target_samples = 1 << 16;  // samples per batch (paper: 2^18)
   int initial_rays = 1024;
   int max_rays = 1 << 14;
   double lr = 1e-2;
-  int eval_every = 500;                   // held-out PSNR every n steps (0: only at the end)
-  int checkpoint_every = 500;             // 0: only at the end
-  int max_eval_views = 8;                 // test views rendered for the periodic evaluation
+  int eval_every = 500;        // held-out PSNR every n steps (0: only at the end)
+  int checkpoint_every = 500;  // 0: only at the end
+  int max_eval_views = 8;      // test views rendered for the periodic evaluation
   unsigned seed = 0;
-  int stop_after = 0;                     // > 0: checkpoint and return at this step (train in slices)
-  bool random_background = true;          // for RGBA images; white at evaluation
+  int stop_after = 0;             // > 0: checkpoint and return at this step (train in slices)
+  bool random_background = true;  // for RGBA images; white at evaluation
   // The hash table by SparseAdam (tiny-cuda-nn's: untouched entries skipped, one fused pass)
   // instead of torch Adam (nerfacc's, as DReg-NeRF trains). Off in both presets: it trained a
   // worse block and saves a small share of an iteration
@@ -56,8 +56,8 @@ struct NerfTrainResult {
 // `checkpoint_path`.log.jsonl with the curves). With resume, continues from the checkpoint.
 // Throws InputError on bad data; std::runtime_error("... NaN at step N ...") when training
 // diverges, leaving the last good checkpoint untouched.
-NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& options, const std::string& checkpoint_path,
-                               bool resume);
+NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& options,
+                               const std::string& checkpoint_path, bool resume);
 
 // Mean PSNR / SSIM of the block's renders of the dataset's test views (white background).
 struct NerfEvalResult {

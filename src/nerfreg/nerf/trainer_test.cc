@@ -55,7 +55,8 @@ TEST(NerfTrainer, TrainingRaisesHeldOutPsnr) {
   SurfaceFieldOptions so;
   so.max_cameras = 8;
   const auto s_surface = SurfaceField(block, surface, so);
-  const auto empty = torch::tensor({{1.3f, 1.3f, 1.3f}, {-1.3f, 1.3f, 1.3f}, {1.3f, -1.3f, 1.3f}, {-1.3f, -1.3f, 1.3f}});
+  const auto empty =
+      torch::tensor({{1.3f, 1.3f, 1.3f}, {-1.3f, 1.3f, 1.3f}, {1.3f, -1.3f, 1.3f}, {-1.3f, -1.3f, 1.3f}});
   const auto s_empty = SurfaceField(block, empty, so);
   // S = max_i alpha_i T_i is below 1 on this tiny, blurry block (its surfaces spread over several
   // samples): assert the separation between surface and empty space.
@@ -84,7 +85,8 @@ TEST(NerfTrainer, TrainingRaisesHeldOutPsnr) {
   SurfaceFieldOptions fine_max = one;
   fine_max.step_size = fine.step_size;
   EXPECT_NEAR(SurfaceField(block, surface, fine).mean().item<float>(), w_surface, 0.05f);
-  EXPECT_LT(SurfaceField(block, surface, fine_max).mean().item<float>(), SurfaceField(block, surface, one).mean().item<float>());
+  EXPECT_LT(SurfaceField(block, surface, fine_max).mean().item<float>(),
+            SurfaceField(block, surface, one).mean().item<float>());
   window.window = 0;
   EXPECT_THROW(window.Check(), std::invalid_argument);
 }

@@ -7,13 +7,15 @@
 namespace nerfreg {
 
 void MarchOptions::Check() const {
-  if (!(step_size > 0) || near < 0 || max_samples_per_ray < 1) throw std::invalid_argument("MarchOptions: out of range");
+  if (!(step_size > 0) || near < 0 || max_samples_per_ray < 1)
+    throw std::invalid_argument("MarchOptions: out of range");
 }
 
 RaySamples MarchRays(const torch::Tensor& origins, const torch::Tensor& dirs, const OccupancyGrid& grid,
                      const MarchOptions& o, torch::Generator gen) {
   o.Check();
-  TORCH_CHECK(origins.dim() == 2 && origins.size(1) == 3 && dirs.sizes() == origins.sizes(), "MarchRays: [R, 3] expected");
+  TORCH_CHECK(origins.dim() == 2 && origins.size(1) == 3 && dirs.sizes() == origins.sizes(),
+              "MarchRays: [R, 3] expected");
   const auto ori = origins.to(torch::kFloat32).contiguous().cpu(), dir = dirs.to(torch::kFloat32).contiguous().cpu();
   const auto occ = grid.occupied().contiguous();
   const std::int64_t R = ori.size(0);
@@ -91,9 +93,9 @@ namespace {
 
 class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
  public:
-  static torch::autograd::tensor_list forward(torch::autograd::AutogradContext* ctx, torch::Tensor sigmas, torch::Tensor rgbs,
-                                              torch::Tensor t_starts, torch::Tensor t_ends, torch::Tensor offsets,
-                                              double early_stop) {
+  static torch::autograd::tensor_list forward(torch::autograd::AutogradContext* ctx, torch::Tensor sigmas,
+                                              torch::Tensor rgbs, torch::Tensor t_starts, torch::Tensor t_ends,
+                                              torch::Tensor offsets, double early_stop) {
     const std::int64_t R = offsets.size(0) - 1;
     auto color = torch::zeros({R, 3}), opacity = torch::zeros({R}), depth = torch::zeros({R});
     const float* sg = sigmas.data_ptr<float>();
@@ -131,13 +133,17 @@ class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
     return {color, opacity, depth};
   }
 
-  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx, torch::autograd::tensor_list grads) {
+  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
+                                               torch::autograd::tensor_list grads) {
     const auto saved = ctx->get_saved_variables();
     const auto &sigmas = saved[0], &rgbs = saved[1], &t_starts = saved[2], &t_ends = saved[3], &offsets = saved[4];
     const auto &color = saved[5], &opacity = saved[6], &depth = saved[7];
     const float stop = static_cast<float>(ctx->saved_data["stop"].toDouble());
-    auto zeros_if_undef = [](const torch::Tensor& g, const torch::Tensor& like) { return g.defined() ? g.contiguous() : torch::zeros_like(like); };
-    const auto gc = zeros_if_undef(grads[0], color), go = zeros_if_undef(grads[1], opacity), gd = zeros_if_undef(grads[2], depth);
+    auto zeros_if_undef = [](const torch::Tensor& g, const torch::Tensor& like) {
+      return g.defined() ? g.contiguous() : torch::zeros_like(like);
+    };
+    const auto gc = zeros_if_undef(grads[0], color), go = zeros_if_undef(grads[1], opacity),
+               gd = zeros_if_undef(grads[2], depth);
     const std::int64_t R = offsets.size(0) - 1;
     auto gsig = torch::zeros_like(sigmas), grgb = torch::zeros_like(rgbs);
     const float* sg = sigmas.data_ptr<float>();
@@ -190,13 +196,14 @@ CompositeResult Composite(const torch::Tensor& sigmas, const torch::Tensor& rgbs
   TORCH_CHECK(t_starts.sizes() == sigmas.sizes() && t_ends.sizes() == sigmas.sizes() && offsets.dim() == 1,
               "Composite: t_starts, t_ends [S], offsets [R + 1] expected");
   if (!sigmas.device().is_cpu()) return CompositeReference(sigmas, rgbs, t_starts, t_ends, offsets, early_stop);
-  const auto out = CompositeFunction::apply(sigmas.contiguous(), rgbs.contiguous(), t_starts.contiguous(), t_ends.contiguous(),
-                                            offsets.to(torch::kInt64).contiguous(), early_stop);
+  const auto out = CompositeFunction::apply(sigmas.contiguous(), rgbs.contiguous(), t_starts.contiguous(),
+                                            t_ends.contiguous(), offsets.to(torch::kInt64).contiguous(), early_stop);
   return {out[0], out[1], out[2]};
 }
 
-CompositeResult CompositeReference(const torch::Tensor& sigmas, const torch::Tensor& rgbs, const torch::Tensor& t_starts,
-                                   const torch::Tensor& t_ends, const torch::Tensor& offsets, double early_stop) {
+CompositeResult CompositeReference(const torch::Tensor& sigmas, const torch::Tensor& rgbs,
+                                   const torch::Tensor& t_starts, const torch::Tensor& t_ends,
+                                   const torch::Tensor& offsets, double early_stop) {
   const auto off = offsets.to(torch::kInt64).cpu();
   const std::int64_t R = off.size(0) - 1;
   std::vector<torch::Tensor> colors, opac, depths;

@@ -17,7 +17,7 @@ struct MarchOptions {
   double step_size = 3.0 * 1.7320508075688772 / 1024;  // world units (spec: 3 sqrt(3) / 1024 for a 3-wide box)
   double near = 0.05;                                  // no samples closer to the camera than this
   int max_samples_per_ray = 1024;
-  bool perturb = false;                                // random start offset per ray (training)
+  bool perturb = false;  // random start offset per ray (training)
   void Check() const;
 };
 
@@ -43,7 +43,8 @@ struct CompositeResult {
 CompositeResult Composite(const torch::Tensor& sigmas, const torch::Tensor& rgbs, const torch::Tensor& t_starts,
                           const torch::Tensor& t_ends, const torch::Tensor& offsets, double early_stop = 1e-4);
 // The same with torch ops (per-ray loop over cumprod), for tests and benchmarks.
-CompositeResult CompositeReference(const torch::Tensor& sigmas, const torch::Tensor& rgbs, const torch::Tensor& t_starts,
-                                   const torch::Tensor& t_ends, const torch::Tensor& offsets, double early_stop = 1e-4);
+CompositeResult CompositeReference(const torch::Tensor& sigmas, const torch::Tensor& rgbs,
+                                   const torch::Tensor& t_starts, const torch::Tensor& t_ends,
+                                   const torch::Tensor& offsets, double early_stop = 1e-4);
 
 }  // namespace nerfreg

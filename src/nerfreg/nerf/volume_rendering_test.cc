@@ -46,7 +46,8 @@ TEST(VolumeRendering, CompositeGradientMatchesFiniteDifferences) {
     p[i] += eps;
     m[i] -= eps;
     const float fd = ((Composite(p, rgb, t_starts, t_ends, offsets).rgb * w).sum().item<float>() -
-                      (Composite(m, rgb, t_starts, t_ends, offsets).rgb * w).sum().item<float>()) / (2 * eps);
+                      (Composite(m, rgb, t_starts, t_ends, offsets).rgb * w).sum().item<float>()) /
+                     (2 * eps);
     EXPECT_NEAR(sig.grad()[i].item<float>(), fd, 2e-3) << i;
   }
 }

@@ -20,12 +20,18 @@ namespace nerfreg {
 
 std::string ApplyInputKindName(ApplyInputKind kind) {
   switch (kind) {
-    case ApplyInputKind::kSplats: return "splats";
-    case ApplyInputKind::kPly: return "ply";
-    case ApplyInputKind::kTransformsJson: return "transforms.json";
-    case ApplyInputKind::kColmap: return "colmap";
-    case ApplyInputKind::kLlff: return "llff";
-    case ApplyInputKind::kNerfBlock: return "nerf-block";
+    case ApplyInputKind::kSplats:
+      return "splats";
+    case ApplyInputKind::kPly:
+      return "ply";
+    case ApplyInputKind::kTransformsJson:
+      return "transforms.json";
+    case ApplyInputKind::kColmap:
+      return "colmap";
+    case ApplyInputKind::kLlff:
+      return "llff";
+    case ApplyInputKind::kNerfBlock:
+      return "nerf-block";
   }
   throw std::logic_error("ApplyInputKindName: unknown kind");
 }
@@ -62,9 +68,12 @@ ApplyInputKind DetectApplyInput(const std::string& input) {
   if (FileExists(input) && LowerExtension(input) == ".npy") return ApplyInputKind::kLlff;
   if (FileExists(input) && LowerExtension(input) != ".json") return ApplyInputKind::kNerfBlock;
   switch (DetectCameraFormat(input)) {
-    case CameraFormat::kTransformsJson: return ApplyInputKind::kTransformsJson;
-    case CameraFormat::kLlff: return ApplyInputKind::kLlff;
-    case CameraFormat::kColmap: return ApplyInputKind::kColmap;
+    case CameraFormat::kTransformsJson:
+      return ApplyInputKind::kTransformsJson;
+    case CameraFormat::kLlff:
+      return ApplyInputKind::kLlff;
+    case CameraFormat::kColmap:
+      return ApplyInputKind::kColmap;
   }
   throw std::logic_error("DetectApplyInput: unreachable");
 }

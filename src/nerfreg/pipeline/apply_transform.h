@@ -26,10 +26,10 @@ std::string ApplyInputKindName(ApplyInputKind kind);  // "splats", "ply", "trans
 struct ApplyTransformOptions {
   std::string transform;  // T.json: "target_from_source" (a 4x4 similarity)
   std::string input;
-  std::string output;     // a file; a folder for a COLMAP model
-  bool inverse = false;   // --inverse: apply source_from_target instead
-  bool force = false;     // --force: replace an existing output (never an input)
-  void Check() const;     // throws InputError naming the option
+  std::string output;    // a file; a folder for a COLMAP model
+  bool inverse = false;  // --inverse: apply source_from_target instead
+  bool force = false;    // --force: replace an existing output (never an input)
+  void Check() const;    // throws InputError naming the option
 };
 
 struct ApplyTransformResult {

@@ -23,12 +23,15 @@
 namespace nerfreg {
 namespace {
 
-const Sim3d kTargetFromSource(0.6, Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(-0.2, 1, 0.4).normalized())),
+const Sim3d kTargetFromSource(0.6,
+                              Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(-0.2, 1, 0.4).normalized())),
                               Eigen::Vector3d(-0.7, 0.3, 1.2));
 
 class ApplyTransform : public ::testing::Test {
  protected:
-  void SetUp() override { WriteJsonFile(dir_.File("t.json"), {{"target_from_source", MatrixToJson(kTargetFromSource.ToMatrix())}}); }
+  void SetUp() override {
+    WriteJsonFile(dir_.File("t.json"), {{"target_from_source", MatrixToJson(kTargetFromSource.ToMatrix())}});
+  }
 
   // INPUT -> moved (T), -> back (T^-1); returns the result of the first.
   ApplyTransformResult RoundTrip(const std::string& input, const std::string& moved, const std::string& back) {
@@ -66,12 +69,15 @@ TEST_F(ApplyTransform, MeshAndPointCloudPlyRoundTripWithin1e6) {
   // A PLY mesh written as the mesh exporter writes it (binary floats, normals, colours).
   std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(box.vertices.size()) +
                     "\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\n"
-                    "property float nz\nelement face " + std::to_string(box.triangles.size()) +
-                    "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (const auto& v : box.vertices) ply += std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z()) + " 0 0 1\n";
-  for (const auto& t : box.triangles) ply += "3 " + std::to_string(t.x()) + " " + std::to_string(t.y()) + " " + std::to_string(t.z()) + "\n";
+                    "property float nz\nelement face " +
+                    std::to_string(box.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (const auto& v : box.vertices)
+    ply += std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z()) + " 0 0 1\n";
+  for (const auto& t : box.triangles)
+    ply += "3 " + std::to_string(t.x()) + " " + std::to_string(t.y()) + " " + std::to_string(t.z()) + "\n";
   WriteFileAtomic(dir_.File("mesh.ply"), ply);
-  const ApplyTransformResult r = RoundTrip(dir_.File("mesh.ply"), dir_.File("mesh_moved.ply"), dir_.File("mesh_back.ply"));
+  const ApplyTransformResult r =
+      RoundTrip(dir_.File("mesh.ply"), dir_.File("mesh_moved.ply"), dir_.File("mesh_back.ply"));
   EXPECT_EQ(r.kind, ApplyInputKind::kPly);
   const TriangleMesh moved = LoadMesh(dir_.File("mesh_moved.ply")), back = LoadMesh(dir_.File("mesh_back.ply"));
   const TriangleMesh original = LoadMesh(dir_.File("mesh.ply"));
@@ -84,8 +90,9 @@ TEST_F(ApplyTransform, MeshAndPointCloudPlyRoundTripWithin1e6) {
   }
   EXPECT_EQ(back.triangles, original.triangles);
 
-  WriteFileAtomic(dir_.File("cloud.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
-                                          "property double z\nend_header\n0.1 0.2 0.3\n-1 2 0.5\n3 -0.25 1\n");
+  WriteFileAtomic(dir_.File("cloud.ply"),
+                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                  "property double z\nend_header\n0.1 0.2 0.3\n-1 2 0.5\n3 -0.25 1\n");
   RoundTrip(dir_.File("cloud.ply"), dir_.File("cloud_moved.ply"), dir_.File("cloud_back.ply"));
   // Open3D writes binary doubles: the three points come back to within 1e-6.
   const std::string bytes = ReadFileToString(dir_.File("cloud_back.ply"));
@@ -102,14 +109,17 @@ TEST_F(ApplyTransform, MeshAndPointCloudPlyRoundTripWithin1e6) {
 
 TEST_F(ApplyTransform, TransformsJsonWithNerfstudioDataparserRoundTrips) {
   CreateDirectories(dir_.File("ns"));
-  WriteFileAtomic(dir_.File("ns/transforms.json"), R"({"camera_model": "OPENCV", "fl_x": 50, "fl_y": 50, "cx": 20, "cy": 15,
+  WriteFileAtomic(dir_.File("ns/transforms.json"),
+                  R"({"camera_model": "OPENCV", "fl_x": 50, "fl_y": 50, "cx": 20, "cy": 15,
     "w": 40, "h": 30, "applied_transform": [[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0]],
     "frames": [{"file_path": "images/a.png", "transform_matrix": [[1, 0, 0, 1], [0, 0, -1, -3], [0, 1, 0, 0.5], [0, 0, 0, 1]]}]})");
-  const Sim3d trained_from_data(0.25, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())), Eigen::Vector3d(0.1, 0, 0));
+  const Sim3d trained_from_data(0.25, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())),
+                                Eigen::Vector3d(0.1, 0, 0));
   WriteDataparserTransforms(trained_from_data, dir_.File("ns/dataparser_transforms.json"));
   CreateDirectories(dir_.File("moved"));
   CreateDirectories(dir_.File("back"));
-  const ApplyTransformResult r = RoundTrip(dir_.File("ns"), dir_.File("moved/transforms.json"), dir_.File("back/transforms.json"));
+  const ApplyTransformResult r =
+      RoundTrip(dir_.File("ns"), dir_.File("moved/transforms.json"), dir_.File("back/transforms.json"));
   EXPECT_EQ(r.kind, ApplyInputKind::kTransformsJson);
   EXPECT_EQ(r.written.size(), 2u);  // and dataparser_transforms.json beside it
   const Dataset in = ReadTransformsJson(dir_.File("ns/transforms.json"));
@@ -121,7 +131,9 @@ TEST_F(ApplyTransform, TransformsJsonWithNerfstudioDataparserRoundTrips) {
   // The trained model's frame did not move: a camera there is where it was.
   const Sim3d trained_from_moved = *moved.trained_from_data;
   EXPECT_LT((trained_from_moved.TransformCamera(moved.frames[0].cam_from_world).ToMatrix() -
-             trained_from_data.TransformCamera(in.frames[0].cam_from_world).ToMatrix()).norm(), 1e-9);
+             trained_from_data.TransformCamera(in.frames[0].cam_from_world).ToMatrix())
+                .norm(),
+            1e-9);
 }
 
 TEST_F(ApplyTransform, ColmapTextAndBinaryAndLlffRoundTrip) {
@@ -138,7 +150,8 @@ TEST_F(ApplyTransform, ColmapTextAndBinaryAndLlffRoundTrip) {
     im.image_id = i;
     im.camera_id = 1;
     im.name = "im" + std::to_string(i) + ".png";
-    im.cam_from_world = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * i, Eigen::Vector3d::UnitY())), Eigen::Vector3d(0.1 * i, 0.2, 3));
+    im.cam_from_world = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * i, Eigen::Vector3d::UnitY())),
+                                Eigen::Vector3d(0.1 * i, 0.2, 3));
     model.images[i] = im;
   }
   ColmapPoint3D p;
@@ -177,7 +190,8 @@ TEST_F(ApplyTransform, NerfBlockRoundTripsToItsOwnFrame) {
   go.resolution = 16;
   NerfBlock b = NerfBlock::Create(fo, go, MarchOptions(), 1);
   SaveNerfBlock(b, dir_.File("b.ckpt"));
-  EXPECT_EQ(RoundTrip(dir_.File("b.ckpt"), dir_.File("moved.ckpt"), dir_.File("back.ckpt")).kind, ApplyInputKind::kNerfBlock);
+  EXPECT_EQ(RoundTrip(dir_.File("b.ckpt"), dir_.File("moved.ckpt"), dir_.File("back.ckpt")).kind,
+            ApplyInputKind::kNerfBlock);
   const NerfBlock moved = LoadNerfBlock(dir_.File("moved.ckpt")), back = LoadNerfBlock(dir_.File("back.ckpt"));
   EXPECT_LT((moved.world_from_field.ToMatrix() - kTargetFromSource.ToMatrix()).norm(), 1e-12);
   EXPECT_FALSE(back.Moved());
@@ -195,7 +209,8 @@ TEST_F(ApplyTransform, OutputsFollowTheRules) {
   const std::string onto_transform = InputErrorOf([&] {
     ApplyTransformFile({dir_.File("t.json"), dir_.File("transforms.json"), dir_.File("t.json"), false, true});
   });
-  EXPECT_NE(onto_transform.find("t.json: expected an output that is not an input"), std::string::npos) << onto_transform;
+  EXPECT_NE(onto_transform.find("t.json: expected an output that is not an input"), std::string::npos)
+      << onto_transform;
   EXPECT_TRUE(ReadJsonFile(dir_.File("t.json")).contains("target_from_source"));
   WriteFileAtomic(dir_.File("old.ply"), "old");
   EXPECT_NE(error(dir_.File("old.ply"), false).find("exists; pass --force"), std::string::npos);
@@ -203,8 +218,11 @@ TEST_F(ApplyTransform, OutputsFollowTheRules) {
   EXPECT_TRUE(IsSplatPly(dir_.File("old.ply")));
   EXPECT_NE(error(dir_.File("s.json"), false).find("--out: expected a .ply path for splats"), std::string::npos);
   // A transform that is not a similarity.
-  WriteJsonFile(dir_.File("shear.json"), {{"target_from_source", {{1, 0.5, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}}});
-  const std::string e = InputErrorOf([&] { ApplyTransformFile({dir_.File("shear.json"), dir_.File("s.ply"), dir_.File("x.ply")}); });
+  WriteJsonFile(dir_.File("shear.json"),
+                {{"target_from_source", {{1, 0.5, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}}});
+  const std::string e = InputErrorOf([&] {
+    ApplyTransformFile({dir_.File("shear.json"), dir_.File("s.ply"), dir_.File("x.ply")});
+  });
   EXPECT_NE(e.find("shear.json: target_from_source: expected a similarity transform"), std::string::npos) << e;
   EXPECT_FALSE(FileExists(dir_.File("x.ply")));
 }

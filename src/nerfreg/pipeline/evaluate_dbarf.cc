@@ -56,7 +56,8 @@ void EvaluateScenePoses(const DbarfEvaluationOptions& o, DbarfModel& model, cons
         {"deg", o.perturb.deg},
         {"translation", o.perturb.translation},
         {"cameras", RelativeToJson(EvaluateCameraRelativePoses(scene, loaded.ground_truth, o.num_sources, o.perturb))},
-        {"network", RelativeToJson(EvaluateRelativePoses(model, scene, loaded.ground_truth, o.num_sources, "cameras", o.perturb))}};
+        {"network", RelativeToJson(EvaluateRelativePoses(model, scene, loaded.ground_truth, o.num_sources, "cameras",
+                                                         o.perturb))}};
   }
 }
 
@@ -76,7 +77,8 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   model.To(o.device);
   const Timer timer;
   LoadedDbarfScene loaded = LoadDbarfScene(o.dataset, o.scene);
-  if (!loaded.ground_truth.defined()) ThrowInputError(o.dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
+  if (!loaded.ground_truth.defined())
+    ThrowInputError(o.dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
   DbarfEvaluation e;
   e.seconds_poses = timer.Seconds();
   const DbarfScene& scene = loaded.scene;
@@ -141,8 +143,9 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
             {"seconds_poses", e.seconds_poses},
             {"seconds", e.seconds},
             {"views", views},
-            {"protocol", "test views rendered at their estimated cameras (posed from all images), "
-                         "from view-graph neighbours among the training views"}};
+            {"protocol",
+             "test views rendered at their estimated cameras (posed from all images), "
+             "from view-graph neighbours among the training views"}};
   WriteJsonFile(JoinPaths(tmp, "eval.json"), e.json);
   if (!sheet.empty()) WriteImage(JoinPaths(tmp, "compare.png"), ContactSheet(sheet, 3));
   output.Commit();

@@ -15,21 +15,21 @@
 namespace nerfreg {
 
 struct DbarfEvaluationOptions {
-  std::string dataset;     // a dataset with ground-truth poses and a test split
-  std::string out;         // output folder
-  std::string weights;     // DBARF weights
-  int num_sources = 8;     // source views per rendered view
+  std::string dataset;  // a dataset with ground-truth poses and a test split
+  std::string out;      // output folder
+  std::string weights;  // DBARF weights
+  int num_sources = 8;  // source views per rendered view
   DbarfSceneOptions scene;
   // Also score the network refining cameras perturbed by this much (inactive: zero).
   RelativePoseNoise perturb;
   torch::Device device = torch::kCPU;  // where the networks run (`--device`)
-  bool force = false;      // replace an existing output
-  void Check() const;      // throws InputError naming the flag
+  bool force = false;                  // replace an existing output
+  void Check() const;                  // throws InputError naming the flag
 };
 
 struct DbarfEvaluation {
-  Json json;                 // what OUT/eval.json holds
-  PoseEvaluation poses;      // absolute poses after the alignment (as measured, even when not aligned)
+  Json json;             // what OUT/eval.json holds
+  PoseEvaluation poses;  // absolute poses after the alignment (as measured, even when not aligned)
   RelativePoseError relative_cameras, relative_network;
   int64_t images = 0;
   size_t posed = 0, rendered = 0;

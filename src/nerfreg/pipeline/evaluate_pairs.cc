@@ -21,9 +21,11 @@ namespace nerfreg {
 
 void PairEvaluationOptions::Check() const {
   for (const auto& m : methods)
-    if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth") ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
+    if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth")
+      ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
   for (const auto& r : refines)
-    if (r != "none" && r != "icp" && r != "block-icp" && r != "field") ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
+    if (r != "none" && r != "icp" && r != "block-icp" && r != "field")
+      ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
   for (const auto& s : dreg_solvers)
     if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
 }
@@ -45,69 +47,74 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
         warned_field = true;
         continue;
       }
-      auto ckpt = [](const std::string& grid) { return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt"; };
+      auto ckpt = [](const std::string& grid) {
+        return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt";
+      };
       src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source), nullptr, options.device));
       tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target), nullptr, options.device));
       occupied = std::make_unique<OccupiedPoints>(*src_block, *tgt_block, BlockRegistrationOptions{}.min_density, 0);
     }
     for (const auto& m : options.methods) {
       for (const auto& solver : m == "dreg" ? options.dreg_solvers : std::vector<std::string>{"ransac"})
-      for (const int passes : m == "dreg" ? options.dreg_passes : std::vector<int>{1})
-      for (const auto& rf : options.refines) {
-        if ((rf == "field" || rf == "block-icp") && !src_block) continue;
-        GridRegistrationOptions o = options.base;  // the ICP's points, distance, half-turns and the voxel
-        o.method = m;
-        o.dreg_solver = solver;
-        o.dreg_passes = passes;
-        o.icp = rf != "none";
-        GridRegistrationResult r;
-        if (m == "truth") {
-          // The refinement floor: each refinement started at the ground truth; where it ends is
-          // what the two blocks' own disagreement costs, whatever found the coarse pose.
-          Timer timer;
-          r.method = "truth";
-          r.target_from_source = p.target_from_source;
-          r.confidence = 1;
-          if (o.icp) {
-            o.method = options.base.method;  // the coarse method's name is all RefineGridPose checks; none runs
-            const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
-            o.flips = false;                    // no half-turns of the truth
-            r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
-            r.method = "truth" + name.substr(name.find("+icp"));
+        for (const int passes : m == "dreg" ? options.dreg_passes : std::vector<int>{1})
+          for (const auto& rf : options.refines) {
+            if ((rf == "field" || rf == "block-icp") && !src_block) continue;
+            GridRegistrationOptions o = options.base;  // the ICP's points, distance, half-turns and the voxel
+            o.method = m;
+            o.dreg_solver = solver;
+            o.dreg_passes = passes;
+            o.icp = rf != "none";
+            GridRegistrationResult r;
+            if (m == "truth") {
+              // The refinement floor: each refinement started at the ground truth; where it ends is
+              // what the two blocks' own disagreement costs, whatever found the coarse pose.
+              Timer timer;
+              r.method = "truth";
+              r.target_from_source = p.target_from_source;
+              r.confidence = 1;
+              if (o.icp) {
+                o.method = options.base.method;     // the coarse method's name is all RefineGridPose checks; none runs
+                const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
+                o.flips = false;                    // no half-turns of the truth
+                r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
+                r.method = "truth" + name.substr(name.find("+icp"));
+              }
+              r.seconds = timer.Seconds();
+            } else {
+              r = RegisterGrids(src, tgt, o, net);
+            }
+            if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
+              Json block_icp;
+              r.target_from_source =
+                  RefineOnBlockPoints(occupied->Source(), occupied->Target(),
+                                      Sim3d::FromMatrix(r.target_from_source, 1e-3), options.base.voxel, &block_icp)
+                      .ToMatrix();
+              r.seconds += block_icp["seconds"].get<double>();
+              r.method += "+block";
+            }
+            if (rf == "field") {
+              Json field;
+              r.target_from_source =
+                  RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
+                                 Sim3d::FromMatrix(r.target_from_source, 1e-3), options.field, src.CellSize(), &field,
+                                 &src, &tgt)
+                      .ToMatrix();
+              r.seconds += field["seconds"].get<double>();
+              r.method += "+field";
+            }
+            PairEvaluation row;
+            row.pair = p.name;
+            row.method = r.method;
+            row.seconds = r.seconds;
+            row.confidence = r.confidence;
+            row.overlap = p.overlap;
+            const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3),
+                        truth = Sim3d::FromMatrix(p.target_from_source, 1e-3);
+            row.rotation_deg = RotationErrorDeg(est.rotation, truth.rotation);
+            row.translation = TranslationError(est.translation, truth.translation);
+            rows.push_back(row);
+            if (on_row) on_row(row);
           }
-          r.seconds = timer.Seconds();
-        } else {
-          r = RegisterGrids(src, tgt, o, net);
-        }
-        if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
-          Json block_icp;
-          r.target_from_source = RefineOnBlockPoints(occupied->Source(), occupied->Target(),
-                                                     Sim3d::FromMatrix(r.target_from_source, 1e-3), options.base.voxel, &block_icp)
-                                     .ToMatrix();
-          r.seconds += block_icp["seconds"].get<double>();
-          r.method += "+block";
-        }
-        if (rf == "field") {
-          Json field;
-          r.target_from_source = RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
-                                                Sim3d::FromMatrix(r.target_from_source, 1e-3), options.field, src.CellSize(),
-                                                &field, &src, &tgt)
-                                     .ToMatrix();
-          r.seconds += field["seconds"].get<double>();
-          r.method += "+field";
-        }
-        PairEvaluation row;
-        row.pair = p.name;
-        row.method = r.method;
-        row.seconds = r.seconds;
-        row.confidence = r.confidence;
-        row.overlap = p.overlap;
-        const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3), truth = Sim3d::FromMatrix(p.target_from_source, 1e-3);
-        row.rotation_deg = RotationErrorDeg(est.rotation, truth.rotation);
-        row.translation = TranslationError(est.translation, truth.translation);
-        rows.push_back(row);
-        if (on_row) on_row(row);
-      }
     }
   }
   return rows;
@@ -137,8 +144,8 @@ PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, do
   PairSummary out;
   Json& summary = out.json;
   std::string& table = out.table;
-  Appendf(&table, "\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot", "med trans/ext",
-              "succ 5/.05", "succ 10/.1", "med time");
+  Appendf(&table, "\n%-20s %6s %10s %10s %12s %10s %10s %9s\n", "method", "pairs", "mean rot", "med rot",
+          "med trans/ext", "succ 5/.05", "succ 10/.1", "med time");
   std::vector<std::string> names;
   for (const auto& r : rows)
     if (std::find(names.begin(), names.end(), r.method) == names.end()) names.push_back(r.method);
@@ -159,16 +166,21 @@ PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, do
     double mean = 0;
     for (double x : rot) mean += x / rot.size();
     const double n = static_cast<double>(rot.size());
-    summary[name] = {{"pairs", rot.size()}, {"mean_rotation_deg", mean}, {"median_rotation_deg", Median(rot)},
-                     {"median_translation_fraction", Median(trans)}, {"success_5deg_0.05", s5 / n},
-                     {"success_10deg_0.1", s10 / n}, {"median_seconds", Median(secs)}};
-    Appendf(&table, "%-20s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean, Median(rot),
-                Median(trans), 100 * s5 / n, 100 * s10 / n, Median(secs));
+    summary[name] = {{"pairs", rot.size()},
+                     {"mean_rotation_deg", mean},
+                     {"median_rotation_deg", Median(rot)},
+                     {"median_translation_fraction", Median(trans)},
+                     {"success_5deg_0.05", s5 / n},
+                     {"success_10deg_0.1", s10 / n},
+                     {"median_seconds", Median(secs)}};
+    Appendf(&table, "%-20s %6zu %10.3f %10.3f %12.4f %9.0f%% %9.0f%% %9.2f\n", name.c_str(), rot.size(), mean,
+            Median(rot), Median(trans), 100 * s5 / n, 100 * s10 / n, Median(secs));
   }
   // Success by overlap: a set that mixes pair overlaps (the 4-block splits: 0.49-0.96) hides in one
   // rate whether a method fails only the low-overlap pairs, the case a learned registrar must win.
-  const bool mixed = std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap < overlap_threshold; }) &&
-                     std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap >= overlap_threshold; });
+  const bool mixed =
+      std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap < overlap_threshold; }) &&
+      std::any_of(rows.begin(), rows.end(), [&](const PairEvaluation& r) { return r.overlap >= overlap_threshold; });
   if (mixed) {
     char below[32], above[32];
     std::snprintf(below, sizeof below, "overlap < %.2f", overlap_threshold);
@@ -187,8 +199,9 @@ PairSummary SummarisePairEvaluations(const std::vector<PairEvaluation>& rows, do
                                    {"below", {{"pairs", n_low}, {"successes_5deg_0.05", ok_low}}},
                                    {"at_or_above", {{"pairs", n_high}, {"successes_5deg_0.05", ok_high}}}};
     if (mixed)
-      Appendf(&table, "%-20s %16s %16s\n", name.c_str(), (std::to_string(ok_low) + " of " + std::to_string(n_low)).c_str(),
-                  (std::to_string(ok_high) + " of " + std::to_string(n_high)).c_str());
+      Appendf(&table, "%-20s %16s %16s\n", name.c_str(),
+              (std::to_string(ok_low) + " of " + std::to_string(n_low)).c_str(),
+              (std::to_string(ok_high) + " of " + std::to_string(n_high)).c_str());
   }
   return out;
 }
@@ -216,11 +229,17 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
   if (!o.out.empty()) {
     Json table = Json::array();
     for (const auto& r : result.rows) {
-      table.push_back({{"pair", r.pair}, {"method", r.method}, {"rotation_error_deg", r.rotation_deg},
-                       {"translation_error", r.translation}, {"translation_error_fraction", r.translation / kObjectExtent},
-                       {"confidence", r.confidence}, {"overlap", r.overlap}, {"seconds", r.seconds}});
+      table.push_back({{"pair", r.pair},
+                       {"method", r.method},
+                       {"rotation_error_deg", r.rotation_deg},
+                       {"translation_error", r.translation},
+                       {"translation_error_fraction", r.translation / kObjectExtent},
+                       {"confidence", r.confidence},
+                       {"overlap", r.overlap},
+                       {"seconds", r.seconds}});
     }
-    WriteJsonFile(o.out, {{"pairs_file", o.pairs_path}, {"split", o.split}, {"rows", table}, {"summary", result.summary.json}});
+    WriteJsonFile(
+        o.out, {{"pairs_file", o.pairs_path}, {"split", o.split}, {"rows", table}, {"summary", result.summary.json}});
   }
   return result;
 }
@@ -243,8 +262,11 @@ RegistrationError EvaluateRegistrationFile(const std::string& pair, const std::s
   r.translation_fraction = r.translation / kObjectExtent;
   r.success = RegistrationSucceeded(r.rotation_deg, r.translation);
   r.method = p.StringOr("method", "?");
-  r.json = {{"rotation_error_deg", r.rotation_deg}, {"translation_error", r.translation},
-            {"translation_error_fraction", r.translation_fraction}, {"success", r.success}, {"method", r.method},
+  r.json = {{"rotation_error_deg", r.rotation_deg},
+            {"translation_error", r.translation},
+            {"translation_error_fraction", r.translation_fraction},
+            {"success", r.success},
+            {"method", r.method},
             {"seconds", p.DoubleOr("seconds", 0)}};
   if (!out.empty()) WriteJsonFile(out, r.json);
   return r;

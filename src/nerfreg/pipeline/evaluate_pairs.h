@@ -17,14 +17,15 @@
 namespace nerfreg {
 
 struct PairEvaluationOptions {
-  std::vector<std::string> methods = {"ransac"};  // --methods: dreg, ransac, fgr, truth (each refinement from the truth)
-  std::vector<std::string> refines = {"icp"};     // --refine: none, icp, block-icp, field
+  std::vector<std::string> methods = {
+      "ransac"};                               // --methods: dreg, ransac, fgr, truth (each refinement from the truth)
+  std::vector<std::string> refines = {"icp"};  // --refine: none, icp, block-icp, field
   std::vector<std::string> dreg_solvers = {"procrustes"};  // --dreg-solver (dreg rows only)
   std::vector<int> dreg_passes = {1};                      // --dreg-passes (dreg rows only)
-  GridRegistrationOptions base;  // the grid ICP's points, distance, half-turns and the voxel
-  FieldAlignmentOptions field;   // --refine field (--field-overlap-only)
+  GridRegistrationOptions base;                            // the grid ICP's points, distance, half-turns and the voxel
+  FieldAlignmentOptions field;                             // --refine field (--field-overlap-only)
   torch::Device device = torch::kCPU;  // --device: the blocks' fields (the caller moves the network)
-  void Check() const;            // throws InputError naming the flag
+  void Check() const;                  // throws InputError naming the flag
 };
 
 struct PairEvaluation {
@@ -61,7 +62,8 @@ struct PairsFileEvaluation {
   PairSummary summary;
 };
 // `on_start` (optional) runs once the pairs and the network are loaded, before the first row.
-PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& options, const std::function<void()>& on_start = {},
+PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& options,
+                                      const std::function<void()>& on_start = {},
                                       const std::function<void(const PairEvaluation&)>& on_row = {});
 
 // `reg eval --pair`: one registration output (T.json of reg register) against the ground truth
@@ -73,7 +75,7 @@ struct RegistrationError {
   std::string method = "?";
   Json json;
 };
-RegistrationError EvaluateRegistrationFile(const std::string& pair_path, const std::string& ground_truth_path, int source,
-                                           int target, const std::string& out = "");
+RegistrationError EvaluateRegistrationFile(const std::string& pair_path, const std::string& ground_truth_path,
+                                           int source, int target, const std::string& out = "");
 
 }  // namespace nerfreg

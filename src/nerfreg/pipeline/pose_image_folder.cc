@@ -84,7 +84,8 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
         break;
       }
     }
-    if (!model.cameras.count(camera_id[k])) model.cameras[camera_id[k]] = ColmapCamera::FromCamera(camera_id[k], cameras[k]);
+    if (!model.cameras.count(camera_id[k]))
+      model.cameras[camera_id[k]] = ColmapCamera::FromCamera(camera_id[k], cameras[k]);
   }
   for (size_t k = 0; k < names.size(); ++k) {
     if (!r.posed[k]) continue;
@@ -107,7 +108,8 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
       const Eigen::Vector2d& uv = r.view_graph.keypoints[e.image][e.keypoint];
       error += ReprojectionErrorPx(cameras[e.image], r.cam_from_world[e.image], p.x_in_world, uv) / p.elements.size();
       const Image& img = images[e.image];
-      const int x = std::clamp(static_cast<int>(uv.x()), 0, img.width - 1), y = std::clamp(static_cast<int>(uv.y()), 0, img.height - 1);
+      const int x = std::clamp(static_cast<int>(uv.x()), 0, img.width - 1),
+                y = std::clamp(static_cast<int>(uv.y()), 0, img.height - 1);
       for (int c = 0; c < 3; ++c) rgb(c) += img.at(x, y, std::min(c, img.channels - 1)) / p.elements.size();
       pt.track.push_back({static_cast<std::uint32_t>(e.image + 1), static_cast<std::uint32_t>(e.keypoint)});
       model.images[e.image + 1].points2d[e.keypoint].point3d_id = static_cast<std::int64_t>(pt.point3d_id);
@@ -196,7 +198,8 @@ void ImageFolderPosesOptions::Check() const {
     throw InputError("--neighbours: expected graph or appearance, got \"" + neighbours + "\"");
   }
   poses.Check();
-  if (poses.method != "classical" && !FileExists(poses.weights)) ThrowInputError(poses.weights, "", "a DBARF weights file (--weights)");
+  if (poses.method != "classical" && !FileExists(poses.weights))
+    ThrowInputError(poses.weights, "", "a DBARF weights file (--weights)");
 }
 
 ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
@@ -208,14 +211,16 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   const Timer timer;
 
   const std::vector<std::string> names = ListImages(o.images_dir);
-  if (names.size() < 3) ThrowInputError(o.images_dir, "", "at least 3 PNG / JPEG images, found " + std::to_string(names.size()));
+  if (names.size() < 3)
+    ThrowInputError(o.images_dir, "", "at least 3 PNG / JPEG images, found " + std::to_string(names.size()));
   std::vector<Image> images;
   for (const auto& name : names) images.push_back(ReadImage(JoinPaths(o.images_dir, name)));
   std::vector<Camera> cameras;
   if (!o.intrinsics.empty()) {
     cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names);
   } else {
-    for (const Image& im : images) cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
+    for (const Image& im : images)
+      cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   }
   StageTimes times;
   times.Record("read images", timer.Seconds());
@@ -226,12 +231,15 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   const SfmResult& r = result.sfm;  // final cameras, with the SfM's points (if any)
   ImageFolderPosesResult summary;
   summary.images = static_cast<int>(names.size());
-  for (size_t k = 0; k < names.size(); ++k) summary.posed += result.posed[k], summary.posed_by_network += result.posed_by[k] == "network";
-  if (summary.posed == 0) ThrowInputError(o.images_dir, "", "images that share enough features to be posed (no two do)");
+  for (size_t k = 0; k < names.size(); ++k)
+    summary.posed += result.posed[k], summary.posed_by_network += result.posed_by[k] == "network";
+  if (summary.posed == 0)
+    ThrowInputError(o.images_dir, "", "images that share enough features to be posed (no two do)");
   // A low reprojection error is no proof: a solution the data cannot pin down is reported as such.
   // Judged on the images the SfM posed (the network's have their own confidence below).
   SfmResult sfm_part = r;
-  for (size_t k = 0; k < sfm_part.posed.size() && k < result.posed_by.size(); ++k) sfm_part.posed[k] = result.posed_by[k] == "sfm";
+  for (size_t k = 0; k < sfm_part.posed.size() && k < result.posed_by.size(); ++k)
+    sfm_part.posed[k] = result.posed_by[k] == "sfm";
   const bool any_sfm = std::count(result.posed_by.begin(), result.posed_by.end(), "sfm") > 0;
   const SfmQuality quality = any_sfm ? AssessSfm(sfm_part, cameras) : SfmQuality{};
   for (const auto& problem : quality.problems) {
@@ -257,7 +265,8 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     WritePosedImages(JoinPaths(tmp, "transforms.json"), posed);
     output.Commit();
   }
-  for (const auto& name : result.not_posed) LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
+  for (const auto& name : result.not_posed)
+    LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
   if (!result.low_confidence.empty()) {
     LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(),
              DescribeLowConfidence(result, names), out);
@@ -266,8 +275,9 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   summary.seconds = timer.Seconds();
   LOG_INFO("stages (s): {}; total {:.2f}", times.Summary(), timer.Seconds());
   LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
-           summary.posed, names.size(), summary.posed_by_network, summary.well_constrained ? "" : " (NOT well constrained: see the warnings)",
-           r.points.size(), r.mean_reprojection_error_px, timer.Seconds(), out);
+           summary.posed, names.size(), summary.posed_by_network,
+           summary.well_constrained ? "" : " (NOT well constrained: see the warnings)", r.points.size(),
+           r.mean_reprojection_error_px, timer.Seconds(), out);
   return summary;
 }
 

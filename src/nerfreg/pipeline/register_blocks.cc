@@ -80,8 +80,8 @@ void BlockRegistrationOptions::Check() const {
   grid.Check();
   // The network's 3D backbone halves the grid four times (reg/backbone.h).
   if (UsesNetwork() && grid.resolution % 16 != 0) {
-    ThrowInputError("--grid-resolution", "", "a multiple of 16 for the network (--method dreg or auto), got " +
-                                                 std::to_string(grid.resolution));
+    ThrowInputError("--grid-resolution", "",
+                    "a multiple of 16 for the network (--method dreg or auto), got " + std::to_string(grid.resolution));
   }
   if (!(min_confidence >= 0 && min_confidence <= 1)) ThrowInputError("--min-confidence", "", "in [0, 1]");
   if (config != "" && config != "cpu" && config != "paper") ThrowInputError("--config", "", "cpu or paper");
@@ -183,14 +183,16 @@ Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& t
   o.normal_radius = 2 * voxel;
   // A Sim(3) start (the paper config's scale solve): the rigid ICP aligns the scaled source.
   const ClassicalRegistrationResult r = RefineWithIcp(start.scale * src, tgt, start.ToRigid(), o);
-  *json = {{"fitness", r.fitness}, {"inlier_rmse", r.inlier_rmse}, {"seconds", r.seconds},
+  *json = {{"fitness", r.fitness},
+           {"inlier_rmse", r.inlier_rmse},
+           {"seconds", r.seconds},
            {"before", MatrixToJson(start.ToMatrix())}};
   return Sim3d(start.scale, r.target_from_source.rotation, r.target_from_source.translation);
 }
 
 Sim3d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3Xd& src_points,
-                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options, double spread,
-                     Json* json, const RegGrid* src_grid, const RegGrid* tgt_grid) {
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
+                     double spread, Json* json, const RegGrid* src_grid, const RegGrid* tgt_grid) {
   DensityField src_field = BlockDensityField(source), tgt_field = BlockDensityField(target);
   if (src_grid && tgt_grid) {
     src_field.seen = SeenFromGrid(*src_grid);
@@ -200,20 +202,22 @@ Sim3d RefineOnFields(NerfBlock& source, NerfBlock& target, const Eigen::Matrix3X
 }
 
 Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_field, const Eigen::Matrix3Xd& src_points,
-                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options, double spread,
-                     Json* json) {
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
+                     double spread, Json* json) {
   options.sample_spread = spread;
   const FieldAlignmentResult f =
       AlignFields(src_field, tgt_field, src_points, tgt_points, start.ToRigid(), options, start.scale);
-  if (f.iterations == 0) LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
+  if (f.iterations == 0)
+    LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
   *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
-           {"samples", f.samples}, {"seconds", f.seconds}, {"before", MatrixToJson(start.ToMatrix())}};
+           {"samples", f.samples},       {"seconds", f.seconds},           {"before", MatrixToJson(start.ToMatrix())}};
   if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
   return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation);
 }
 
-FieldAgreementSamples DrawFieldAgreementSamples(const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
-                                                double spread, int max_samples, unsigned seed) {
+FieldAgreementSamples DrawFieldAgreementSamples(const Eigen::Matrix3Xd& source_points,
+                                                const Eigen::Matrix3Xd& target_points, double spread, int max_samples,
+                                                unsigned seed) {
   std::mt19937 rng(seed);
   FieldAgreementSamples s;
   s.source = SurfaceBandSamples(source_points, spread, max_samples, rng);
@@ -292,7 +296,11 @@ class BlockRegistration {
  public:
   BlockRegistration(RegistrationInput& source, RegistrationInput& target, const BlockRegistrationOptions& options,
                     DregNet* net)
-      : source_(source), target_(target), o_(options), net_(net), occupied_(source, target, options.min_density, options.seed) {
+      : source_(source),
+        target_(target),
+        o_(options),
+        net_(net),
+        occupied_(source, target, options.min_density, options.seed) {
     grid_cell_ = o_.grid.side / o_.grid.resolution;
   }
 
@@ -331,8 +339,8 @@ class BlockRegistration {
   }
 
   void BlockIcp(RegistrationCandidate* c) {
-    c->target_from_source =
-        RefineOnBlockPoints(occupied_.Source(), occupied_.Target(), c->target_from_source, o_.voxel, &c->extra["block_icp"]);
+    c->target_from_source = RefineOnBlockPoints(occupied_.Source(), occupied_.Target(), c->target_from_source, o_.voxel,
+                                                &c->extra["block_icp"]);
     c->method += "+block";
   }
 
@@ -347,14 +355,15 @@ class BlockRegistration {
     const GridRegistrationOptions ro = GridOptions("dreg");
     const GridRegistrationResult r = RegisterGrids(gs, gt, ro, net_);
     if (r.source_points < 100 || r.target_points < 100) {
-      Warn(fmt::format("few surface voxels (source {}, target {}): is a block empty?", r.source_points, r.target_points));
+      Warn(fmt::format("few surface voxels (source {}, target {}): is a block empty?", r.source_points,
+                       r.target_points));
     }
     RegistrationCandidate c;
     c.method = r.method;
     c.target_from_source = Sim3d::FromMatrix(r.target_from_source, 1e-3);
     c.method_score = r.confidence;
-    c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds}, {"weights", o_.weights},
-               {"half_turn", r.flip}, {"source_points", r.source_points}, {"target_points", r.target_points}};
+    c.extra = {{"register_seconds", r.seconds}, {"grid_seconds", grid_seconds},     {"weights", o_.weights},
+               {"half_turn", r.flip},           {"source_points", r.source_points}, {"target_points", r.target_points}};
     c.source_points = PointsToEigen(gs.MaskedXyz());
     c.target_points = PointsToEigen(gt.MaskedXyz());
     const bool is_auto = o_.method == RegistrationMethod::kAuto, field = o_.refine == RegistrationRefinement::kField;
@@ -374,7 +383,9 @@ class BlockRegistration {
       cg.method = "ransac-grid" + std::string(rg.icp ? "+icp" : "");
       cg.target_from_source = Sim3d::FromMatrix(g.target_from_source, 1e-3);
       cg.method_score = g.confidence;
-      cg.extra = {{"grid_seconds", grid_seconds}, {"register_seconds", g.seconds}, {"source_points", g.source_points},
+      cg.extra = {{"grid_seconds", grid_seconds},
+                  {"register_seconds", g.seconds},
+                  {"source_points", g.source_points},
                   {"target_points", g.target_points}};
       if (block_icp) BlockIcp(&cg);
       result_.candidates.push_back(cg);
@@ -383,7 +394,8 @@ class BlockRegistration {
     if (falls_back) {
       Warn(fmt::format("DReg-NeRF confidence {:.2f} < {:.2f}: falling back to FPFH + RANSAC", r.confidence,
                        o_.min_confidence));
-      result_.fallback = {{"method", r.method}, {"confidence", r.confidence},
+      result_.fallback = {{"method", r.method},
+                          {"confidence", r.confidence},
                           {"target_from_source", MatrixToJson(r.target_from_source)}};
       result_.candidates.clear();
       return true;
@@ -413,8 +425,12 @@ class BlockRegistration {
     c.method = options.method + (options.icp ? "+icp" : "");
     c.target_from_source = Sim3d(r.target_from_source);
     c.method_score = r.fitness;
-    c.extra = {{"inlier_rmse", r.inlier_rmse}, {"points_seconds", occupied_.Seconds()}, {"register_seconds", r.seconds},
-               {"source_points", ns}, {"target_points", nt}, {"feature_voxel", r.feature_voxel},
+    c.extra = {{"inlier_rmse", r.inlier_rmse},
+               {"points_seconds", occupied_.Seconds()},
+               {"register_seconds", r.seconds},
+               {"source_points", ns},
+               {"target_points", nt},
+               {"feature_voxel", r.feature_voxel},
                {"feature_points", {r.source_points, r.target_points}}};
     result_.candidates.push_back(c);
   }
@@ -470,9 +486,10 @@ class BlockRegistration {
     result_.method = c.method;
     result_.confidence = c.agreement.confidence;
     if (c.agreement.confidence < kLowConfidence) {
-      Warn(fmt::format("low confidence {:.2f}: the two fields disagree at the kept pose; the blocks may not overlap or the "
-                       "pose is wrong",
-                       c.agreement.confidence));
+      Warn(fmt::format(
+          "low confidence {:.2f}: the two fields disagree at the kept pose; the blocks may not overlap or the "
+          "pose is wrong",
+          c.agreement.confidence));
     }
     // How many other refined candidates ended at the kept pose. On real blocks this is the signal
     // that tells right from wrong poses where the network's confidence and the field cost do not
@@ -480,11 +497,13 @@ class BlockRegistration {
     if (o_.refine != RegistrationRefinement::kField || cs.size() < 2) return;
     int agreeing = 0;
     for (size_t k = 0; k < cs.size(); ++k) {
-      if (k != best && cs[k].field.is_object()) agreeing += SamePose(cs[k].target_from_source, c.target_from_source, grid_cell_);
+      if (k != best && cs[k].field.is_object())
+        agreeing += SamePose(cs[k].target_from_source, c.target_from_source, grid_cell_);
     }
     result_.agreeing_candidates = agreeing;
     if (agreeing == 0) {
-      Warn(fmt::format("no other candidate ({} tried) ended at the kept pose: it may be wrong; check the overlays", cs.size()));
+      Warn(fmt::format("no other candidate ({} tried) ended at the kept pose: it may be wrong; check the overlays",
+                       cs.size()));
     }
   }
 
@@ -502,7 +521,8 @@ class BlockRegistration {
 RegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
                                   const BlockRegistrationOptions& options, DregNet* net) {
   options.Check();
-  if (options.UsesNetwork() && !net) throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
+  if (options.UsesNetwork() && !net)
+    throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
   return BlockRegistration(source, target, options, net).Run();
 }
 
@@ -515,7 +535,8 @@ RegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const Bl
 namespace {
 
 Json AgreementJson(const FieldAgreement& g) {
-  return {{"confidence", g.confidence}, {"cost", g.cost}, {"inside_fraction", g.inside_fraction}, {"samples", g.samples}};
+  return {
+      {"confidence", g.confidence}, {"cost", g.cost}, {"inside_fraction", g.inside_fraction}, {"samples", g.samples}};
 }
 
 }  // namespace
@@ -526,8 +547,11 @@ Json RegistrationResult::ToJson() const {
   for (size_t k = 0; k < candidates.size(); ++k) {
     if (k == chosen) continue;
     const RegistrationCandidate& o = candidates[k];
-    others.push_back({{"method", o.method}, {"confidence", o.agreement.confidence}, {"method_score", o.method_score},
-                      {"agreement", AgreementJson(o.agreement)}, {"field", o.field},
+    others.push_back({{"method", o.method},
+                      {"confidence", o.agreement.confidence},
+                      {"method_score", o.method_score},
+                      {"agreement", AgreementJson(o.agreement)},
+                      {"field", o.field},
                       {"target_from_source", MatrixToJson(o.target_from_source.ToMatrix())}});
   }
   Json j = {{"target_from_source", MatrixToJson(target_from_source.ToMatrix())},
@@ -552,12 +576,14 @@ Json RegistrationResult::ToJson() const {
 // The network for dreg / auto: the weights must exist and, with --config, be of that config.
 DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
   if (o.weights.empty() || !FileExists(o.weights)) {
-    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "", "DReg-NeRF weights (reg train), or --method ransac / fgr");
+    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "",
+                    "DReg-NeRF weights (reg train), or --method ransac / fgr");
   }
   DregModelOptions model_options;
   DregNet net = LoadDregWeights(o.weights, &model_options);
   if (!o.config.empty()) {
-    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(), o.weights);
+    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(),
+                          o.weights);
   }
   net->to(o.device);
   return net;

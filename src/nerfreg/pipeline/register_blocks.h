@@ -99,8 +99,9 @@ struct FieldAgreementSamples {
   Eigen::Matrix3Xd source;  // [3, Ns]
   Eigen::Matrix3Xd target;  // [3, Nt]
 };
-FieldAgreementSamples DrawFieldAgreementSamples(const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
-                                                double spread, int max_samples, unsigned seed);
+FieldAgreementSamples DrawFieldAgreementSamples(const Eigen::Matrix3Xd& source_points,
+                                                const Eigen::Matrix3Xd& target_points, double spread, int max_samples,
+                                                unsigned seed);
 
 FieldAgreement ScoreFieldAgreement(const DensityField& source, const DensityField& target,
                                    const FieldAgreementSamples& samples, const Sim3d& target_from_source,
@@ -117,23 +118,23 @@ size_t ChooseCandidate(const DensityField& source, const DensityField& target, c
 struct RegistrationCandidate {
   std::string method;  // e.g. "dreg+icp+block+field": the method and its refinements
   Sim3d target_from_source;
-  double method_score = 0;  // the method's own score: the network's confidence or the FPFH fitness
-  FieldAgreement agreement;  // on the common samples (ScoreFieldAgreement)
-  Json field;                // the field refinement's record (null without kField)
+  double method_score = 0;      // the method's own score: the network's confidence or the FPFH fitness
+  FieldAgreement agreement;     // on the common samples (ScoreFieldAgreement)
+  Json field;                   // the field refinement's record (null without kField)
   Json extra = Json::object();  // method details written into T.json (seconds, points, half_turn, block_icp)
   Eigen::Matrix3Xd source_points, target_points;  // [3, N]: what it registered (the overlays)
 };
 
 struct RegistrationResult {
   Sim3d target_from_source;
-  std::string method;       // the kept candidate's
-  double confidence = 0;    // the kept candidate's agreement.confidence
+  std::string method;     // the kept candidate's
+  double confidence = 0;  // the kept candidate's agreement.confidence
   std::vector<RegistrationCandidate> candidates;
-  size_t chosen = 0;        // index into candidates
+  size_t chosen = 0;  // index into candidates
   // With several field-refined candidates: how many others ended within 2 deg and a grid cell of
   // the kept pose; -1 when not checked.
   int agreeing_candidates = -1;
-  Json fallback;            // auto without kField: the dreg answer dropped for ransac (null: none)
+  Json fallback;  // auto without kField: the dreg answer dropped for ransac (null: none)
   std::vector<std::string> warnings;
   double seconds = 0;
   BlockRegistrationOptions options;
@@ -185,8 +186,12 @@ class OccupiedPoints {
   OccupiedPoints(RegistrationInput& source, RegistrationInput& target, double min_density, unsigned seed)
       : source_(&source), target_(&target), min_density_(min_density), seed_(seed) {}
   OccupiedPoints(NerfBlock& source, NerfBlock& target, double min_density, unsigned seed)
-      : owned_source_(std::make_unique<NerfBlockInput>(source)), owned_target_(std::make_unique<NerfBlockInput>(target)),
-        source_(owned_source_.get()), target_(owned_target_.get()), min_density_(min_density), seed_(seed) {}
+      : owned_source_(std::make_unique<NerfBlockInput>(source)),
+        owned_target_(std::make_unique<NerfBlockInput>(target)),
+        source_(owned_source_.get()),
+        target_(owned_target_.get()),
+        min_density_(min_density),
+        seed_(seed) {}
   const Eigen::Matrix3Xd& Source();  // [3, N]
   const Eigen::Matrix3Xd& Target();  // [3, M]
   double Seconds() const { return seconds_; }

@@ -70,8 +70,9 @@ TEST(RegisterBlocks, ChooseCandidateKeepsTheTruthOverItsHalfTurn) {
   const Sim3d target_from_shape = Pose(-70, {0.3, -1, 1}, {-0.1, 0.2, 0.05});
   const Sim3d truth = target_from_shape * source_from_shape.Inverse();
   const DensityField source = Field(ShapeDistance, source_from_shape), target = Field(ShapeDistance, target_from_shape);
-  const FieldAgreementSamples samples = DrawFieldAgreementSamples(
-      SurfacePoints(ShapeDistance, source_from_shape, 0.06), SurfacePoints(ShapeDistance, target_from_shape, 0.06), 0.11, 3000, 0);
+  const FieldAgreementSamples samples =
+      DrawFieldAgreementSamples(SurfacePoints(ShapeDistance, source_from_shape, 0.06),
+                                SurfacePoints(ShapeDistance, target_from_shape, 0.06), 0.11, 3000, 0);
   // The half-turn about the object's long axis through its centre, as a flipped dreg answer is.
   const Eigen::Vector3d centre = target_from_shape * Eigen::Vector3d(0.1, 0, 0.1);
   const Sim3d half_turn = Pose(180, target_from_shape.rotation * Eigen::Vector3d::UnitX(), Eigen::Vector3d::Zero());
@@ -106,7 +107,8 @@ TEST(RegisterBlocks, ConfidenceIsHighForOneObjectAndLowForTwo) {
 }
 
 TEST(RegisterBlocks, NamesRoundTripAndBadNamesAreInputErrors) {
-  for (auto m : {RegistrationMethod::kAuto, RegistrationMethod::kDreg, RegistrationMethod::kRansac, RegistrationMethod::kFgr})
+  for (auto m :
+       {RegistrationMethod::kAuto, RegistrationMethod::kDreg, RegistrationMethod::kRansac, RegistrationMethod::kFgr})
     EXPECT_EQ(RegistrationMethodFromName(RegistrationMethodName(m)), m);
   for (auto r : {RegistrationRefinement::kNone, RegistrationRefinement::kIcp, RegistrationRefinement::kField})
     EXPECT_EQ(RegistrationRefinementFromName(RegistrationRefinementName(r)), r);

@@ -30,9 +30,14 @@ void ManyBlockRegistrationOptions::Check() const {
 }
 
 Json ManyBlockRegistrationOptions::ToJson() const {
-  return {{"min_density", min_density}, {"voxel", voxel}, {"max_points", max_points}, {"min_confidence", min_confidence},
-          {"seed", seed}, {"refine", RegistrationRefinementName(refine)},
-          {"splat_density_scale", splats.density_scale}, {"splat_blur", splats.blur}};
+  return {{"min_density", min_density},
+          {"voxel", voxel},
+          {"max_points", max_points},
+          {"min_confidence", min_confidence},
+          {"seed", seed},
+          {"refine", RegistrationRefinementName(refine)},
+          {"splat_density_scale", splats.density_scale},
+          {"splat_blur", splats.blur}};
 }
 
 ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
@@ -71,12 +76,17 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       const bool used = r.fitness >= options.min_confidence;
       Json field = nullptr;
       if (used && options.refine == RegistrationRefinement::kField) {
-        r.target_from_source = RefineOnFields(blocks[i]->Field(), blocks[j]->Field(), clouds[i], clouds[j], Sim3d(r.target_from_source),
-                                              FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
-                                   .ToRigid();
+        r.target_from_source =
+            RefineOnFields(blocks[i]->Field(), blocks[j]->Field(), clouds[i], clouds[j], Sim3d(r.target_from_source),
+                           FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
+                .ToRigid();
       }
-      edges_json.push_back({{"source", i}, {"target", j}, {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
-                            {"confidence", r.fitness}, {"used", used}, {"field", field}});
+      edges_json.push_back({{"source", i},
+                            {"target", j},
+                            {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+                            {"confidence", r.fitness},
+                            {"used", used},
+                            {"field", field}});
       if (!used) continue;
       PoseGraphEdge e;
       e.i = i;
@@ -110,8 +120,10 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       edges_json[e]["dropped"] = "disagrees with the other registrations of its loops";
       ++dropped_edges_of[i];
       ++dropped_edges_of[j];
-      warn("{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
-               "belong to the scene)", paths[i], paths[j], g.edge_rotation_error_deg[k]);
+      warn(
+          "{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
+          "belong to the scene)",
+          paths[i], paths[j], g.edge_rotation_error_deg[k]);
     } else {
       ++kept_edges_of[i];
       ++kept_edges_of[j];
@@ -122,11 +134,14 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   for (int b = 0; b < n; ++b) {
     if (dropped_edges_of[b] > 0 && dropped_edges_of[b] >= kept_edges_of[b]) {
       warn("{}: {} of its {} registrations disagree with the others: it may not belong to this scene", paths[b],
-               dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
+           dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
     }
   }
-  result.json = {{"world_from_block", world_from_block}, {"connected", connected}, {"edges", edges_json},
-                       {"seconds", timer.Seconds()}, {"blocks", paths}};
+  result.json = {{"world_from_block", world_from_block},
+                 {"connected", connected},
+                 {"edges", edges_json},
+                 {"seconds", timer.Seconds()},
+                 {"blocks", paths}};
   result.json["options"] = options.ToJson();
   for (int k = 0; k < n; ++k) result.world_from_block.push_back(Sim3d(g.world_from_node[k]));
   result.used_edges = static_cast<int>(used);

@@ -16,13 +16,13 @@ namespace nerfreg {
 
 struct ManyBlockRegistrationOptions {
   double min_density = BlockRegistrationOptions{}.min_density;  // --min-density
-  double voxel = 0.05;                                           // --voxel
-  int max_points = 5000;                                         // --max-points
+  double voxel = 0.05;                                          // --voxel
+  int max_points = 5000;                                        // --max-points
   double min_confidence = 0.3;  // --min-confidence: pairs below this RANSAC fitness are not edges
   unsigned seed = 0;            // --seed
   RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine: kIcp or kField
   SplatFieldOptions splats;  // --splat-density-scale, --splat-blur: splat PLY inputs as fields
-  void Check() const;  // throws InputError naming the flag
+  void Check() const;        // throws InputError naming the flag
   Json ToJson() const;
 };
 
@@ -31,8 +31,8 @@ struct ManyBlockRegistrationResult {
   // confidence, used, field, inlier, rotation_residual_deg, translation_residual, dropped}],
   // seconds, blocks}, as reg register-many writes it.
   Json json;
-  int used_edges = 0;   // pairs kept in the graph
-  int pairs = 0;        // pairs tried
+  int used_edges = 0;                   // pairs kept in the graph
+  int pairs = 0;                        // pairs tried
   std::vector<Sim3d> world_from_block;  // as in json, one per input
   std::vector<std::string> warnings;
 };

@@ -28,8 +28,10 @@ int RenderDbarfViews(const DbarfRenderJob& job) {
   scene_options.hold_out_test = false;
   LoadedDbarfScene loaded = LoadDbarfScene(job.posed, scene_options);
   if (loaded.estimated_here) {
-    LOG_WARN("{}: not written by dbarf poses; its cameras were estimated again, so the frame is that of this run, "
-             "not the file's", job.posed);
+    LOG_WARN(
+        "{}: not written by dbarf poses; its cameras were estimated again, so the frame is that of this run, "
+        "not the file's",
+        job.posed);
   }
   const Dataset cams = ReadCameras(job.transforms);
   OutputDir output(job.out, job.force, {job.posed, job.transforms, job.weights});
@@ -44,7 +46,8 @@ int RenderDbarfViews(const DbarfRenderJob& job) {
       const NovelView v = RenderNovelView(model, loaded.scene, sources, k, pose, f.camera.height, f.camera.width);
       std::string name = fs::path(f.name).replace_extension(".png").string();
       WriteImage(JoinPaths(tmp, name), TensorToImage(v.rgb));
-      WriteImage(JoinPaths(tmp, "depth/" + name), InverseDepthImage(v.depth, v.valid, loaded.scene.near, loaded.scene.far));
+      WriteImage(JoinPaths(tmp, "depth/" + name),
+                 InverseDepthImage(v.depth, v.valid, loaded.scene.near, loaded.scene.far));
       bar.Tick();
     }
     bar.Finish();

@@ -9,14 +9,14 @@
 namespace nerfreg {
 
 struct DbarfRenderJob {
-  std::string posed;       // posed images (or any posed dataset: its cameras are estimated again)
-  std::string transforms;  // cameras to render (transforms.json, LLFF or COLMAP), in the posed images' frame
-  std::string out;         // output folder
-  std::string weights;     // DBARF weights
-  int num_sources = 8;     // source views per rendered view (nearest cameras)
+  std::string posed;               // posed images (or any posed dataset: its cameras are estimated again)
+  std::string transforms;          // cameras to render (transforms.json, LLFF or COLMAP), in the posed images' frame
+  std::string out;                 // output folder
+  std::string weights;             // DBARF weights
+  int num_sources = 8;             // source views per rendered view (nearest cameras)
   c10::Device device = c10::kCPU;  // where the networks run (`--device`); images are written from the CPU
-  bool force = false;      // replace an existing output
-  void Check() const;      // throws InputError naming the flag
+  bool force = false;              // replace an existing output
+  void Check() const;              // throws InputError naming the flag
 };
 
 // Returns the number of views rendered. Throws InputError on bad input; writes nothing then.

@@ -65,7 +65,8 @@ Eigen::Matrix3Xd ReadPlyPoints(const std::string& path, int max_points) {
   const long long step = std::max<long long>(1, (vertices + max_points - 1) / std::max(1, max_points));
   Eigen::Matrix3Xd out(3, (vertices + step - 1) / step);
   for (long long i = 0, k = 0; i < vertices; ++i) {
-    if (!std::getline(in, line)) ThrowInputError(path, "vertex " + std::to_string(i), std::to_string(vertices) + " vertex lines");
+    if (!std::getline(in, line))
+      ThrowInputError(path, "vertex " + std::to_string(i), std::to_string(vertices) + " vertex lines");
     if (i % step) continue;
     std::istringstream v(line);
     double x, y, z;
@@ -150,10 +151,14 @@ RunFiles ListRun(const std::string& run_dir) {
     const bool in_dataset =
         std::any_of(r.datasets.begin(), r.datasets.end(), [&](const fs::path& d) { return Inside(p, d); });
     const std::string ext = LowerExtension(p.string());
-    if (ext == ".png" && !in_dataset) r.pngs.push_back(p);
-    else if (ext == ".json" && !in_dataset) r.jsons.push_back(p);
-    else if (ext == ".jsonl") r.logs.push_back(p);
-    else if (ext == ".ply") r.plys.push_back(p);
+    if (ext == ".png" && !in_dataset)
+      r.pngs.push_back(p);
+    else if (ext == ".json" && !in_dataset)
+      r.jsons.push_back(p);
+    else if (ext == ".jsonl")
+      r.logs.push_back(p);
+    else if (ext == ".ply")
+      r.plys.push_back(p);
   }
   // Results first: files at the top of the run before those in sub-folders, then by name.
   auto by_depth = [](const fs::path& a, const fs::path& b) {
@@ -225,7 +230,8 @@ std::string ViewHtml(const View3d& v) {
   const Sim3d t = v.has_t ? Sim3d::FromMatrix(v.t, 1e-3) : Sim3d();
   for (const auto& o : v.objects)
     for (Eigen::Index i = 0; i < o.xyz.cols(); ++i) {
-      const Eigen::Vector3d p = o.moved ? Eigen::Vector3d(t * Eigen::Vector3d(o.xyz.col(i))) : Eigen::Vector3d(o.xyz.col(i));
+      const Eigen::Vector3d p =
+          o.moved ? Eigen::Vector3d(t * Eigen::Vector3d(o.xyz.col(i))) : Eigen::Vector3d(o.xyz.col(i));
       lo = lo.cwiseMin(p);
       hi = hi.cwiseMax(p);
     }
@@ -499,9 +505,11 @@ class PageBuilder {
 
   // Both blocks' points (and cameras) in the target's frame, the source's moved by T.
   std::string BlocksView(const Registration& r) {
-    const std::string src_ckpt = r.t_json.value("source", std::string()), tgt_ckpt = r.t_json.value("target", std::string());
+    const std::string src_ckpt = r.t_json.value("source", std::string()),
+                      tgt_ckpt = r.t_json.value("target", std::string());
     if (src_ckpt.empty() || tgt_ckpt.empty()) return "";
-    const fs::path src_ply = FindBlockFile(files_.plys, src_ckpt, false), tgt_ply = FindBlockFile(files_.plys, tgt_ckpt, false);
+    const fs::path src_ply = FindBlockFile(files_.plys, src_ckpt, false),
+                   tgt_ply = FindBlockFile(files_.plys, tgt_ckpt, false);
     if (src_ply.empty() || tgt_ply.empty()) {
       return "<p class=\"dim\">No 3D view: export the blocks' points beside the run (nerf export CKPT --points "
              "BLOCK.ply, named as the checkpoint).</p>";
@@ -515,7 +523,8 @@ class PageBuilder {
     const Eigen::Matrix3Xd src = ReadPlyPoints(src_ply.string(), options_.max_points_per_block);
     used_.insert(src_ply);
     used_.insert(tgt_ply);
-    v.objects.push_back({"points", "source " + fs::path(src_ckpt).stem().string() + " (T applied)", "#ff8c1a", true, src});
+    v.objects.push_back(
+        {"points", "source " + fs::path(src_ckpt).stem().string() + " (T applied)", "#ff8c1a", true, src});
     v.objects.push_back({"points", "target " + fs::path(tgt_ckpt).stem().string(), "#3d8bff", false, tgt});
     const double depth = 0.06 * SceneExtent(tgt);
     for (const auto& [ckpt, colour, moved] :
@@ -604,8 +613,9 @@ class PageBuilder {
       if (static_cast<int>(k) >= options_.max_views) continue;
       const std::string name = pngs[k].filename().string();
       shown << "<div class=\"triple\"><figure><img alt=\"render\" src=\"" << ImageUri(render, name)
-            << "\"><figcaption>render " << HtmlEscape(name) << "</figcaption></figure><figure><img alt=\"ground truth\" src=\""
-            << ImageUri(gt, name) << "\"><figcaption>ground truth</figcaption></figure><figure><img alt=\"error\" src=\""
+            << "\"><figcaption>render " << HtmlEscape(name)
+            << "</figcaption></figure><figure><img alt=\"ground truth\" src=\"" << ImageUri(gt, name)
+            << "\"><figcaption>ground truth</figcaption></figure><figure><img alt=\"error\" src=\""
             << ImageUri(ErrorHeatMap(render, gt), name) << "\"><figcaption>|error|, PSNR <b>" << Fmt(psnr, 4)
             << " dB</b></figcaption></figure></div>";
     }
@@ -658,11 +668,13 @@ class PageBuilder {
       }
       ++shown;
       Eigen::Matrix3Xd centres(3, ds->frames.size());
-      for (size_t k = 0; k < ds->frames.size(); ++k) centres.col(k) = ds->frames[k].cam_from_world.Inverse().translation;
+      for (size_t k = 0; k < ds->frames.size(); ++k)
+        centres.col(k) = ds->frames[k].cam_from_world.Inverse().translation;
       View3d v;
       v.id = "view" + std::to_string(views_++);
       v.caption = HtmlEscape(Rel(d / "transforms.json")) + ": " + std::to_string(ds->frames.size()) + " cameras";
-      v.objects.push_back({"lines", "cameras", "#ffd166", false, CameraFrustumSegments(*ds, Sim3d(), 0.08 * SceneExtent(centres))});
+      v.objects.push_back(
+          {"lines", "cameras", "#ffd166", false, CameraFrustumSegments(*ds, Sim3d(), 0.08 * SceneExtent(centres))});
       v.objects.push_back({"points", "camera centres", "#ffffff", false, centres});
       h << ViewHtml(v);
     }
@@ -675,8 +687,10 @@ class PageBuilder {
     for (const auto& p : files_.jsons) {
       const std::string rel = Rel(p);
       h << "<details" << (used_.count(p) ? "" : " open") << "><summary>" << HtmlEscape(rel) << "</summary>";
-      if (unreadable_.count(p)) h << "<p>unreadable: " << HtmlEscape(unreadable_[p]) << "</p>";
-      else h << JsonTable(jsons_[p]);
+      if (unreadable_.count(p))
+        h << "<p>unreadable: " << HtmlEscape(unreadable_[p]) << "</p>";
+      else
+        h << JsonTable(jsons_[p]);
       h << "</details>";
     }
     const std::string s = h.str();
@@ -689,8 +703,8 @@ class PageBuilder {
     if (j.is_object()) {
       for (auto it = j.begin(); it != j.end(); ++it) {
         const std::string v = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
-        o << "<tr><th>" << HtmlEscape(it.key()) << "</th><td>" << HtmlEscape(v.size() > 400 ? v.substr(0, 400) + " ..." : v)
-          << "</td></tr>";
+        o << "<tr><th>" << HtmlEscape(it.key()) << "</th><td>"
+          << HtmlEscape(v.size() > 400 ? v.substr(0, 400) + " ..." : v) << "</td></tr>";
       }
     } else {
       const std::string v = j.dump();

@@ -27,14 +27,14 @@ namespace nerfreg {
 inline constexpr const char* kDefaultThreeJs = "/usr/share/javascript/three/three.min.js";
 
 struct ReportOptions {
-  std::string title;                     // page title; default: the run directory's name
+  std::string title;                       // page title; default: the run directory's name
   std::string three_js = kDefaultThreeJs;  // read when the page has a 3D view
-  int max_points_per_block = 20000;      // 3D view: points kept per block (evenly strided)
-  int max_views = 8;                     // renders shown beside their ground truth per folder
-  int max_images = 200;                  // other images beyond this are listed, not embedded
-  long long max_image_bytes = 8 << 20;   // larger PNGs are listed, not embedded
-  int max_camera_views = 6;              // 3D views of posed image sets (one WebGL context each)
-  void Check() const;                    // throws InputError naming the option
+  int max_points_per_block = 20000;        // 3D view: points kept per block (evenly strided)
+  int max_views = 8;                       // renders shown beside their ground truth per folder
+  int max_images = 200;                    // other images beyond this are listed, not embedded
+  long long max_image_bytes = 8 << 20;     // larger PNGs are listed, not embedded
+  int max_camera_views = 6;                // 3D views of posed image sets (one WebGL context each)
+  void Check() const;                      // throws InputError naming the option
 };
 
 // Builds the page for run_dir and writes it atomically to out_path. Throws InputError when

@@ -38,12 +38,15 @@ TEST(RunReport, PlyPointsAreStridedToTheCap) {
   ASSERT_EQ(few.cols(), 4);
   EXPECT_EQ(few.col(3), Eigen::Vector3d(9, 18, 0.5));
 
-  WriteFileAtomic(dir.File("bin.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n");
-  EXPECT_NE(InputErrorOf([&] { ReadPlyPoints(dir.File("bin.ply"), 10); }).find("format: expected ascii"), std::string::npos);
+  WriteFileAtomic(dir.File("bin.ply"),
+                  "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n");
+  EXPECT_NE(InputErrorOf([&] { ReadPlyPoints(dir.File("bin.ply"), 10); }).find("format: expected ascii"),
+            std::string::npos);
   std::string two_of_three = AsciiPly(2);
   two_of_three.replace(two_of_three.find("vertex 2"), 8, "vertex 3");
   WriteFileAtomic(dir.File("short.ply"), two_of_three);
-  EXPECT_NE(InputErrorOf([&] { ReadPlyPoints(dir.File("short.ply"), 10); }).find("short.ply: vertex 2"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { ReadPlyPoints(dir.File("short.ply"), 10); }).find("short.ply: vertex 2"),
+            std::string::npos);
 }
 
 TEST(RunReport, FrustumApexIsTheCameraCentreMappedByTheSimilarity) {
@@ -89,13 +92,18 @@ std::string WriteRun(const ScopedTempDir& dir) {
     WriteFileAtomic(run + "/block_" + std::to_string(b) + ".ply", AsciiPly(50));
     // Renders 0.2 off the ground truth everywhere (51 of 255 levels): PSNR 13.98 dB.
     if (b == 0)
-      for (int k = 0; k < 3; ++k) WriteImage(run + "/renders_block_0/r_00" + std::to_string(k) + ".png", Image(8, 8, 3, 0.4f));
+      for (int k = 0; k < 3; ++k)
+        WriteImage(run + "/renders_block_0/r_00" + std::to_string(k) + ".png", Image(8, 8, 3, 0.4f));
   }
-  Json t = {{"target_from_source", MatrixToJson(Eigen::Matrix4d::Identity())}, {"method", "ransac+icp"},
-            {"seconds", 1.5}, {"confidence", 0.9}, {"source", run + "/block_0.ckpt"}, {"target", run + "/block_1.ckpt"}};
+  Json t = {{"target_from_source", MatrixToJson(Eigen::Matrix4d::Identity())},
+            {"method", "ransac+icp"},
+            {"seconds", 1.5},
+            {"confidence", 0.9},
+            {"source", run + "/block_0.ckpt"},
+            {"target", run + "/block_1.ckpt"}};
   WriteJsonFile(run + "/target_from_source_auto.json", t);
-  WriteJsonFile(run + "/errors_auto.json", Json{{"rotation_error_deg", 1.25}, {"translation_error", 0.01},
-                                                {"translation_error_fraction", 0.004}});
+  WriteJsonFile(run + "/errors_auto.json",
+                Json{{"rotation_error_deg", 1.25}, {"translation_error", 0.01}, {"translation_error_fraction", 0.004}});
   WriteImage(run + "/target_from_source_auto_before.png", Image(6, 6, 3, 0.2f));
   WriteImage(run + "/target_from_source_auto_after.png", Image(6, 6, 3, 0.3f));
   WriteFileAtomic(run + "/block_0.ckpt.log.jsonl",

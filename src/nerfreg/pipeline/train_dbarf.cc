@@ -30,7 +30,8 @@ std::vector<DbarfScene> TrainingScenes(const DbarfTrainingJob& c, const std::vec
   for (size_t i = 0; i < loaded.size(); ++i) {
     scenes.push_back(loaded[i].scene);
     if ((c.train.supervise_poses > 0 || c.train.supervise_depth > 0) && !loaded[i].ground_truth.defined()) {
-      ThrowInputError(c.scenes[i], "poses", "a dataset with ground-truth poses (--supervise-poses), not dbarf poses output");
+      ThrowInputError(c.scenes[i], "poses",
+                      "a dataset with ground-truth poses (--supervise-poses), not dbarf poses output");
     }
     if (loaded[i].ground_truth.defined()) {
       scenes.back().supervision_cam_from_world = GroundTruthInEstimatedScale(
@@ -62,7 +63,8 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
   }
   const std::vector<LoadedDbarfScene> loaded = LoadScenes(c.scenes, c.scene);
   if (!c.cameras_out.empty() && loaded[0].estimated_here) {
-    ThrowInputError(c.scenes[0], "dbarf_poses", "posed images written by dbarf poses (--refine-cameras refines their cameras)");
+    ThrowInputError(c.scenes[0], "dbarf_poses",
+                    "posed images written by dbarf poses (--refine-cameras refines their cameras)");
   }
   const std::vector<DbarfScene> scenes = TrainingScenes(c, loaded);
   if (!c.run.resume) {
@@ -77,14 +79,19 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
   DbarfTrainingResult out;
   out.run = RunDbarfTraining(&model, scenes, c.train, c.run);
   const DbarfRunResult& r = out.run;
-  out.summary = {{"steps", r.steps}, {"seconds", r.seconds}, {"psnr_train_last", r.mean_psnr_last},
-                 {"sfm_loss_last", r.mean_sfm_last}, {"weights", c.run.out}, {"scenes", c.scenes.size()}};
+  out.summary = {{"steps", r.steps},
+                 {"seconds", r.seconds},
+                 {"psnr_train_last", r.mean_psnr_last},
+                 {"sfm_loss_last", r.mean_sfm_last},
+                 {"weights", c.run.out},
+                 {"scenes", c.scenes.size()}};
   WriteJsonFile(c.run.out + ".json", out.summary);
   if (!c.cameras_out.empty()) {
     // The input's posed images with every frame's camera replaced by the refined one.
     Dataset refined = loaded[0].dataset;
     for (size_t k = 0; k < refined.frames.size(); ++k) {
-      refined.frames[k].cam_from_world = Rigid3d::FromMatrix(TensorToMatrix4(r.cameras[0][static_cast<int64_t>(k)]), 1e-3);
+      refined.frames[k].cam_from_world =
+          Rigid3d::FromMatrix(TensorToMatrix4(r.cameras[0][static_cast<int64_t>(k)]), 1e-3);
     }
     WriteRefinedPosedImages(c.scenes[0], refined, c.cameras_out);
     LOG_INFO("refined cameras -> {}", c.cameras_out);

@@ -12,8 +12,8 @@
 namespace nerfreg {
 
 void PoseGraphOptions::Check() const {
-  if (!(loss_scale > 0) || !(translation_weight > 0) || max_iterations <= 0 ||
-      !(max_rotation_error_deg > 0) || !(max_translation_error > 0)) {
+  if (!(loss_scale > 0) || !(translation_weight > 0) || max_iterations <= 0 || !(max_rotation_error_deg > 0) ||
+      !(max_translation_error > 0)) {
     throw std::invalid_argument("PoseGraphOptions: all scales, weights and limits must be positive");
   }
 }
@@ -24,8 +24,7 @@ void CheckEdges(int num_nodes, const std::vector<PoseGraphEdge>& edges) {
   if (num_nodes <= 0) throw std::invalid_argument("OptimizePoseGraph: no nodes");
   for (const auto& e : edges) {
     if (e.i < 0 || e.j < 0 || e.i >= num_nodes || e.j >= num_nodes || e.i == e.j || !(e.weight > 0)) {
-      throw std::invalid_argument("OptimizePoseGraph: bad edge " + std::to_string(e.i) + "->" +
-                                  std::to_string(e.j));
+      throw std::invalid_argument("OptimizePoseGraph: bad edge " + std::to_string(e.i) + "->" + std::to_string(e.j));
     }
   }
 }
@@ -62,8 +61,8 @@ struct RelativePoseCost {
 
 }  // namespace
 
-std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges,
-                                    double max_rotation_deg, double max_translation) {
+std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges, double max_rotation_deg,
+                                    double max_translation) {
   // b_from_a for every measured ordered pair (either direction of an edge).
   std::map<std::pair<int, int>, Rigid3d> rel;
   for (const auto& e : edges) {
@@ -147,8 +146,8 @@ PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge
     if (!result.connected[e.i] || !result.connected[e.j]) continue;
     auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
         new RelativePoseCost(e.j_from_i, std::sqrt(e.weight), options.translation_weight));
-    problem.AddResidualBlock(cost, new ceres::CauchyLoss(options.loss_scale), q[e.i].coeffs().data(),
-                             t[e.i].data(), q[e.j].coeffs().data(), t[e.j].data());
+    problem.AddResidualBlock(cost, new ceres::CauchyLoss(options.loss_scale), q[e.i].coeffs().data(), t[e.i].data(),
+                             q[e.j].coeffs().data(), t[e.j].data());
     ++used_edges;
   }
   if (used_edges > 0) {
@@ -177,8 +176,7 @@ PoseGraphResult OptimizePoseGraph(int num_nodes, const std::vector<PoseGraphEdge
     result.edge_rotation_error_deg.push_back(rot);
     result.edge_translation_error.push_back(trans);
     result.edge_inlier.push_back(result.connected[e.i] && result.connected[e.j] &&
-                                 rot <= options.max_rotation_error_deg &&
-                                 trans <= options.max_translation_error);
+                                 rot <= options.max_rotation_error_deg && trans <= options.max_translation_error);
   }
   return result;
 }

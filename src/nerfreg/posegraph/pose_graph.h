@@ -48,8 +48,8 @@ struct PoseGraphResult {
 
 // For each edge, the number of nodes m for which going i -> m -> j agrees with the edge within
 // the given thresholds (cycle consistency): wrong registrations have little support.
-std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges,
-                                    double max_rotation_deg, double max_translation);
+std::vector<double> TriangleSupport(int num_nodes, const std::vector<PoseGraphEdge>& edges, double max_rotation_deg,
+                                    double max_translation);
 
 // Initial absolute poses from a maximum-priority spanning tree rooted at node 0, priority =
 // weight * (1 + triangle support).

@@ -36,8 +36,9 @@ TEST(PoseGraph, RecoversPosesFromNoisyLoopAndRejectsAnOutlier) {
     for (int j = i + 1; j < n; ++j) edges.push_back(Measure(gt, i, j, rng, 0.003));
   // One grossly wrong registration, with a high weight so the spanning tree may even pick it.
   PoseGraphEdge bad = Measure(gt, 2, 4, rng, 0.0);
-  bad.j_from_i = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitX())),
-                         Eigen::Vector3d(1, 1, 1)) * bad.j_from_i;
+  bad.j_from_i =
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitX())), Eigen::Vector3d(1, 1, 1)) *
+      bad.j_from_i;
   edges.push_back(bad);
   const std::vector<double> support = TriangleSupport(n, edges, 5.0, 0.1);
   EXPECT_EQ(support.back(), 0.0);  // the wrong edge closes no consistent triangle
@@ -67,7 +68,8 @@ TEST(PoseGraph, EdgesThatDisagreeWithTheirLoopsAreDropped) {
   for (int i = 0; i < 3; ++i) {
     PoseGraphEdge e = Measure(other, i, 3, rng, 0.0);
     e.j_from_i = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(1.0 + i, Eigen::Vector3d(1, i, 2).normalized())),
-                         Eigen::Vector3d(0.5 * i, 1, -1)) * e.j_from_i;
+                         Eigen::Vector3d(0.5 * i, 1, -1)) *
+                 e.j_from_i;
     edges.push_back(e);
   }
   std::vector<bool> dropped;

@@ -27,13 +27,11 @@ nn::InstanceNorm3d Norm(int64_t channels) {
 class BottleneckImpl : public nn::Module {
  public:
   BottleneckImpl(int64_t in, int64_t width, int64_t stride) {
-    body_ = register_module("body", nn::Sequential(
-        Conv(in, width, 1), Norm(width), nn::ReLU(),
-        Conv(width, width, 3, stride), Norm(width), nn::ReLU(),
-        Conv(width, width * 4, 1), Norm(width * 4)));
+    body_ = register_module(
+        "body", nn::Sequential(Conv(in, width, 1), Norm(width), nn::ReLU(), Conv(width, width, 3, stride), Norm(width),
+                               nn::ReLU(), Conv(width, width * 4, 1), Norm(width * 4)));
     if (stride != 1 || in != width * 4) {
-      shortcut_ = register_module(
-          "shortcut", nn::Sequential(Conv(in, width * 4, 1, stride), Norm(width * 4)));
+      shortcut_ = register_module("shortcut", nn::Sequential(Conv(in, width * 4, 1, stride), Norm(width * 4)));
     }
   }
   torch::Tensor forward(const torch::Tensor& x) {
@@ -92,23 +90,22 @@ BackboneImpl::BackboneImpl(const BackboneOptions& options) : options_(options) {
       in = width * 4;
     }
     stages_.push_back(register_module("stage" + std::to_string(s + 1), stage));
-    laterals_.push_back(register_module("lateral" + std::to_string(s + 1),
-                                        Conv(in, options_.fpn_channels, 1)));
+    laterals_.push_back(register_module("lateral" + std::to_string(s + 1), Conv(in, options_.fpn_channels, 1)));
   }
   for (size_t s = 0; s < options_.stage_widths.size(); ++s) {
-    smooths_.push_back(register_module("smooth" + std::to_string(s),
-                                       Conv(options_.fpn_channels, options_.fpn_channels, 3)));
+    smooths_.push_back(
+        register_module("smooth" + std::to_string(s), Conv(options_.fpn_channels, options_.fpn_channels, 3)));
   }
 }
 
 torch::Tensor BackboneImpl::forward(const torch::Tensor& grid) {
-  TORCH_CHECK(grid.dim() == 5 && grid.size(1) == options_.in_channels,
-              "Backbone: grid must be [B,", options_.in_channels, ",D,H,W], got ", grid.sizes());
+  TORCH_CHECK(grid.dim() == 5 && grid.size(1) == options_.in_channels, "Backbone: grid must be [B,",
+              options_.in_channels, ",D,H,W], got ", grid.sizes());
   TORCH_CHECK(grid.scalar_type() == torch::kFloat, "Backbone: grid must be float32");
   const int64_t factor = int64_t{1} << (options_.stage_widths.size() + 1);
   for (int d = 2; d < 5; ++d) {
-    TORCH_CHECK(grid.size(d) % factor == 0, "Backbone: grid sizes must be divisible by ", factor,
-                ", got ", grid.sizes());
+    TORCH_CHECK(grid.size(d) % factor == 0, "Backbone: grid sizes must be divisible by ", factor, ", got ",
+                grid.sizes());
   }
   std::vector<torch::Tensor> c;  // c1 (stem, 1/2) .. c_{S+1}
   c.push_back(stem_->forward(grid));
@@ -133,10 +130,9 @@ torch::Tensor BackboneImpl::forward(const torch::Tensor& grid) {
 
 torch::Tensor BackboneImpl::ForwardAtMask(const torch::Tensor& grid, const torch::Tensor& mask) {
   TORCH_CHECK(grid.dim() == 5 && grid.size(0) == 1, "Backbone: grid must be [1,C,D,H,W]");
-  TORCH_CHECK(mask.dim() == 3 && mask.scalar_type() == torch::kBool &&
-                  mask.sizes() == grid.sizes().slice(2),
+  TORCH_CHECK(mask.dim() == 3 && mask.scalar_type() == torch::kBool && mask.sizes() == grid.sizes().slice(2),
               "Backbone: mask must be bool ", grid.sizes().slice(2), ", got ", mask.sizes());
-  const torch::Tensor features = forward(grid)[0];  // [C,D,H,W]
+  const torch::Tensor features = forward(grid)[0];      // [C,D,H,W]
   return features.permute({1, 2, 3, 0}).index({mask});  // [M,C]
 }
 

@@ -79,11 +79,9 @@ torch::Tensor SampleVolume(const RegGrid& grid, const torch::Tensor& surface, co
   const torch::Tensor normalised = (2.0 * (points - lo) / (hi - lo) - 1.0).flip({1});
   const torch::Tensor volume = surface.to(points.device(), points.scalar_type()).view({1, 1, d, d, d});
   namespace F = torch::nn::functional;
-  const torch::Tensor s = F::grid_sample(volume, normalised.view({1, -1, 1, 1, 3}),
-                                         F::GridSampleFuncOptions()
-                                             .mode(torch::kBilinear)
-                                             .padding_mode(torch::kZeros)
-                                             .align_corners(false));
+  const torch::Tensor s = F::grid_sample(
+      volume, normalised.view({1, -1, 1, 1, 3}),
+      F::GridSampleFuncOptions().mode(torch::kBilinear).padding_mode(torch::kZeros).align_corners(false));
   return s.view({-1});
 }
 

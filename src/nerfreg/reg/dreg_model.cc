@@ -31,8 +31,8 @@ void CheckGrid(const RegGrid& g, const char* name) {
   TORCH_CHECK(g.rgba.size(2) == d && g.rgba.size(3) == d, "DregNet: ", name, ".rgba must be cubic");
   TORCH_CHECK(g.xyz.sizes() == torch::IntArrayRef({d, d, d, 3}), "DregNet: ", name, ".xyz must be [D, D, D, 3]");
   TORCH_CHECK(g.surface.sizes() == torch::IntArrayRef({d, d, d}), "DregNet: ", name, ".surface must be [D, D, D]");
-  TORCH_CHECK(g.mask.sizes() == torch::IntArrayRef({d, d, d}) && g.mask.scalar_type() == torch::kBool, "DregNet: ",
-              name, ".mask must be [D, D, D] bool");
+  TORCH_CHECK(g.mask.sizes() == torch::IntArrayRef({d, d, d}) && g.mask.scalar_type() == torch::kBool,
+              "DregNet: ", name, ".mask must be [D, D, D] bool");
   TORCH_CHECK(g.mask.any().item<bool>(), "DregNet: ", name, ".mask is empty");
 }
 
@@ -44,7 +44,6 @@ Keypoints GatherKeypoints(Backbone& backbone, const RegGrid& g, const torch::Dev
   k.surface = g.surface.to(device, torch::kFloat).index({mask});
   return k;
 }
-
 
 std::vector<int64_t> Ints(const JsonField& j) {
   std::vector<int64_t> v;
@@ -203,9 +202,9 @@ DregOutput DregNetImpl::forward(const RegGrid& src, const RegGrid& tgt) {
   const Keypoints s = GatherKeypoints(backbone, src, device);
   const Keypoints t = GatherKeypoints(backbone, tgt, device);
   // S rides along as the last feature column so that it is averaged with the same cells.
-  const DownsampledPair ds = VoxelDownsamplePair(s.xyz, torch::cat({s.features, s.surface.unsqueeze(1)}, 1), t.xyz,
-                                                 torch::cat({t.features, t.surface.unsqueeze(1)}, 1),
-                                                 options_.downsample);
+  const DownsampledPair ds =
+      VoxelDownsamplePair(s.xyz, torch::cat({s.features, s.surface.unsqueeze(1)}, 1), t.xyz,
+                          torch::cat({t.features, t.surface.unsqueeze(1)}, 1), options_.downsample);
   const int64_t c = options_.backbone.fpn_channels;
   DregOutput out;
   out.voxel_size = ds.voxel_size;
@@ -243,8 +242,8 @@ DregOutput DregNetImpl::forward(const RegGrid& src, const RegGrid& tgt) {
   }
   WeightedProcrustesOptions wp;
   wp.estimate_scale = options_.estimate_scale;
-  const WeightedProcrustesResult pose = WeightedProcrustes(torch::stack(x_src), torch::stack(x_tgt),
-                                                           torch::stack(weights), wp);
+  const WeightedProcrustesResult pose =
+      WeightedProcrustes(torch::stack(x_src), torch::stack(x_tgt), torch::stack(weights), wp);
   for (int64_t l = 0; l < options_.layers; ++l) {
     out.rotation.push_back(pose.rotation[l]);
     out.translation.push_back(pose.translation[l]);
@@ -326,7 +325,8 @@ DregRegistration RegisterOnce(DregNet& net, const RegGrid& src, const RegGrid& t
       rot = torch::from_blob(const_cast<double*>(Eigen::Matrix<double, 3, 3, Eigen::RowMajor>(R).data()), {3, 3},
                              torch::kDouble)
                 .clone();
-      trans = torch::from_blob(const_cast<double*>(robust.tgt_from_src.translation.data()), {3}, torch::kDouble).clone();
+      trans =
+          torch::from_blob(const_cast<double*>(robust.tgt_from_src.translation.data()), {3}, torch::kDouble).clone();
       r.scale = robust.tgt_from_src.scale;
       r.valid = true;
     }

@@ -64,10 +64,10 @@ struct DregModelOptions {
 
 // Everything one forward pass produces. K_s / K_t: keypoints after downsampling; L: layers.
 struct DregOutput {
-  torch::Tensor src_xyz;      // [Ks, 3] keypoints in the source block's frame.
-  torch::Tensor tgt_xyz;      // [Kt, 3] keypoints in the target block's frame.
-  torch::Tensor src_surface;  // [Ks] surface-field label S in [0, 1] (cell mean), no grad.
-  torch::Tensor tgt_surface;  // [Kt]
+  torch::Tensor src_xyz;                       // [Ks, 3] keypoints in the source block's frame.
+  torch::Tensor tgt_xyz;                       // [Kt, 3] keypoints in the target block's frame.
+  torch::Tensor src_surface;                   // [Ks] surface-field label S in [0, 1] (cell mean), no grad.
+  torch::Tensor tgt_surface;                   // [Kt]
   std::vector<torch::Tensor> src_features;     // L x [Ks, d], after the final LayerNorm.
   std::vector<torch::Tensor> tgt_features;     // L x [Kt, d]
   std::vector<torch::Tensor> src_corr;         // L x [Ks, 3] source keypoints' matches, TARGET frame.
@@ -80,8 +80,8 @@ struct DregOutput {
   std::vector<torch::Tensor> translation;      // L x [3] tgt_from_src: x_tgt = s R x_src + t.
   std::vector<torch::Tensor> scale;            // L x [] (1 unless estimate_scale).
   std::vector<torch::Tensor> pose_valid;       // L x [] bool (false: degenerate weights).
-  torch::Tensor feature_w;  // [d, d] the model's InfoNCE bilinear parameter (for DregLoss).
-  double voxel_size = 0.0;  // downsampling cell used (0: none needed).
+  torch::Tensor feature_w;                     // [d, d] the model's InfoNCE bilinear parameter (for DregLoss).
+  double voxel_size = 0.0;                     // downsampling cell used (0: none needed).
 
   int64_t num_layers() const { return static_cast<int64_t>(rotation.size()); }
 };

@@ -289,7 +289,9 @@ TEST_F(DregModelTest, AverageIsTheElementwiseMeanOfWeightsOfOneArchitecture) {
   const std::string msg = InputErrorOf([&] { AverageDregWeights({dir.File("a.pt"), dir.File("wide.pt")}, &o); });
   EXPECT_NE(msg.find("wide.pt"), std::string::npos) << msg;
   EXPECT_NE(msg.find("d_model"), std::string::npos) << msg;
-  EXPECT_NE(InputErrorOf([&] { AverageDregWeights({dir.File("a.pt"), dir.File("none.pt")}, &o); }).find("none.pt"),
+  EXPECT_NE(InputErrorOf([&] {
+              AverageDregWeights({dir.File("a.pt"), dir.File("none.pt")}, &o);
+            }).find("none.pt"),
             std::string::npos);
   EXPECT_NE(InputErrorOf([&] { AverageDregWeights({}, &o); }), "");
 }
@@ -304,7 +306,8 @@ TEST_F(DregModelTest, WeightsWithoutOptionsOrWithSizesTheFileCannotHoldAreInputE
   const std::string no_options = dir.File("no_options.pt");
   torch::serialize::OutputArchive archive;
   const std::string meta = R"({"format": "nerfreg-dreg-weights", "version": 1})";
-  archive.write("meta", torch::from_blob(const_cast<char*>(meta.data()), {int64_t(meta.size())}, torch::kUInt8).clone());
+  archive.write("meta",
+                torch::from_blob(const_cast<char*>(meta.data()), {int64_t(meta.size())}, torch::kUInt8).clone());
   archive.save_to(no_options);
   std::string e = InputErrorOf([&] { LoadDregWeights(no_options, &o); });
   EXPECT_EQ(e.rfind(no_options + ": options:", 0), 0u) << e;
@@ -382,12 +385,12 @@ TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   DregModelOptions o = TinyOptions();
   o.downsample.max_total_points = 300;
   DregNet net(o);
-  const double initial_deg =
-      RotationErrorDeg(torch::from_blob(Register(net, src, tgt, Paper(0.1)).target_from_source.data(), {4, 4}, torch::kDouble)
-                           .t()
-                           .slice(0, 0, 3)
-                           .slice(1, 0, 3),
-                       gt_rot);
+  const double initial_deg = RotationErrorDeg(
+      torch::from_blob(Register(net, src, tgt, Paper(0.1)).target_from_source.data(), {4, 4}, torch::kDouble)
+          .t()
+          .slice(0, 0, 3)
+          .slice(1, 0, 3),
+      gt_rot);
   torch::optim::AdamW opt(net->parameters(), torch::optim::AdamWOptions(1e-3).weight_decay(1e-4));
   const auto start = std::chrono::steady_clock::now();
   const int steps = 100;
@@ -432,9 +435,12 @@ TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   // RANSAC over the same correspondences: at least as accurate here (measured 1.6 vs 3.6 deg), and
   // less confident without overlap, though by less: it finds the pose most wrong matches agree on
   // (measured 0.20 vs 0.30 with LibTorch 1.13, 0.22 vs 0.27 with 2.11, whose arithmetic differs).
-  const double robust_deg = RotationErrorDeg(
-      torch::from_blob(const_cast<double*>(robust.target_from_source.data()), {4, 4}, torch::kDouble).t().slice(0, 0, 3).slice(1, 0, 3),
-      gt_rot);
+  const double robust_deg =
+      RotationErrorDeg(torch::from_blob(const_cast<double*>(robust.target_from_source.data()), {4, 4}, torch::kDouble)
+                           .t()
+                           .slice(0, 0, 3)
+                           .slice(1, 0, 3),
+                       gt_rot);
   std::printf("[overfit] ransac: rotation error %.2f deg, confidence %.3f; disjoint halves %.3f\n", robust_deg,
               robust.confidence, disjoint_robust.confidence);
   EXPECT_LT(robust_deg, 10.0);

@@ -71,14 +71,14 @@ struct FieldAlignmentOptions {
   bool overlap_only = false;
   int min_overlap_samples = 200;
   unsigned seed = 0;
-  void Check() const;           // throws InputError naming the option
+  void Check() const;  // throws InputError naming the option
 };
 
 struct FieldAlignmentResult {
   Rigid3d target_from_source;
   double initial_cost = 0, final_cost = 0;  // mean squared occupancy difference over the samples inside the other box
   int iterations = 0;
-  int samples = 0;                          // with weight at the final pose
+  int samples = 0;  // with weight at the final pose
   // With overlap_only: the share of samples the other block saw (kept), or -1 when not applied.
   double overlap_fraction = -1;
   double seconds = 0;

@@ -74,10 +74,11 @@ TEST(FieldAlignment, RecoversAKnownTransformFromAFewDegreesOff) {
   o.max_samples = 3000;
   const Rigid3d start = Perturb(truth, 4.0, Eigen::Vector3d(1, -1, 2), Eigen::Vector3d(0.04, -0.03, 0.02));
   const FieldAlignmentResult r = AlignFields(src, tgt, ps, pt, start, o);
-  std::printf("[field] %d iterations, cost %.4f -> %.4f, %d samples, %.2f s; rotation error %.4f deg, translation %.5f\n",
-              r.iterations, r.initial_cost, r.final_cost, r.samples, r.seconds,
-              RotationErrorDeg(r.target_from_source.rotation, truth.rotation),
-              (r.target_from_source.translation - truth.translation).norm());
+  std::printf(
+      "[field] %d iterations, cost %.4f -> %.4f, %d samples, %.2f s; rotation error %.4f deg, translation %.5f\n",
+      r.iterations, r.initial_cost, r.final_cost, r.samples, r.seconds,
+      RotationErrorDeg(r.target_from_source.rotation, truth.rotation),
+      (r.target_from_source.translation - truth.translation).norm());
   EXPECT_GT(RotationErrorDeg(start.rotation, truth.rotation), 3.9);
   EXPECT_LT(RotationErrorDeg(r.target_from_source.rotation, truth.rotation), 0.05);
   EXPECT_LT((r.target_from_source.translation - truth.translation).norm(), 1e-3);
@@ -93,8 +94,8 @@ TEST(FieldAlignment, RecoversAKnownTransformFromAFewDegreesOff) {
   big.box = kBigBox;
   big.density = [&](const torch::Tensor& x) { return tgt.density(x / s); };
   const Rigid3d truth_scaled(truth.rotation, s * truth.translation);
-  const FieldAlignmentResult rs = AlignFields(src, big, ps, pt * s,
-                                              Perturb(truth_scaled, 3.0, Eigen::Vector3d(0, 1, 1), Eigen::Vector3d::Zero()), o, s);
+  const FieldAlignmentResult rs = AlignFields(
+      src, big, ps, pt * s, Perturb(truth_scaled, 3.0, Eigen::Vector3d(0, 1, 1), Eigen::Vector3d::Zero()), o, s);
   EXPECT_LT(RotationErrorDeg(rs.target_from_source.rotation, truth.rotation), 0.05);
 }
 
@@ -169,9 +170,10 @@ TEST(FieldAlignment, OverlapOnlyLeavesOutWhatTheOtherBlockDidNotSee) {
   const FieldAlignmentResult seen = AlignFields(src_seen, tgt, ps, pt, start, o);
   const double err_all = RotationErrorDeg(all.target_from_source.rotation, id.rotation);
   const double err_seen = RotationErrorDeg(seen.target_from_source.rotation, id.rotation);
-  const double shift_all = all.target_from_source.translation.norm(), shift_seen = seen.target_from_source.translation.norm();
-  std::printf("[field overlap] all samples: %.3f deg, %.4f; overlap only (%.2f kept): %.3f deg, %.4f\n", err_all, shift_all,
-              seen.overlap_fraction, err_seen, shift_seen);
+  const double shift_all = all.target_from_source.translation.norm(),
+               shift_seen = seen.target_from_source.translation.norm();
+  std::printf("[field overlap] all samples: %.3f deg, %.4f; overlap only (%.2f kept): %.3f deg, %.4f\n", err_all,
+              shift_all, seen.overlap_fraction, err_seen, shift_seen);
   EXPECT_EQ(all.overlap_fraction, -1);
   EXPECT_GT(seen.overlap_fraction, 0.3);
   EXPECT_LT(seen.overlap_fraction, 0.9);

@@ -42,21 +42,22 @@ RegGrid ExtractRegGridFromField(const GridFieldQueries& field, const Eigen::Vect
   const auto corner = mn + torch::stack({ijk[0], ijk[1], ijk[2]}, -1).reshape({-1, 3}) * cell;  // [D^3, 3]
   // k jittered samples per voxel; the densest is the voxel's point.
   const int k = options.samples_per_voxel;
-  const auto cand = corner.unsqueeze(1) + torch::rand({d * d * d, k, 3}, gen) * cell;           // [D^3, k, 3]
-  const auto cand_sigma = field.density(cand.reshape({-1, 3})).view({d * d * d, k});            // [D^3, k]
-  const auto best = cand_sigma.argmax(1);                                                        // [D^3]
-  const auto points = cand.gather(1, best.view({-1, 1, 1}).expand({-1, 1, 3})).squeeze(1);        // [D^3, 3]
-  const auto sigma = cand_sigma.gather(1, best.view({-1, 1})).squeeze(1);                       // [D^3]
+  const auto cand = corner.unsqueeze(1) + torch::rand({d * d * d, k, 3}, gen) * cell;       // [D^3, k, 3]
+  const auto cand_sigma = field.density(cand.reshape({-1, 3})).view({d * d * d, k});        // [D^3, k]
+  const auto best = cand_sigma.argmax(1);                                                   // [D^3]
+  const auto points = cand.gather(1, best.view({-1, 1, 1}).expand({-1, 1, 3})).squeeze(1);  // [D^3, 3]
+  const auto sigma = cand_sigma.gather(1, best.view({-1, 1})).squeeze(1);                   // [D^3]
   g.xyz = points.reshape({d, d, d, 3}).contiguous();
-  const auto dense = sigma > options.min_density;                     // [D^3]
+  const auto dense = sigma > options.min_density;  // [D^3]
   const auto dense_idx = dense.nonzero().squeeze(1);
   const auto dense_pts = points.index_select(0, dense_idx);
 
   // Colour (view-averaged) at the dense points only.
   const auto rgb = field.color(dense_pts);
   auto rgba = torch::zeros({d * d * d, 4});
-  rgba.index_copy_(0, dense_idx,
-                   torch::cat({rgb, (1 - torch::exp(-0.01 * sigma.index_select(0, dense_idx))).clamp(0, 1).unsqueeze(1)}, 1));
+  rgba.index_copy_(
+      0, dense_idx,
+      torch::cat({rgb, (1 - torch::exp(-0.01 * sigma.index_select(0, dense_idx))).clamp(0, 1).unsqueeze(1)}, 1));
   g.rgba = rgba.t().reshape({4, d, d, d}).contiguous();
 
   auto surface = torch::zeros({d * d * d});
@@ -64,7 +65,8 @@ RegGrid ExtractRegGridFromField(const GridFieldQueries& field, const Eigen::Vect
     surface.index_copy_(0, dense_idx, field.surface ? field.surface(dense_pts) : torch::ones({dense_pts.size(0)}));
   }
   g.surface = surface.reshape({d, d, d});
-  g.mask = options.variant == "df" ? dense.reshape({d, d, d}) : (dense & (surface >= options.surface_threshold)).reshape({d, d, d});
+  g.mask = options.variant == "df" ? dense.reshape({d, d, d})
+                                   : (dense & (surface >= options.surface_threshold)).reshape({d, d, d});
   g.Check();
   return g;
 }

@@ -43,8 +43,8 @@ struct GridExtractionOptions {
   // 0.023; at the CPU model's 0.11 one sample misses thin parts (the spider block: 278 dense
   // voxels of one sample each, legs mostly lost), several find the surface inside the cell.
   int samples_per_voxel = 8;
-  unsigned seed = 0;                // the jitter
-  void Check() const;               // throws InputError naming the option
+  unsigned seed = 0;   // the jitter
+  void Check() const;  // throws InputError naming the option
 };
 
 // What grid extraction asks of a field (a NeRF block's, a splat set's): positions [N, 3] float32 of

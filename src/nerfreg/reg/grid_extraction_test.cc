@@ -86,7 +86,6 @@ TEST(GridExtraction, TrainedBlockGridMatchesTheTrueSurface) {
   EXPECT_LT(GridOverlap(g, truth.source, turned), overlap - 0.2);
 }
 
-
 // A trained block's own field, seen from a known frame (density_moved(x) = density(moved^-1 x)),
 // is registered back by AlignFields from 3 deg and 0.05 units off, from the block's extracted
 // surface points: the hash-grid field's finite-difference gradients are good enough.
@@ -105,7 +104,8 @@ TEST(GridExtraction, FieldAlignmentRecoversAKnownMoveOfATrainedBlock) {
     const Eigen::Matrix3d r = block_from_moved.RotationMatrix();
     const torch::Tensor rt = torch::from_blob(const_cast<double*>(r.data()), {3, 3}, torch::kDouble).to(torch::kFloat);
     const torch::Tensor t = torch::tensor({block_from_moved.translation.x(), block_from_moved.translation.y(),
-                                           block_from_moved.translation.z()}).to(torch::kFloat);
+                                           block_from_moved.translation.z()})
+                                .to(torch::kFloat);
     // Column-major r read row-major is R^T: x R^T = (R x^T)^T.
     return src.density(torch::matmul(x, rt) + t);
   };

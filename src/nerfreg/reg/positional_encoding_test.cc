@@ -32,10 +32,18 @@ TEST(PositionalEncodingTest, ValuesAtKnownPoints) {
   const torch::Tensor pe = SinePositionalEncoding(xyz, o)[0];
   ASSERT_EQ(pe.size(0), 12);
   const double f1 = 1.0 / std::pow(1000.0, 0.5);
-  const double expected[12] = {0.0, 1.0, 0.0, 1.0,  // x = 0
-                               std::sin(0.5 * kPi), std::cos(0.5 * kPi), std::sin(0.5 * kPi * f1),
+  const double expected[12] = {0.0,
+                               1.0,
+                               0.0,
+                               1.0,  // x = 0
+                               std::sin(0.5 * kPi),
+                               std::cos(0.5 * kPi),
+                               std::sin(0.5 * kPi * f1),
                                std::cos(0.5 * kPi * f1),  // y = 0.25: arg 2 pi * 0.25
-                               std::sin(-kPi), std::cos(-kPi), std::sin(-kPi * f1), std::cos(-kPi * f1)};
+                               std::sin(-kPi),
+                               std::cos(-kPi),
+                               std::sin(-kPi * f1),
+                               std::cos(-kPi * f1)};
   for (int i = 0; i < 12; ++i) EXPECT_NEAR(pe[i].item<double>(), expected[i], 1e-12) << "column " << i;
 }
 

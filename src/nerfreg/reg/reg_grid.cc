@@ -23,7 +23,6 @@ namespace {
 
 constexpr const char* kFormatTag = "nerfreg-reg-grid";
 
-
 Json VectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 }  // namespace
@@ -48,15 +47,20 @@ void RegGrid::Check() const {
     fail("rgba, xyz and surface must be float32");
   }
   const Eigen::Vector3d side = aabb_max - aabb_min;
-  if (!(side.minCoeff() > 0) || std::abs(side.x() - side.y()) > 1e-6 * side.x() || std::abs(side.x() - side.z()) > 1e-6 * side.x()) {
+  if (!(side.minCoeff() > 0) || std::abs(side.x() - side.y()) > 1e-6 * side.x() ||
+      std::abs(side.x() - side.z()) > 1e-6 * side.x()) {
     fail("the box must be a non-empty cube");
   }
 }
 
 void SaveRegGrid(const RegGrid& grid, const std::string& path) {
   grid.Check();
-  const Json meta = {{"format", kFormatTag}, {"version", kRegGridVersion}, {"aabb_min", VectorJson(grid.aabb_min)},
-                     {"aabb_max", VectorJson(grid.aabb_max)}, {"source", grid.source}, {"variant", grid.variant}};
+  const Json meta = {{"format", kFormatTag},
+                     {"version", kRegGridVersion},
+                     {"aabb_min", VectorJson(grid.aabb_min)},
+                     {"aabb_max", VectorJson(grid.aabb_max)},
+                     {"source", grid.source},
+                     {"variant", grid.variant}};
   torch::serialize::OutputArchive archive;
   archive.write("meta", StringTensor(meta.dump()));
   archive.write("rgba", grid.rgba.contiguous());

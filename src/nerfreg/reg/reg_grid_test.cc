@@ -61,7 +61,8 @@ TEST(RegGrid, TransformResamplesTheSameSurfaceInTheNewFrame) {
   const RegGrid h = TransformRegGrid(g, R, t);
   // About as many masked voxels, and every new sample point maps back into the ball (radius 0.4
   // plus a cell diagonal for the resampling).
-  EXPECT_NEAR(double(h.mask.sum().item<std::int64_t>()), double(g.mask.sum().item<std::int64_t>()), 0.1 * g.mask.sum().item<std::int64_t>());
+  EXPECT_NEAR(double(h.mask.sum().item<std::int64_t>()), double(g.mask.sum().item<std::int64_t>()),
+              0.1 * g.mask.sum().item<std::int64_t>());
   const auto b = h.MaskedXyz().to(torch::kFloat64);
   Eigen::Matrix3d Rt = R.transpose();
   const auto Rinv = torch::from_blob(Rt.data(), {3, 3}, torch::kFloat64).t().clone();  // row-major R^T

@@ -19,7 +19,8 @@ torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positio
   Eigen::Matrix3Xd colour;
   const Eigen::VectorXd sigma = field.Density(points, rgb ? &colour : nullptr);
   if (rgb) {
-    *rgb = torch::from_blob(colour.data(), {colour.cols(), 3}, torch::kDouble).to(torch::kFloat32).to(positions.device());
+    *rgb =
+        torch::from_blob(colour.data(), {colour.cols(), 3}, torch::kDouble).to(torch::kFloat32).to(positions.device());
   }
   return torch::from_blob(const_cast<double*>(sigma.data()), {sigma.size()}, torch::kDouble)
       .to(torch::kFloat32)
@@ -44,7 +45,8 @@ RegGrid SplatInput::ExtractGrid(const GridExtractionOptions& options) {
     SplatDensity(*field, x, &rgb);
     return rgb;
   };
-  const Eigen::Vector3d centre = field_.size() > 0 ? Eigen::Vector3d(field_.Bounds().center()) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d centre =
+      field_.size() > 0 ? Eigen::Vector3d(field_.Bounds().center()) : Eigen::Vector3d::Zero();
   return ExtractRegGridFromField(q, centre, options);
 }
 
@@ -74,12 +76,14 @@ Eigen::Matrix3Xd SplatInput::OccupiedPoints(double min_density, unsigned seed) {
   return out;
 }
 
-std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path, const SplatFieldOptions& splat_options,
+std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
+                                                         const SplatFieldOptions& splat_options,
                                                          const torch::Device& device) {
   if (IsSplatPly(path)) return std::make_unique<SplatInput>(ReadSplatPly(path), splat_options);
   if (LowerExtension(path) == ".ply") {
-    ThrowInputError(path, "", "a NeRF block checkpoint or a 3D Gaussian splat PLY (vertex properties f_dc_0, opacity, "
-                              "scale_0, rot_0; this PLY has none)");
+    ThrowInputError(path, "",
+                    "a NeRF block checkpoint or a 3D Gaussian splat PLY (vertex properties f_dc_0, opacity, "
+                    "scale_0, rot_0; this PLY has none)");
   }
   return std::make_unique<NerfBlockInput>(LoadNerfBlock(path, nullptr, device));
 }

@@ -34,7 +34,8 @@ class RegistrationInput {
 class NerfBlockInput : public RegistrationInput {
  public:
   explicit NerfBlockInput(NerfBlock& block) : block_(&block) {}
-  explicit NerfBlockInput(NerfBlock&& block) : owned_(std::make_unique<NerfBlock>(std::move(block))), block_(owned_.get()) {}
+  explicit NerfBlockInput(NerfBlock&& block)
+      : owned_(std::make_unique<NerfBlock>(std::move(block))), block_(owned_.get()) {}
   std::string Kind() const override { return "nerf"; }
   DensityField Field() override { return BlockDensityField(*block_); }
   RegGrid ExtractGrid(const GridExtractionOptions& options) override { return ExtractRegGrid(*block_, options); }
@@ -68,7 +69,8 @@ torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positio
 
 // A splat PLY (data/splat_ply.h: IsSplatPly) or else a NeRF block checkpoint, loaded; InputError
 // naming the file when it is neither. The block's field goes to `device`.
-std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path, const SplatFieldOptions& splat_options,
+std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
+                                                         const SplatFieldOptions& splat_options,
                                                          const torch::Device& device = torch::kCPU);
 
 }  // namespace nerfreg

@@ -72,7 +72,8 @@ SplatField::SplatField(const Splats& splats, const SplatFieldOptions& options) :
   cells_.reserve(entries.size() / 4 + 1);
   for (size_t e = 0; e < entries.size(); ++e) {
     members_[e] = entries[e].second;
-    auto [it, inserted] = cells_.try_emplace(entries[e].first, static_cast<std::uint32_t>(e), static_cast<std::uint32_t>(e));
+    auto [it, inserted] =
+        cells_.try_emplace(entries[e].first, static_cast<std::uint32_t>(e), static_cast<std::uint32_t>(e));
     it->second.second = static_cast<std::uint32_t>(e + 1);
   }
 }
@@ -82,7 +83,8 @@ SplatField::CellKey SplatField::Cell(const Eigen::Vector3d& p) const {
           static_cast<std::int64_t>(std::floor(p.z() / cell_))};
 }
 
-void SplatField::Accumulate(const Gaussian& g, const Eigen::Vector3d& p, double* sigma, Eigen::Vector3d* rgb_sum) const {
+void SplatField::Accumulate(const Gaussian& g, const Eigen::Vector3d& p, double* sigma,
+                            Eigen::Vector3d* rgb_sum) const {
   const Eigen::Vector3d d = p - g.mean;
   const double m = d.dot(g.precision * d);
   if (m > options_.truncation * options_.truncation) return;
@@ -103,7 +105,8 @@ Eigen::VectorXd SplatField::Density(const Eigen::Matrix3Xd& points, Eigen::Matri
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       const auto it = cells_.find(Cell(p));
       if (it != cells_.end()) {
-        for (std::uint32_t e = it->second.first; e < it->second.second; ++e) Accumulate(gaussians_[members_[e]], p, &s, &c);
+        for (std::uint32_t e = it->second.first; e < it->second.second; ++e)
+          Accumulate(gaussians_[members_[e]], p, &s, &c);
       }
       for (std::uint32_t i : large_) Accumulate(gaussians_[i], p, &s, &c);
       sigma(q) = s;

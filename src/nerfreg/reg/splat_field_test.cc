@@ -25,7 +25,8 @@ double ReferenceDensity(const Splats& s, const SplatFieldOptions& o, const Eigen
     for (int k = 0; k < 3; ++k) cov += std::exp(2.0 * s.log_scale(k, i)) * r.col(k) * r.col(k).transpose();
     const Eigen::Vector3d d = x - s.position.col(i).cast<double>();
     const double m = d.dot(cov.ldlt().solve(d));
-    if (m <= o.truncation * o.truncation) sum += o.density_scale / (1 + std::exp(-double(s.opacity(i)))) * std::exp(-0.5 * m);
+    if (m <= o.truncation * o.truncation)
+      sum += o.density_scale / (1 + std::exp(-double(s.opacity(i)))) * std::exp(-0.5 * m);
   }
   return sum;
 }
@@ -44,8 +45,9 @@ TEST(SplatField, DensityMatchesTheDirectSumOverEverySplat) {
     Eigen::Matrix3Xd points(3, 400);
     for (int q = 0; q < 400; ++q) {
       // Half the points close to a splat centre, where the sums are large.
-      points.col(q) = q % 2 ? Eigen::Vector3d(u(rng), u(rng), u(rng))
-                            : Eigen::Vector3d(s.position.col(q).cast<double>()) + Eigen::Vector3d(near(rng), near(rng), near(rng));
+      points.col(q) =
+          q % 2 ? Eigen::Vector3d(u(rng), u(rng), u(rng))
+                : Eigen::Vector3d(s.position.col(q).cast<double>()) + Eigen::Vector3d(near(rng), near(rng), near(rng));
     }
     const Eigen::VectorXd sigma = field.Density(points);
     int nonzero = 0;

@@ -54,9 +54,9 @@ torch::Tensor CrossEncoderLayerImpl::FfnBlock(const torch::Tensor& x) {
 }
 
 std::pair<torch::Tensor, torch::Tensor> CrossEncoderLayerImpl::forward(const torch::Tensor& src,
-                                                                        const torch::Tensor& tgt,
-                                                                        const torch::Tensor& src_pe,
-                                                                        const torch::Tensor& tgt_pe) {
+                                                                       const torch::Tensor& tgt,
+                                                                       const torch::Tensor& src_pe,
+                                                                       const torch::Tensor& tgt_pe) {
   torch::Tensor s = SelfBlock(src, src_pe);
   torch::Tensor t = SelfBlock(tgt, tgt_pe);
   // Both directions read the same normalised inputs (simultaneous update).

@@ -29,8 +29,7 @@ struct DownsampledCloud {
 
 // xyz: [N, 3] float32/float64; features: [N, C] floating, same device, N >= 0.
 // One cell size; output sorted by cell key.
-DownsampledCloud VoxelAverage(const torch::Tensor& xyz, const torch::Tensor& features,
-                              double voxel_size);
+DownsampledCloud VoxelAverage(const torch::Tensor& xyz, const torch::Tensor& features, double voxel_size);
 
 struct DownsampledPair {
   DownsampledCloud src;

@@ -15,14 +15,13 @@ class VoxelDownsampleTest : public ::testing::Test {
 
 TEST_F(VoxelDownsampleTest, AveragesPerCellOnHandExample) {
   // Cell 1.0: points 0 and 1 share cell (0,0,0), point 2 is in (0,0,1), point 3 in (1,0,0).
-  const torch::Tensor xyz = torch::tensor({{0.1f, 0.2f, 0.3f}, {0.5f, 0.4f, 0.1f},
-                                           {0.5f, 0.5f, 1.5f}, {1.2f, 0.1f, 0.1f}});
+  const torch::Tensor xyz =
+      torch::tensor({{0.1f, 0.2f, 0.3f}, {0.5f, 0.4f, 0.1f}, {0.5f, 0.5f, 1.5f}, {1.2f, 0.1f, 0.1f}});
   const torch::Tensor feat = torch::tensor({{1.0f}, {3.0f}, {5.0f}, {7.0f}});
   const auto out = VoxelAverage(xyz, feat, 1.0);
   ASSERT_EQ(out.xyz.size(0), 3);
   // Sorted by (x, y, z) cell: (0,0,0), (0,0,1), (1,0,0).
-  EXPECT_TRUE(torch::allclose(out.xyz, torch::tensor({{0.3f, 0.3f, 0.2f}, {0.5f, 0.5f, 1.5f},
-                                                      {1.2f, 0.1f, 0.1f}})));
+  EXPECT_TRUE(torch::allclose(out.xyz, torch::tensor({{0.3f, 0.3f, 0.2f}, {0.5f, 0.5f, 1.5f}, {1.2f, 0.1f, 0.1f}})));
   EXPECT_TRUE(torch::allclose(out.features, torch::tensor({{2.0f}, {5.0f}, {7.0f}})));
 }
 
@@ -52,12 +51,10 @@ TEST_F(VoxelDownsampleTest, CascadeRespectsBudgetAndKeepsGradients) {
   EXPECT_GT(out.src.xyz.size(0) + out.tgt.xyz.size(0), options.max_total_points / 8);
   EXPECT_GT(out.voxel_size, 0.05);
   out.src.features.sum().backward();
-  EXPECT_TRUE(torch::allclose(src_feat.grad().sum(), torch::tensor(4.0f * out.src.xyz.size(0)),
-                              1e-3, 1e-3));
+  EXPECT_TRUE(torch::allclose(src_feat.grad().sum(), torch::tensor(4.0f * out.src.xyz.size(0)), 1e-3, 1e-3));
   // Already within budget: unchanged.
-  const auto small = VoxelDownsamplePair(src_xyz.slice(0, 0, 100), src_feat.slice(0, 0, 100),
-                                         tgt_xyz.slice(0, 0, 100), tgt_feat.slice(0, 0, 100),
-                                         options);
+  const auto small = VoxelDownsamplePair(src_xyz.slice(0, 0, 100), src_feat.slice(0, 0, 100), tgt_xyz.slice(0, 0, 100),
+                                         tgt_feat.slice(0, 0, 100), options);
   EXPECT_EQ(small.voxel_size, 0.0);
   EXPECT_EQ(small.src.xyz.size(0), 100);
 }

@@ -17,24 +17,20 @@ bool WeightedProcrustesOptions::Check() const {
   return true;
 }
 
-WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src,
-                                            const torch::Tensor& x_in_tgt,
-                                            const torch::Tensor& weights,
-                                            const WeightedProcrustesOptions& options) {
+WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src, const torch::Tensor& x_in_tgt,
+                                            const torch::Tensor& weights, const WeightedProcrustesOptions& options) {
   TORCH_CHECK(options.Check(), "WeightedProcrustes: invalid options");
   const bool batched = x_in_src.dim() == 3;
   TORCH_CHECK((x_in_src.dim() == 2 || batched) && x_in_src.size(-1) == 3,
               "WeightedProcrustes: x_in_src must be [B,N,3] or [N,3], got ", x_in_src.sizes());
-  TORCH_CHECK(x_in_tgt.sizes() == x_in_src.sizes(), "WeightedProcrustes: x_in_tgt ",
-              x_in_tgt.sizes(), " != x_in_src ", x_in_src.sizes());
-  TORCH_CHECK(weights.dim() == x_in_src.dim() - 1 &&
-                  weights.sizes() == x_in_src.sizes().slice(0, x_in_src.dim() - 1),
-              "WeightedProcrustes: weights must be ", x_in_src.sizes().slice(0, x_in_src.dim() - 1),
-              ", got ", weights.sizes());
+  TORCH_CHECK(x_in_tgt.sizes() == x_in_src.sizes(), "WeightedProcrustes: x_in_tgt ", x_in_tgt.sizes(), " != x_in_src ",
+              x_in_src.sizes());
+  TORCH_CHECK(weights.dim() == x_in_src.dim() - 1 && weights.sizes() == x_in_src.sizes().slice(0, x_in_src.dim() - 1),
+              "WeightedProcrustes: weights must be ", x_in_src.sizes().slice(0, x_in_src.dim() - 1), ", got ",
+              weights.sizes());
   TORCH_CHECK(x_in_src.scalar_type() == torch::kFloat || x_in_src.scalar_type() == torch::kDouble,
               "WeightedProcrustes: float32 or float64 expected");
-  TORCH_CHECK(x_in_tgt.scalar_type() == x_in_src.scalar_type() &&
-                  weights.scalar_type() == x_in_src.scalar_type(),
+  TORCH_CHECK(x_in_tgt.scalar_type() == x_in_src.scalar_type() && weights.scalar_type() == x_in_src.scalar_type(),
               "WeightedProcrustes: dtypes differ");
   TORCH_CHECK(x_in_src.size(-2) >= 1, "WeightedProcrustes: no correspondences");
 
@@ -47,12 +43,11 @@ WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src,
   // Degenerate elements solve with uniform weights (finite everywhere) and are replaced by
   // identity afterwards; torch::where then gives them zero gradient.
   w = w.clamp_min(0.0);
-  const torch::Tensor w_sum = w.sum(1, /*keepdim=*/true);                 // [B,1]
+  const torch::Tensor w_sum = w.sum(1, /*keepdim=*/true);                  // [B,1]
   const torch::Tensor valid = w_sum.squeeze(1) >= options.min_weight_sum;  // [B]
   const torch::Tensor valid_bn = valid.unsqueeze(1);
   const torch::Tensor w_safe = torch::where(valid_bn, w, torch::ones_like(w));
-  const torch::Tensor w_norm =
-      w_safe / torch::where(valid_bn, w_sum, torch::full_like(w_sum, static_cast<double>(n)));
+  const torch::Tensor w_norm = w_safe / torch::where(valid_bn, w_sum, torch::full_like(w_sum, static_cast<double>(n)));
   const torch::Tensor wn = w_norm.unsqueeze(2);  // [B,N,1]
 
   const torch::Tensor src_mean = (wn * src).sum(1, true);  // [B,1,3]
@@ -78,14 +73,13 @@ WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src,
   torch::Tensor scale = torch::ones({src.size(0)}, opts);
   if (options.estimate_scale) {
     const torch::Tensor src_var = (wn * src_c.pow(2)).sum({1, 2});  // [B]
-    const torch::Tensor trace_sd = (s * d).sum(1);                 // [B]
+    const torch::Tensor trace_sd = (s * d).sum(1);                  // [B]
     const torch::Tensor src_var_safe = src_var.clamp_min(1e-12);
     const torch::Tensor scale_ok = valid & (src_var > 1e-12);
     scale = torch::where(scale_ok, trace_sd / src_var_safe, torch::ones_like(trace_sd));
   }
   torch::Tensor translation =
-      tgt_mean.squeeze(1) -
-      scale.unsqueeze(1) * torch::matmul(rotation, src_mean.transpose(1, 2)).squeeze(2);  // [B,3]
+      tgt_mean.squeeze(1) - scale.unsqueeze(1) * torch::matmul(rotation, src_mean.transpose(1, 2)).squeeze(2);  // [B,3]
 
   const torch::Tensor eye = torch::eye(3, opts).expand_as(rotation);
   rotation = torch::where(valid.view({-1, 1, 1}), rotation, eye);

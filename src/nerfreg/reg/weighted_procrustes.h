@@ -41,8 +41,7 @@ struct WeightedProcrustesResult {
 // x_in_src, x_in_tgt: [B, N, 3] or [N, 3], float32 or float64, same device; weights: [B, N] or [N],
 // same dtype, >= 0 (need not be normalised: they are divided by their sum). N >= 1.
 // Throws (c10::Error) on shape/dtype mismatch.
-WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src,
-                                            const torch::Tensor& x_in_tgt,
+WeightedProcrustesResult WeightedProcrustes(const torch::Tensor& x_in_src, const torch::Tensor& x_in_tgt,
                                             const torch::Tensor& weights,
                                             const WeightedProcrustesOptions& options = {});
 

@@ -58,8 +58,8 @@ TEST_F(WeightedProcrustesTest, RecoversBatchedSim3) {
   }
   WeightedProcrustesOptions options;
   options.estimate_scale = true;
-  const auto res = WeightedProcrustes(torch::stack(srcs), torch::stack(tgts),
-                                      torch::rand({b, 30}, torch::kDouble) + 0.1, options);
+  const auto res =
+      WeightedProcrustes(torch::stack(srcs), torch::stack(tgts), torch::rand({b, 30}, torch::kDouble) + 0.1, options);
   ASSERT_EQ(res.rotation.sizes(), (torch::IntArrayRef{b, 3, 3}));
   ASSERT_EQ(res.translation.sizes(), (torch::IntArrayRef{b, 3}));
   for (int64_t i = 0; i < b; ++i) {
@@ -155,10 +155,8 @@ TEST_F(WeightedProcrustesTest, GradientMatchesFiniteDifferences) {
 }
 
 TEST_F(WeightedProcrustesTest, RejectsShapeMismatch) {
-  EXPECT_THROW(WeightedProcrustes(torch::zeros({5, 3}), torch::zeros({4, 3}), torch::ones({5})),
-               c10::Error);
-  EXPECT_THROW(WeightedProcrustes(torch::zeros({5, 3}), torch::zeros({5, 3}), torch::ones({4})),
-               c10::Error);
+  EXPECT_THROW(WeightedProcrustes(torch::zeros({5, 3}), torch::zeros({4, 3}), torch::ones({5})), c10::Error);
+  EXPECT_THROW(WeightedProcrustes(torch::zeros({5, 3}), torch::zeros({5, 3}), torch::ones({4})), c10::Error);
 }
 
 }  // namespace

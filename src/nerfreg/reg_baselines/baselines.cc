@@ -41,7 +41,8 @@ std::shared_ptr<open3d::geometry::PointCloud> Prepare(const open3d::geometry::Po
   return down;
 }
 
-std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pts, const ClassicalRegistrationOptions& o) {
+std::shared_ptr<open3d::geometry::PointCloud> Prepare(const Eigen::Matrix3Xd& pts,
+                                                      const ClassicalRegistrationOptions& o) {
   return Prepare(ToCloud(pts), o, o.voxel_size);
 }
 
@@ -49,7 +50,8 @@ ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t so
                                      double seconds) {
   ClassicalRegistrationResult out;
   // Open3D may return a numerically slightly non-orthonormal rotation: project it.
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(),
+                                        Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d rot = svd.matrixU() * svd.matrixV().transpose();
   if (rot.determinant() < 0) rot = -rot;
   out.target_from_source = Rigid3d(rot, r.transformation_.topRightCorner<3, 1>());
@@ -66,7 +68,8 @@ ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t so
 ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                                 const ClassicalRegistrationOptions& o) {
   o.Check();
-  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RegisterPointClouds: a cloud has fewer than 3 points");
+  if (source.cols() < 3 || target.cols() < 3)
+    throw std::invalid_argument("RegisterPointClouds: a cloud has fewer than 3 points");
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
   open3d::utility::random::Seed(static_cast<int>(o.seed));
   Timer timer;
@@ -75,22 +78,25 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
   // max_points.
   double voxel = o.voxel_size;
   auto too_many = [&](double v) {
-    return o.max_points > 0 && std::max(src_full.VoxelDownSample(v)->points_.size(), tgt_full.VoxelDownSample(v)->points_.size()) >
-                                   static_cast<size_t>(o.max_points);
+    return o.max_points > 0 &&
+           std::max(src_full.VoxelDownSample(v)->points_.size(), tgt_full.VoxelDownSample(v)->points_.size()) >
+               static_cast<size_t>(o.max_points);
   };
   while (too_many(voxel)) voxel *= 1.25;
   const double k = voxel / o.voxel_size;
   const auto src = Prepare(src_full, o, voxel), tgt = Prepare(tgt_full, o, voxel);
-  const auto f_src = reg::ComputeFPFHFeature(*src, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
-  const auto f_tgt = reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
+  const auto f_src =
+      reg::ComputeFPFHFeature(*src, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
+  const auto f_tgt =
+      reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
   reg::RegistrationResult r;
   if (o.method == "ransac") {
     const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance * k : 1.5 * voxel;
     reg::CorrespondenceCheckerBasedOnEdgeLength edge(0.9);
     reg::CorrespondenceCheckerBasedOnDistance distance(dist);
-    r = reg::RegistrationRANSACBasedOnFeatureMatching(*src, *tgt, *f_src, *f_tgt, true, dist,
-                                                      reg::TransformationEstimationPointToPoint(false), 3, {edge, distance},
-                                                      reg::RANSACConvergenceCriteria(o.ransac_iterations, o.ransac_confidence));
+    r = reg::RegistrationRANSACBasedOnFeatureMatching(
+        *src, *tgt, *f_src, *f_tgt, true, dist, reg::TransformationEstimationPointToPoint(false), 3, {edge, distance},
+        reg::RANSACConvergenceCriteria(o.ransac_iterations, o.ransac_confidence));
   } else {
     reg::FastGlobalRegistrationOption fgr;
     fgr.maximum_correspondence_distance_ = o.max_correspondence_distance > 0 ? o.max_correspondence_distance : 0.5;
@@ -117,7 +123,8 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
                                                        const std::vector<Rigid3d>& starts,
                                                        const ClassicalRegistrationOptions& o) {
   o.Check();
-  if (source.cols() < 3 || target.cols() < 3) throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
+  if (source.cols() < 3 || target.cols() < 3)
+    throw std::invalid_argument("RefineWithIcp: a cloud has fewer than 3 points");
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
   Timer prepare;
   const auto src = Prepare(source, o), tgt = Prepare(target, o);  // once for every start
@@ -128,7 +135,8 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
     Timer one;
     const auto r = reg::RegistrationICP(*src, *tgt, d, start.ToMatrix(), reg::TransformationEstimationPointToPlane(),
                                         reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
-    out.push_back(ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (out.empty() ? prepare_seconds : 0)));
+    out.push_back(
+        ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (out.empty() ? prepare_seconds : 0)));
   }
   return out;
 }

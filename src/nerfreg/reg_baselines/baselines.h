@@ -11,30 +11,30 @@
 namespace nerfreg {
 
 struct ClassicalRegistrationOptions {
-  std::string method = "ransac";   // "ransac" (FPFH + RANSAC) or "fgr" (FPFH + fast global registration)
-  double voxel_size = 0.05;        // downsampling cell (the spec's FGR parameters)
-  double normal_radius = 0.1;      // normals: radius, max 30 neighbours
-  double feature_radius = 0.25;    // FPFH: radius, max 100 neighbours
+  std::string method = "ransac";             // "ransac" (FPFH + RANSAC) or "fgr" (FPFH + fast global registration)
+  double voxel_size = 0.05;                  // downsampling cell (the spec's FGR parameters)
+  double normal_radius = 0.1;                // normals: radius, max 30 neighbours
+  double feature_radius = 0.25;              // FPFH: radius, max 100 neighbours
   double max_correspondence_distance = 0.0;  // 0: 1.5 x voxel for RANSAC, 0.5 for FGR (spec)
   int ransac_iterations = 100000;
   double ransac_confidence = 0.999;
-  bool icp = true;                 // point-to-plane ICP refinement
-  double icp_distance = 0.0;       // 0: 2 x voxel
+  bool icp = true;            // point-to-plane ICP refinement
+  double icp_distance = 0.0;  // 0: 2 x voxel
   // FPFH + RANSAC / FGR cost grows with the points: when a downsampled cloud has more than this,
   // the features and the global search use a coarser voxel (x1.25 steps; the radii and the
   // RANSAC distance scale with it) and ICP still runs at voxel_size. 0: no cap.
   int max_points = 0;
   unsigned seed = 0;
-  void Check() const;              // throws std::invalid_argument
+  void Check() const;  // throws std::invalid_argument
 };
 
 struct ClassicalRegistrationResult {
   Rigid3d target_from_source;
-  double fitness = 0;       // fraction of source points with a target point within the inlier distance
+  double fitness = 0;  // fraction of source points with a target point within the inlier distance
   double inlier_rmse = 0;
   double seconds = 0;
   int source_points = 0, target_points = 0;  // after downsampling (for the features)
-  double feature_voxel = 0;  // the voxel the features were computed at (voxel_size unless capped)
+  double feature_voxel = 0;                  // the voxel the features were computed at (voxel_size unless capped)
 };
 
 // source, target: [3, N] points (block frames). Throws std::invalid_argument on empty clouds.

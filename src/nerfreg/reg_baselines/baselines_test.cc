@@ -32,7 +32,8 @@ Eigen::Matrix3Xd SyntheticSurface(int n, unsigned seed) {
 
 TEST(ClassicalRegistration, RansacAndIcpRecoverAKnownTransform) {
   const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
-  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())), Eigen::Vector3d(0.1, -0.2, 0.15));
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())),
+                   Eigen::Vector3d(0.1, -0.2, 0.15));
   Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);  // another sampling of the same surface
   for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
   ClassicalRegistrationOptions o;
@@ -47,7 +48,8 @@ TEST(ClassicalRegistration, RansacAndIcpRecoverAKnownTransform) {
 
 TEST(ClassicalRegistration, APointCapCoarsensTheFeaturesAndIcpKeepsTheAccuracy) {
   const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
-  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())), Eigen::Vector3d(0.1, -0.2, 0.15));
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized())),
+                   Eigen::Vector3d(0.1, -0.2, 0.15));
   Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);
   for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
   ClassicalRegistrationOptions o;
@@ -69,11 +71,14 @@ TEST(ClassicalRegistration, APointCapCoarsensTheFeaturesAndIcpKeepsTheAccuracy) 
 
 TEST(ClassicalRegistration, IcpRefinesANearbyEstimate) {
   const Eigen::Matrix3Xd src = SyntheticSurface(20000, 1);
-  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized())), Eigen::Vector3d(0.2, 0, -0.1));
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized())),
+                   Eigen::Vector3d(0.2, 0, -0.1));
   Eigen::Matrix3Xd tgt = SyntheticSurface(20000, 2);
   for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
   // 4 degrees and 0.05 off, as a coarse learned estimate might be.
-  const Rigid3d init = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d::UnitX())), Eigen::Vector3d(0.05, 0, 0)) * gt;
+  const Rigid3d init = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d::UnitX())),
+                               Eigen::Vector3d(0.05, 0, 0)) *
+                       gt;
   ClassicalRegistrationOptions o;
   o.voxel_size = 0.04;
   const auto r = RefineWithIcp(src, tgt, init, o);

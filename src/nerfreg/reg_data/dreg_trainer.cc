@@ -32,18 +32,32 @@ void DregTrainOptions::Check() const {
   }
   if (move_deg > 180) ThrowInputError("--move-deg", "", "an angle in [0, 180] degrees");
   if (!(mirror_probability >= 0 && mirror_probability <= 1)) ThrowInputError("--mirror", "", "a probability in [0, 1]");
-  if (!(colour_probability >= 0 && colour_probability <= 1)) ThrowInputError("--recolour", "", "a probability in [0, 1]");
+  if (!(colour_probability >= 0 && colour_probability <= 1))
+    ThrowInputError("--recolour", "", "a probability in [0, 1]");
   if (val_every < 0 || checkpoint_every < 0 || max_val_pairs < 0 || nerf_fraction < 0 || nerf_fraction > 1) {
     ThrowInputError("reg train", "schedule options", "non-negative counts, --nerf-fraction in [0, 1]");
   }
 }
 
 Json DregTrainOptions::ToJson() const {
-  return {{"config", config}, {"iterations", iterations}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay},
-          {"lr_step", lr_step}, {"lr_gamma", lr_gamma}, {"grad_clip", grad_clip}, {"jitter", jitter},
-          {"move_probability", move_probability}, {"move_deg", move_deg}, {"move_translation", move_translation},
-          {"swap", swap}, {"mirror_probability", mirror_probability}, {"colour_probability", colour_probability},
-          {"nerf_fraction", nerf_fraction}, {"seed", seed}, {"init_weights", init_weights},
+  return {{"config", config},
+          {"iterations", iterations},
+          {"batch", batch},
+          {"lr", lr},
+          {"weight_decay", weight_decay},
+          {"lr_step", lr_step},
+          {"lr_gamma", lr_gamma},
+          {"grad_clip", grad_clip},
+          {"jitter", jitter},
+          {"move_probability", move_probability},
+          {"move_deg", move_deg},
+          {"move_translation", move_translation},
+          {"swap", swap},
+          {"mirror_probability", mirror_probability},
+          {"colour_probability", colour_probability},
+          {"nerf_fraction", nerf_fraction},
+          {"seed", seed},
+          {"init_weights", init_weights},
           {"overlap_labels", loss.overlap_labels}};
 }
 
@@ -99,8 +113,11 @@ DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double 
 }
 
 Json ValJson(const DregValResult& v) {
-  return {{"median_rotation_deg", v.median_rotation_deg}, {"mean_rotation_deg", v.mean_rotation_deg},
-          {"median_translation", v.median_translation}, {"success_rate", v.success_rate}, {"pairs", v.pairs}};
+  return {{"median_rotation_deg", v.median_rotation_deg},
+          {"mean_rotation_deg", v.mean_rotation_deg},
+          {"median_translation", v.median_translation},
+          {"success_rate", v.success_rate},
+          {"pairs", v.pairs}};
 }
 
 // One training pair's random choices, drawn by every rank for every pair of the global batch (so
@@ -132,7 +149,8 @@ PairDraw DrawPair(const DregTrainOptions& options, const std::vector<PairRecord>
     const Eigen::Vector3d axis = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
     const double angle = options.move_deg * M_PI / 180 * uni(rng);
     d.move_rotation = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
-    d.move_translation = options.move_translation * Eigen::Vector3d(2 * uni(rng) - 1, 2 * uni(rng) - 1, 2 * uni(rng) - 1);
+    d.move_translation =
+        options.move_translation * Eigen::Vector3d(2 * uni(rng) - 1, 2 * uni(rng) - 1, 2 * uni(rng) - 1);
   }
   d.mirror = uni(rng) < options.mirror_probability;
   d.recolour = uni(rng) < options.colour_probability;
@@ -219,8 +237,8 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   double seconds_before = 0;
   std::mt19937 rng(options.seed);
   auto make_optimizer = [&] {
-    return std::make_unique<torch::optim::AdamW>(net->parameters(),
-                                                 torch::optim::AdamWOptions(options.lr).weight_decay(options.weight_decay));
+    return std::make_unique<torch::optim::AdamW>(
+        net->parameters(), torch::optim::AdamWOptions(options.lr).weight_decay(options.weight_decay));
   };
   net->to(options.device);
   auto optimizer = make_optimizer();
@@ -269,7 +287,9 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     std::stringstream ss;
     ss << rng;
     const std::string s = ss.str();
-    ar.write("rng", torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone());
+    ar.write(
+        "rng",
+        torch::from_blob(const_cast<char*>(s.data()), {static_cast<std::int64_t>(s.size())}, torch::kUInt8).clone());
     SaveArchiveAtomic(ar, state_path);
     SaveDregWeights(net, model_options, out);
   };
@@ -292,16 +312,17 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     // This rank's pairs: b = rank, rank + world, ... Their gradients accumulate; `stats` sums the
     // loss terms and counts the pairs trained on (a pair with too few surface voxels is skipped).
     optimizer->zero_grad();
-    torch::Tensor stats = torch::zeros({6}, torch::kFloat64);  // [6] loss, pairs, confidence, correspondence, surface, feature
+    torch::Tensor stats =
+        torch::zeros({6}, torch::kFloat64);  // [6] loss, pairs, confidence, correspondence, surface, feature
     for (int b = rank; b < batch; b += world) {
       LoadedPair p = ApplyDraw(draws[b], options.jitter);
       if (p.source.mask.sum().item<std::int64_t>() < 8 || p.target.mask.sum().item<std::int64_t>() < 8) continue;
       const DregOutput o = net->forward(p.source, p.target);
       const DregLossTerms terms = DregLoss(o, p.source, p.target, ToTensor(p.target_from_source), options.loss);
       terms.total.backward();
-      const double values[6] = {terms.total.item<double>(), 1, terms.confidence.item<double>(),
-                                terms.correspondence.item<double>(), terms.surface.item<double>(),
-                                terms.feature.item<double>()};
+      const double values[6] = {terms.total.item<double>(),      1,
+                                terms.confidence.item<double>(), terms.correspondence.item<double>(),
+                                terms.surface.item<double>(),    terms.feature.item<double>()};
       for (int k = 0; k < 6; ++k) stats[k] += values[k];
     }
     AllReduceGradients(group, parameters, &stats);
@@ -315,8 +336,9 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     }
     const double loss = stats[0].item<double>() / pairs;
     if (!std::isfinite(loss)) {
-      throw std::runtime_error("reg train diverged: loss is " + std::to_string(loss) + " at step " + std::to_string(step) +
-                               " (pairs " + names + "); the last good checkpoint " + state_path + " was kept");
+      throw std::runtime_error("reg train diverged: loss is " + std::to_string(loss) + " at step " +
+                               std::to_string(step) + " (pairs " + names + "); the last good checkpoint " + state_path +
+                               " was kept");
     }
     // The mean over the batch's pairs, as one process with the whole batch computes it.
     for (const auto& param : parameters) {
@@ -329,9 +351,14 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     ++step;
     bar.SetMetric("loss", loss_ema);
     bar.Tick();
-    Json line = {{"step", step}, {"loss", loss}, {"lr", lr}, {"pair", names},
-                 {"confidence", stats[2].item<double>() / pairs}, {"correspondence", stats[3].item<double>() / pairs},
-                 {"surface", stats[4].item<double>() / pairs}, {"feature", stats[5].item<double>() / pairs},
+    Json line = {{"step", step},
+                 {"loss", loss},
+                 {"lr", lr},
+                 {"pair", names},
+                 {"confidence", stats[2].item<double>() / pairs},
+                 {"correspondence", stats[3].item<double>() / pairs},
+                 {"surface", stats[4].item<double>() / pairs},
+                 {"feature", stats[5].item<double>() / pairs},
                  {"seconds", seconds_before + timer.Seconds()}};
     const bool last = step == options.iterations;
     if (!val.empty() && ((options.val_every > 0 && step % options.val_every == 0) || last)) {
@@ -353,9 +380,11 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   if (step == end_step && options.checkpoint_every == 0) save();
   result.iterations = step;
   result.seconds = seconds_before + timer.Seconds();
-  Json summary = {{"options", options.ToJson()}, {"processes", world}, {"model", model_options.ToJson()}, {"data", pairs_files},
-                  {"train_pairs", train.size()}, {"train_pairs_nerf", train_nerf.size()}, {"val", ValJson(result.val)},
-                  {"iterations", step}, {"seconds", result.seconds}, {"final_loss", result.final_loss}};
+  Json summary = {{"options", options.ToJson()},     {"processes", world},
+                  {"model", model_options.ToJson()}, {"data", pairs_files},
+                  {"train_pairs", train.size()},     {"train_pairs_nerf", train_nerf.size()},
+                  {"val", ValJson(result.val)},      {"iterations", step},
+                  {"seconds", result.seconds},       {"final_loss", result.final_loss}};
   if (group.is_main()) WriteJsonFile(out + ".json", summary);
   return result;
 }

@@ -40,19 +40,21 @@ std::string GridRegistrationOptions::Name() const {
 
 double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
   torch::NoGradGuard no_grad;
-  const torch::Tensor occupied = source.Occupied();                            // [D, D, D]
-  const torch::Tensor xyz = source.xyz.index({occupied}).to(torch::kDouble);   // [K, 3]
+  const torch::Tensor occupied = source.Occupied();                                              // [D, D, D]
+  const torch::Tensor xyz = source.xyz.index({occupied}).to(torch::kDouble);                     // [K, 3]
   const torch::Tensor rgb = source.rgba.slice(0, 0, 3).permute({1, 2, 3, 0}).index({occupied});  // [K, 3]
   if (xyz.size(0) == 0) return 0;
   const Eigen::Matrix4d& m = target_from_source;
-  const torch::Tensor r = torch::tensor({m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)},
-                                        torch::kDouble).view({3, 3});
+  const torch::Tensor r =
+      torch::tensor({m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)}, torch::kDouble)
+          .view({3, 3});
   const torch::Tensor t = torch::tensor({m(0, 3), m(1, 3), m(2, 3)}, torch::kDouble);
-  const torch::Tensor lo = torch::tensor({target.aabb_min.x(), target.aabb_min.y(), target.aabb_min.z()}, torch::kDouble);
+  const torch::Tensor lo =
+      torch::tensor({target.aabb_min.x(), target.aabb_min.y(), target.aabb_min.z()}, torch::kDouble);
   const torch::Tensor cell = (xyz.matmul(r.t()) + t - lo) / target.CellSize();  // [K, 3] in target cells
   const torch::Tensor base = cell.floor().to(torch::kLong);
   const int64_t d = target.Resolution();
-  const torch::Tensor tgt_rgba = target.rgba.reshape({4, -1});                  // [4, D^3]
+  const torch::Tensor tgt_rgba = target.rgba.reshape({4, -1});  // [4, D^3]
   const torch::Tensor tgt_occupied = target.Occupied().reshape({-1});
   torch::Tensor best = torch::zeros({xyz.size(0)});
   for (int dx = -1; dx <= 1; ++dx)
@@ -98,7 +100,8 @@ Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, con
   if (flip) *flip = -1;
   const ClassicalRegistrationOptions c = ClassicalOptionsFor(source, target, o);
   const Eigen::Matrix3Xd tgt_icp = IcpPoints(target, o);
-  const double scale = start.topLeftCorner<3, 3>().determinant() > 0 ? std::cbrt(start.topLeftCorner<3, 3>().determinant()) : 1.0;
+  const double scale =
+      start.topLeftCorner<3, 3>().determinant() > 0 ? std::cbrt(start.topLeftCorner<3, 3>().determinant()) : 1.0;
   // ICP refines a rigid pose: with a scale, refine in the scaled source frame.
   const Eigen::Matrix3Xd scaled = IcpPoints(source, o) * scale;
   if (scaled.cols() < 3 || tgt_icp.cols() < 3) return start;
@@ -111,7 +114,8 @@ Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, con
     // width: its front-to-back turn was found about a diagonal).
     const Eigen::Vector3d centroid = scaled.rowwise().mean();
     const Eigen::Matrix3Xd centred = scaled.colwise() - centroid;
-    const Eigen::Matrix3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+    const Eigen::Matrix3d e =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
     std::vector<Eigen::Vector3d> axes = {e.col(0), e.col(1), e.col(2)};
     for (int i = 0; i < 3; ++i)
       for (int j = i + 1; j < 3; ++j) {

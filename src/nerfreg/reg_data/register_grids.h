@@ -23,15 +23,15 @@ struct GridRegistrationOptions {
   // better on real blocks (on synthesised pairs, whose extra voxels are simulated blur, the mask
   // does; docs/notes/2026-11-23-grids-icp-half-turn.md).
   std::string icp_points = "occupied";
-  double voxel = 0.05;          // classical downsampling voxel (normals 2x, FPFH 5x); at least 1.1 x
-                                // the grids' cell is used
+  double voxel = 0.05;  // classical downsampling voxel (normals 2x, FPFH 5x); at least 1.1 x
+                        // the grids' cell is used
   // ICP's correspondence distance, in those voxels. Shorter fixes a converged pose more tightly
   // but narrows the basin the network's pose must land in, and on the held-out real pairs the
   // narrower basin cost more registrations than the tighter fit gained
   // (docs/notes/2026-11-23-grids-icp-half-turn.md, "ICP correspondence distance").
   static constexpr double kDefaultIcpDistance = 2.0;
   double icp_distance = kDefaultIcpDistance;
-  double inlier_radius = 0.1;   // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)
+  double inlier_radius = 0.1;              // dreg: the radius of its confidence and of its RANSAC (DregSolveOptions)
   std::string dreg_solver = "procrustes";  // dreg: "procrustes" (the paper's) or "ransac" (DregSolveOptions)
   int dreg_passes = 1;                     // dreg: network passes (DregSolveOptions::passes)
   // With ICP (any method): also try the pose turned by 180 deg about 9 axes through the source's
@@ -42,7 +42,7 @@ struct GridRegistrationOptions {
   // which ICP's geometry alone cannot tell apart but colour can.
   bool flips = true;
   unsigned seed = 0;
-  void Check() const;           // throws InputError naming the option
+  void Check() const;  // throws InputError naming the option
   // "dreg", "dreg+icp", "ransac+icp", ...; dreg's RANSAC solve is "dreg/ransac".
   std::string Name() const;
 };
@@ -53,10 +53,10 @@ struct GridRegistrationResult {
   // dreg: the network's confidence; classical: the fitness (fraction of inliers). In [0, 1];
   // low means the answer should not be trusted (no overlap, empty grids).
   double confidence = 0;
-  double seconds = 0;           // registration only (grids already extracted)
+  double seconds = 0;  // registration only (grids already extracted)
   int source_points = 0, target_points = 0;
   std::string method;
-  int flip = -1;                // with ICP and flips: the half-turn kept (-1: none, 0-8: the axis)
+  int flip = -1;  // with ICP and flips: the half-turn kept (-1: none, 0-8: the axis)
 };
 
 // ICP from `start` (a similarity: its scale is kept) on `options.icp_points` and, with
@@ -73,7 +73,7 @@ double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::
 
 // `net` is needed for method dreg (and ignored otherwise). Empty or tiny masks give identity with
 // confidence 0 rather than an exception: the caller warns.
-GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& options,
-                                     DregNet* net);
+GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target,
+                                     const GridRegistrationOptions& options, DregNet* net);
 
 }  // namespace nerfreg

@@ -31,7 +31,8 @@ KnownPair SameGridMoved() {
   o.views = 60;
   o.image_size = 64;
   const GridPair p = SyntheticGridPair(mesh, o, 3);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(70 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(70 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
   const Eigen::Vector3d t(0.15, -0.1, 0.05);
   KnownPair k{p.source, TransformRegGrid(p.source, R, t), Eigen::Matrix4d::Identity()};
   k.target_from_source.topLeftCorner<3, 3>() = R;
@@ -86,9 +87,12 @@ TEST(RegisterGrids, IcpDistanceIsTheOneAskedFor) {
   const KnownPair k = SameGridMoved();
   Eigen::Matrix4d start = k.target_from_source;
   start.topLeftCorner<3, 3>() =
-      Eigen::AngleAxisd(6 * M_PI / 180, Eigen::Vector3d(0.3, 1, -0.2).normalized()).toRotationMatrix() * start.topLeftCorner<3, 3>();
+      Eigen::AngleAxisd(6 * M_PI / 180, Eigen::Vector3d(0.3, 1, -0.2).normalized()).toRotationMatrix() *
+      start.topLeftCorner<3, 3>();
   const Sim3d truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
-  auto error_deg = [&](const Eigen::Matrix4d& m) { return RotationErrorDeg(Sim3d::FromMatrix(m, 1e-3).rotation, truth.rotation); };
+  auto error_deg = [&](const Eigen::Matrix4d& m) {
+    return RotationErrorDeg(Sim3d::FromMatrix(m, 1e-3).rotation, truth.rotation);
+  };
   ASSERT_NEAR(error_deg(start), 6.0, 0.01);
   GridRegistrationOptions o;
   o.flips = false;
@@ -123,7 +127,8 @@ TEST(RegisterGrids, ShippedWeightsWithIcpRegisterMostHeldOutPairs) {
     o.method = "dreg";
     const GridRegistrationResult r = RegisterGrids(p.source, p.target, o, &net);
     const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3);
-    success += RotationErrorDeg(est.rotation, truth.rotation) < 5 && TranslationError(est.translation, truth.translation) < 0.125;
+    success += RotationErrorDeg(est.rotation, truth.rotation) < 5 &&
+               TranslationError(est.translation, truth.translation) < 0.125;
     ++n;
     o.icp = false;
     const GridRegistrationResult coarse = RegisterGrids(p.source, p.target, o, &net);
@@ -144,12 +149,14 @@ TEST(RegisterGrids, HalfTurnedPoseIsFoundBackByItsColouredVoxels) {
   const Eigen::Matrix3Xd pts = PointsToEigen(k.source.OccupiedXyz());
   const Eigen::Vector3d centroid = pts.rowwise().mean();
   const Eigen::Matrix3Xd centred = pts.colwise() - centroid;
-  const Eigen::Matrix3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+  const Eigen::Matrix3d axes =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
   turn.topLeftCorner<3, 3>() = Eigen::AngleAxisd(M_PI, axes.col(2)).toRotationMatrix();
   turn.topRightCorner<3, 1>() = centroid - turn.topLeftCorner<3, 3>() * centroid;
   Eigen::Matrix4d nudge = Eigen::Matrix4d::Identity();  // and 4 deg, 0.03 off, as a network's pose
-  nudge.topLeftCorner<3, 3>() = Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+  nudge.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
   nudge.topRightCorner<3, 1>() = Eigen::Vector3d(0.03, 0, -0.01);
   const Eigen::Matrix4d start = nudge * k.target_from_source * turn;
   EXPECT_GT(GridAgreement(k.source, k.target, k.target_from_source), GridAgreement(k.source, k.target, start) + 0.1);
@@ -165,7 +172,8 @@ TEST(RegisterGrids, HalfTurnedPoseIsFoundBackByItsColouredVoxels) {
   o.flips = false;
   r.target_from_source = RefineGridPose(k.source, k.target, start, o, &flip);
   EXPECT_EQ(flip, -1);
-  const Sim3d kept = Sim3d::FromMatrix(r.target_from_source, 1e-3), truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
+  const Sim3d kept = Sim3d::FromMatrix(r.target_from_source, 1e-3),
+              truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
   EXPECT_GT(RotationErrorDeg(kept.rotation, truth.rotation), 90.0);
   // From the true pose, no half-turn replaces it.
   o.flips = true;

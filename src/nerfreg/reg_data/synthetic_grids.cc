@@ -178,7 +178,8 @@ double GridOverlap(const RegGrid& source, const RegGrid& target, const Eigen::Ma
   const auto moved = pts.matmul(T.slice(0, 0, 3).slice(1, 0, 3).t()) + T.slice(0, 0, 3).select(1, 3);
   const std::int64_t d = target.Resolution();
   // The target mask dilated by one cell.
-  const auto dil = torch::max_pool3d(target.mask.to(torch::kFloat32).unsqueeze(0).unsqueeze(0), 3, 1, 1).squeeze(0).squeeze(0) > 0;
+  const auto dil =
+      torch::max_pool3d(target.mask.to(torch::kFloat32).unsqueeze(0).unsqueeze(0), 3, 1, 1).squeeze(0).squeeze(0) > 0;
   const auto mn = torch::tensor({float(target.aabb_min.x()), float(target.aabb_min.y()), float(target.aabb_min.z())});
   const auto ijk = ((moved - mn) / float(target.CellSize())).floor().to(torch::kInt64);
   const auto inside = ((ijk >= 0) & (ijk < d)).all(1);

@@ -23,17 +23,17 @@
 namespace nerfreg {
 
 struct SyntheticPairOptions {
-  int resolution = 32;         // D, as GridExtractionOptions
-  double side = 3.6;           // cube side, as GridExtractionOptions
-  int views = 120;             // orbit views (the DReg-NeRF trajectory)
-  int image_size = 96;         // ray-cast resolution of each view (the back-projected points)
-  int blocks = 2;              // k-means blocks; the pair is (source_block, target_block)
+  int resolution = 32;  // D, as GridExtractionOptions
+  double side = 3.6;    // cube side, as GridExtractionOptions
+  int views = 120;      // orbit views (the DReg-NeRF trajectory)
+  int image_size = 96;  // ray-cast resolution of each view (the back-projected points)
+  int blocks = 2;       // k-means blocks; the pair is (source_block, target_block)
   int source_block = 0, target_block = 1;
-  BlockFrameOptions frames;    // random block frames (DReg-NeRF: arbitrary rotations)
-  double blur = 0.25;          // probability that a surface voxel spreads to a 6-neighbour
-  int floaters = 12;           // floater clusters per block
+  BlockFrameOptions frames;               // random block frames (DReg-NeRF: arbitrary rotations)
+  double blur = 0.25;                     // probability that a surface voxel spreads to a 6-neighbour
+  int floaters = 12;                      // floater clusters per block
   double min_sigma = 5, max_sigma = 400;  // log-uniform density of occupied voxels (alpha channel)
-  void Check() const;          // throws std::invalid_argument
+  void Check() const;                     // throws std::invalid_argument
 };
 
 struct GridPair {

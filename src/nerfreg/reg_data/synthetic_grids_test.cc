@@ -30,7 +30,8 @@ TEST(SyntheticGrids, PairOverlapsUnderTheTruePoseOnly) {
   // Wrong poses (the true one turned by 90 degrees about the source's x axis, or shifted by 0.4)
   // overlap far less.
   Eigen::Matrix4d turned = p.target_from_source, shifted = p.target_from_source;
-  turned.topLeftCorner<3, 3>() = turned.topLeftCorner<3, 3>() * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  turned.topLeftCorner<3, 3>() =
+      turned.topLeftCorner<3, 3>() * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
   shifted(0, 3) += 0.4;
   EXPECT_LT(GridOverlap(p.source, p.target, turned), p.overlap - 0.2);
   EXPECT_LT(GridOverlap(p.source, p.target, shifted), p.overlap - 0.2);

@@ -19,9 +19,17 @@ namespace nerfreg {
 namespace fs = std::filesystem;
 
 Json PairRecord::ToJson() const {
-  return {{"name", name}, {"object", object}, {"kind", kind}, {"split", split}, {"source", source}, {"target", target},
-          {"target_from_source", MatrixToJson(target_from_source)}, {"overlap", overlap},
-          {"source_block", source_block}, {"target_block", target_block}, {"blocks", blocks}};
+  return {{"name", name},
+          {"object", object},
+          {"kind", kind},
+          {"split", split},
+          {"source", source},
+          {"target", target},
+          {"target_from_source", MatrixToJson(target_from_source)},
+          {"overlap", overlap},
+          {"source_block", source_block},
+          {"target_block", target_block},
+          {"blocks", blocks}};
 }
 
 PairRecord PairRecord::FromJson(const JsonField& j) {
@@ -76,11 +84,22 @@ void MakeDataOptions::Check() const {
 }
 
 Json MakeDataOptions::ToJson() const {
-  return {{"meshes", meshes}, {"procedural", procedural}, {"procedural_seed", procedural_seed}, {"mesh_pairs", mesh_pairs},
-          {"nerf_objects", nerf_objects}, {"blocks", blocks}, {"split", split}, {"image_size", image_size},
-          {"nerf", nerf.ToJson()}, {"grid_resolution", grid.resolution}, {"grid_side", grid.side},
-          {"variant", grid.variant}, {"min_density", grid.min_density}, {"surface_mode", grid.surface.mode},
-          {"surface_window", grid.ResolvedSurface().window}, {"seed", seed}};
+  return {{"meshes", meshes},
+          {"procedural", procedural},
+          {"procedural_seed", procedural_seed},
+          {"mesh_pairs", mesh_pairs},
+          {"nerf_objects", nerf_objects},
+          {"blocks", blocks},
+          {"split", split},
+          {"image_size", image_size},
+          {"nerf", nerf.ToJson()},
+          {"grid_resolution", grid.resolution},
+          {"grid_side", grid.side},
+          {"variant", grid.variant},
+          {"min_density", grid.min_density},
+          {"surface_mode", grid.surface.mode},
+          {"surface_window", grid.ResolvedSurface().window},
+          {"seed", seed}};
 }
 
 namespace {
@@ -107,7 +126,8 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
     // With more than two blocks, walk the pairs of neighbouring blocks.
     so.source_block = k % o.blocks;
     so.target_block = (k + 1) % o.blocks;
-    const GridPair p = SyntheticGridPair(mesh, so, o.seed * 1000003u + std::hash<std::string>{}(spec.name) % 100000u + k);
+    const GridPair p =
+        SyntheticGridPair(mesh, so, o.seed * 1000003u + std::hash<std::string>{}(spec.name) % 100000u + k);
     if (p.overlap < o.min_overlap) continue;
     PairRecord r;
     r.name = spec.name + "/mesh_" + std::to_string(k);
@@ -161,7 +181,8 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
       if (FileExists(ckpt)) resume = LoadNerfBlock(ckpt).step < o.nerf.iterations;
       NerfTrainOptions no = o.nerf;
       no.seed = o.seed + k;
-      const NerfTrainResult tr = (FileExists(ckpt) && !resume) ? NerfTrainResult{} : TrainNerfBlock(d, no, ckpt, resume);
+      const NerfTrainResult tr =
+          (FileExists(ckpt) && !resume) ? NerfTrainResult{} : TrainNerfBlock(d, no, ckpt, resume);
       train_seconds += t.Seconds();
       psnr.push_back(tr.psnr_test);
       Timer te;

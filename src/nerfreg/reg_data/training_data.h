@@ -21,13 +21,13 @@
 namespace nerfreg {
 
 struct PairRecord {
-  std::string name;         // unique within pairs.json
-  std::string object;       // the object it was made from
-  std::string kind;         // "mesh" (synthesised) or "nerf" (real trained blocks)
-  std::string split;        // "train" or "val"
+  std::string name;            // unique within pairs.json
+  std::string object;          // the object it was made from
+  std::string kind;            // "mesh" (synthesised) or "nerf" (real trained blocks)
+  std::string split;           // "train" or "val"
   std::string source, target;  // grid files, relative to the folder of pairs.json
   Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
-  double overlap = 0;       // GridOverlap under the true pose
+  double overlap = 0;  // GridOverlap under the true pose
   int source_block = 0, target_block = 1, blocks = 2;
   Json ToJson() const;
   static PairRecord FromJson(const JsonField& j);
@@ -40,13 +40,13 @@ struct MakeDataOptions {
   std::vector<std::string> meshes;  // mesh files (OBJ/PLY/STL/OFF/glTF)
   int procedural = 0;               // procedural objects, seeds procedural_seed .. + n - 1
   unsigned procedural_seed = 1000;
-  int mesh_pairs = 4;               // synthesised pairs per object (different random frames)
-  int nerf_objects = 0;             // the first n objects also get real trained blocks
-  int blocks = 2;                   // blocks per object (4: fewer views per block; docs/data.md)
-  double min_overlap = 0.05;        // pairs of blocks overlapping less are not written
-  std::string split = "train";      // the split of every pair written
-  int image_size = 100;             // NeRF renders (orbit), pixels
-  NerfTrainOptions nerf;            // block training (fast preset by default)
+  int mesh_pairs = 4;           // synthesised pairs per object (different random frames)
+  int nerf_objects = 0;         // the first n objects also get real trained blocks
+  int blocks = 2;               // blocks per object (4: fewer views per block; docs/data.md)
+  double min_overlap = 0.05;    // pairs of blocks overlapping less are not written
+  std::string split = "train";  // the split of every pair written
+  int image_size = 100;         // NeRF renders (orbit), pixels
+  NerfTrainOptions nerf;        // block training (fast preset by default)
   SyntheticPairOptions synthetic;
   GridExtractionOptions grid;
   unsigned seed = 0;

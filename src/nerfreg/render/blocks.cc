@@ -80,7 +80,8 @@ Sim3d RandomBlockFrame(const BlockFrameOptions& options, std::mt19937& rng) {
     if (angle > cap && angle > 0) xi.head<3>() *= cap / angle;
   }
   Rigid3d t = Rigid3d::Exp(xi);
-  for (int k = 0; k < 3; ++k) t.translation(k) = std::clamp(t.translation(k), -options.max_translation, options.max_translation);
+  for (int k = 0; k < 3; ++k)
+    t.translation(k) = std::clamp(t.translation(k), -options.max_translation, options.max_translation);
   const double scale = options.max_scale > options.min_scale
                            ? std::uniform_real_distribution<double>(options.min_scale, options.max_scale)(rng)
                            : options.min_scale;

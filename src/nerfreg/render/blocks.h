@@ -16,7 +16,7 @@ struct BlockFrameOptions {
   // Rotation: DReg-NeRF draws xi ~ N(0, I6) and keeps the rotation unbounded (mean ~92 deg).
   // A positive max_rotation_deg caps the angle instead.
   double max_rotation_deg = -1;
-  double max_translation = 0.2;     // each translation coordinate clamped to [-x, x]
+  double max_translation = 0.2;             // each translation coordinate clamped to [-x, x]
   double min_scale = 1.0, max_scale = 1.0;  // Sim(3) scale drawn uniformly in [min, max]
   void Check() const;
 };

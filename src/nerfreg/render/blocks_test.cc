@@ -34,7 +34,8 @@ TEST(Blocks, RandomFramesRespectTheirBounds) {
     EXPECT_LE(t.translation.cwiseAbs().maxCoeff(), 0.1 + 1e-12);
     EXPECT_GE(t.scale, 0.5);
     EXPECT_LE(t.scale, 2.0);
-    unbounded_mean += RotationErrorDeg(RandomBlockFrame(BlockFrameOptions{}, rng).rotation, Eigen::Quaterniond::Identity());
+    unbounded_mean +=
+        RotationErrorDeg(RandomBlockFrame(BlockFrameOptions{}, rng).rotation, Eigen::Quaterniond::Identity());
   }
   // xi ~ N(0, I) rotation vectors: a mean angle around 90 degrees (spec: ~92).
   EXPECT_NEAR(unbounded_mean / 200, 90, 12);

@@ -28,16 +28,23 @@ void Line(Image* im, double x0, double y0, double x1, double y1, int half_width,
   if (steps > 4 * (im->width + im->height)) return;
   for (int i = 0; i <= steps; ++i) {
     const double t = double(i) / steps;
-    const int x = static_cast<int>(std::lround(x0 + t * (x1 - x0))), y = static_cast<int>(std::lround(y0 + t * (y1 - y0)));
+    const int x = static_cast<int>(std::lround(x0 + t * (x1 - x0))),
+              y = static_cast<int>(std::lround(y0 + t * (y1 - y0)));
     for (int dy = -half_width; dy <= half_width; ++dy)
       for (int dx = -half_width; dx <= half_width; ++dx) Pixel(im, x + dx, y + dy, color);
   }
 }
 
-Eigen::Vector3d CenterOf(const Rigid3d& cam_from_world) { return -(cam_from_world.rotation.conjugate() * cam_from_world.translation); }
+Eigen::Vector3d CenterOf(const Rigid3d& cam_from_world) {
+  return -(cam_from_world.rotation.conjugate() * cam_from_world.translation);
+}
 // OpenCV camera axes: the camera looks along +z, its up is -y.
-Eigen::Vector3d ViewDirection(const Rigid3d& cam_from_world) { return cam_from_world.rotation.conjugate() * Eigen::Vector3d::UnitZ(); }
-Eigen::Vector3d UpDirection(const Rigid3d& cam_from_world) { return cam_from_world.rotation.conjugate() * -Eigen::Vector3d::UnitY(); }
+Eigen::Vector3d ViewDirection(const Rigid3d& cam_from_world) {
+  return cam_from_world.rotation.conjugate() * Eigen::Vector3d::UnitZ();
+}
+Eigen::Vector3d UpDirection(const Rigid3d& cam_from_world) {
+  return cam_from_world.rotation.conjugate() * -Eigen::Vector3d::UnitY();
+}
 
 // The normal of the view plane: the mean up of `cams`, or, when they disagree (mean shorter than
 // 0.5), the normal of the centres' best-fit plane on the side of the mean up.
@@ -70,12 +77,16 @@ double NiceLength(double target) {
 
 void CameraPlotOptions::Check() const {
   if (size < 64 || size > 8192) throw std::invalid_argument("size: expected 64 to 8192 pixels");
-  if (margin < 8 || 2 * margin > size / 2) throw std::invalid_argument("margin: expected 8 pixels to a quarter of size");
-  if (marker_radius < 1 || marker_radius > size / 16) throw std::invalid_argument("marker_radius: expected 1 to size / 16");
-  if (!(direction_length >= 0 && direction_length <= 1)) throw std::invalid_argument("direction_length: expected 0 to 1");
+  if (margin < 8 || 2 * margin > size / 2)
+    throw std::invalid_argument("margin: expected 8 pixels to a quarter of size");
+  if (marker_radius < 1 || marker_radius > size / 16)
+    throw std::invalid_argument("marker_radius: expected 1 to size / 16");
+  if (!(direction_length >= 0 && direction_length <= 1))
+    throw std::invalid_argument("direction_length: expected 0 to 1");
 }
 
-CameraPlot PlotCamerasFromAbove(const std::vector<PlottedCameras>& sets, bool link_first_two, const CameraPlotOptions& options) {
+CameraPlot PlotCamerasFromAbove(const std::vector<PlottedCameras>& sets, bool link_first_two,
+                                const CameraPlotOptions& options) {
   options.Check();
   if (sets.empty() || sets[0].cam_from_world.empty()) throw std::invalid_argument("PlotCamerasFromAbove: no cameras");
   if (link_first_two && (sets.size() < 2 || sets[0].cam_from_world.size() != sets[1].cam_from_world.size())) {
@@ -98,7 +109,8 @@ CameraPlot PlotCamerasFromAbove(const std::vector<PlottedCameras>& sets, bool li
       const Eigen::Vector2d p = project(CenterOf(c));
       lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
     }
-  if (!lo.allFinite() || !hi.allFinite()) throw std::invalid_argument("PlotCamerasFromAbove: non-finite camera centres");
+  if (!lo.allFinite() || !hi.allFinite())
+    throw std::invalid_argument("PlotCamerasFromAbove: non-finite camera centres");
   double extent = (hi - lo).maxCoeff();
   if (!(extent > 0)) extent = 1;  // one camera, or all at one point
   const double usable = options.size - 2.0 * options.margin;

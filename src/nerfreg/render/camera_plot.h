@@ -34,7 +34,7 @@ struct PlottedCameras {
 };
 
 struct CameraPlot {
-  Image image;                // [size, size] RGB on white
+  Image image;  // [size, size] RGB on white
   // Length, in world units, of the black scale bar in the bottom-left corner: 1, 2 or 5 x 10^k,
   // about a fifth of the picture (the image utilities draw no text, so the caller reports it).
   double scale_bar_length = 0;

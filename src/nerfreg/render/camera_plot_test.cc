@@ -69,8 +69,8 @@ TEST(CameraPlot, ForwardFacingRowLooksUpThePictureWithWorldRightToTheRight) {
   o.margin = 20;
   const CameraPlot plot = PlotCamerasFromAbove({{cams, kGroundTruthColor}}, false, o);
   const Image& im = plot.image;
-  EXPECT_TRUE(Is(im, 20, 100, kGroundTruthColor));   // x = -1 at the left margin
-  EXPECT_TRUE(Is(im, 180, 100, kGroundTruthColor));  // x = +1 at the right margin
+  EXPECT_TRUE(Is(im, 20, 100, kGroundTruthColor));        // x = -1 at the left margin
+  EXPECT_TRUE(Is(im, 180, 100, kGroundTruthColor));       // x = +1 at the right margin
   EXPECT_TRUE(Is(im, 100, 100 - 10, kGroundTruthColor));  // the middle camera's line, upwards
   for (int y = 100 + o.marker_radius + 1; y < 200 - o.margin; ++y)
     for (int x = 0; x < 200; ++x) EXPECT_FALSE(Is(im, x, y, kGroundTruthColor)) << x << "," << y;

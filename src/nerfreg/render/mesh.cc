@@ -41,26 +41,32 @@ void CheckOff(const std::string& path, std::int64_t size, std::istream* in) {
   if (!(info >> num_vertices >> num_faces)) return;
   // An ASCII vertex takes >= 6 bytes ("0 0 0\n"), a face >= 8 ("3 0 0 0\n").
   if (num_vertices < 0 || num_vertices > size / 6) {
-    ThrowInputError(path, "vertex count", "a count the file's " + std::to_string(size) + " bytes can hold (got " +
-                                               std::to_string(num_vertices) + ")");
+    ThrowInputError(
+        path, "vertex count",
+        "a count the file's " + std::to_string(size) + " bytes can hold (got " + std::to_string(num_vertices) + ")");
   }
   if (num_faces < 0 || num_faces > size / 8) {
-    ThrowInputError(path, "face count", "a count the file's " + std::to_string(size) + " bytes can hold (got " +
-                                             std::to_string(num_faces) + ")");
+    ThrowInputError(
+        path, "face count",
+        "a count the file's " + std::to_string(size) + " bytes can hold (got " + std::to_string(num_faces) + ")");
   }
   for (std::int64_t v = 0; v < num_vertices; ++v) next_line();
   for (std::int64_t f = 0; f < num_faces; ++f) {
     std::istringstream face(next_line());
     std::int64_t n;
     // Open3D does not check this read either: a missing count left it unset.
-    if (!(face >> n)) ThrowInputError(path, "face " + std::to_string(f), "a line \"N i1 ... iN\" (missing or unreadable)");
-    if (n < 3) ThrowInputError(path, "face " + std::to_string(f), "a polygon of at least 3 vertices (got " + std::to_string(n) + ")");
+    if (!(face >> n))
+      ThrowInputError(path, "face " + std::to_string(f), "a line \"N i1 ... iN\" (missing or unreadable)");
+    if (n < 3)
+      ThrowInputError(path, "face " + std::to_string(f),
+                      "a polygon of at least 3 vertices (got " + std::to_string(n) + ")");
     for (std::int64_t k = 0; k < n; ++k) {
       std::int64_t index;
       if (!(face >> index)) return;
       if (index < 0 || index >= num_vertices) {
         ThrowInputError(path, "face " + std::to_string(f),
-                        "vertex indices below the vertex count " + std::to_string(num_vertices) + " (got " + std::to_string(index) + ")");
+                        "vertex indices below the vertex count " + std::to_string(num_vertices) + " (got " +
+                            std::to_string(index) + ")");
       }
     }
   }
@@ -182,9 +188,10 @@ void CheckObj(const std::string& path, std::istream* in) {
         ok = parts[k].empty() ? k > 0 : index_ok(parts[k], total[k], so_far[k]);
       }
       if (!ok) {
-        ThrowInputError(path, field, "face corners v, v/vt, v//vn or v/vt/vn with indices within the file's " +
-                                         std::to_string(total[0]) + " vertices (" + std::to_string(so_far[0]) +
-                                         " so far for a negative index)");
+        ThrowInputError(path, field,
+                        "face corners v, v/vt, v//vn or v/vt/vn with indices within the file's " +
+                            std::to_string(total[0]) + " vertices (" + std::to_string(so_far[0]) +
+                            " so far for a negative index)");
       }
       if (parts.size() >= 2 && !parts[1].empty() && so_far[1] == 0) {
         ThrowInputError(path, field, "texture coordinate indices after the first \"vt\" line");
@@ -219,8 +226,9 @@ void CheckBeforeOpen3d(const std::string& path, const std::string& ext) {
     std::uint32_t n;
     std::memcpy(&n, header + 80, 4);
     if (84 + 50 * std::int64_t(n) > size && std::string(header, 5) != "solid") {
-      ThrowInputError(path, "triangle count", std::to_string(n) + " triangles of 50 bytes in a binary STL of " +
-                                                  std::to_string(size) + " bytes");
+      ThrowInputError(
+          path, "triangle count",
+          std::to_string(n) + " triangles of 50 bytes in a binary STL of " + std::to_string(size) + " bytes");
     }
   } else if (ext == ".off") {
     CheckOff(path, size, &in);
@@ -250,8 +258,10 @@ void TriangleMesh::Append(const TriangleMesh& o) {
   const int offset = static_cast<int>(vertices.size());
   vertices.insert(vertices.end(), o.vertices.begin(), o.vertices.end());
   for (const auto& t : o.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(offset));
-  if (colors) vertex_colors.insert(vertex_colors.end(), o.vertex_colors.begin(), o.vertex_colors.end());
-  else vertex_colors.clear();
+  if (colors)
+    vertex_colors.insert(vertex_colors.end(), o.vertex_colors.begin(), o.vertex_colors.end());
+  else
+    vertex_colors.clear();
   triangle_uvs.clear();  // one texture per mesh: a union drops textures
   texture = Image();
 }
@@ -260,7 +270,8 @@ void TriangleMesh::Check(const std::string& source) const {
   if (vertices.empty() || triangles.empty()) ThrowInputError(source, "triangles", "a mesh with at least one triangle");
   const int n = static_cast<int>(vertices.size());
   for (const auto& t : triangles) {
-    if ((t.array() < 0).any() || (t.array() >= n).any()) ThrowInputError(source, "triangles", "vertex indices in range");
+    if ((t.array() < 0).any() || (t.array() >= n).any())
+      ThrowInputError(source, "triangles", "vertex indices in range");
   }
   for (const auto& v : vertices) {
     if (!v.allFinite()) ThrowInputError(source, "vertices", "finite coordinates");
@@ -274,7 +285,8 @@ void TriangleMesh::Check(const std::string& source) const {
   }
   double largest_area = 0;
   for (const auto& t : triangles) {
-    const Eigen::Vector3d a = vertices[t[0]].cast<double>(), b = vertices[t[1]].cast<double>(), c = vertices[t[2]].cast<double>();
+    const Eigen::Vector3d a = vertices[t[0]].cast<double>(), b = vertices[t[1]].cast<double>(),
+                          c = vertices[t[2]].cast<double>();
     largest_area = std::max(largest_area, 0.5 * (b - a).cross(c - a).norm());
   }
   if (!(largest_area > 1e-12 * double(side) * double(side))) {
@@ -303,7 +315,8 @@ TriangleMesh LoadMesh(const std::string& path) {
   }
   if (o3d.HasTriangleUvs() && !o3d.textures_.empty() && !o3d.textures_[0].IsEmpty()) {
     const auto& tex = o3d.textures_[0];
-    if (tex.bytes_per_channel_ == 1 && (tex.num_of_channels_ == 3 || tex.num_of_channels_ == 4 || tex.num_of_channels_ == 1)) {
+    if (tex.bytes_per_channel_ == 1 &&
+        (tex.num_of_channels_ == 3 || tex.num_of_channels_ == 4 || tex.num_of_channels_ == 1)) {
       mesh.texture = Image(tex.width_, tex.height_, 3);
       for (int y = 0; y < tex.height_; ++y)
         for (int x = 0; x < tex.width_; ++x)

@@ -29,10 +29,11 @@ std::string BinaryStl(std::uint32_t count, int triangles) {
 TEST(Mesh, TinyFilesOfEveryGuardedFormatLoad) {
   ScopedTempDir dir;
   WriteFileAtomic(dir.File("t.off"), "OFF\n# a comment\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n");
-  WriteFileAtomic(dir.File("t.ply"),
-                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                  "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
-                  "property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n");
+  WriteFileAtomic(
+      dir.File("t.ply"),
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n");
   WriteFileAtomic(dir.File("t.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n");
   WriteFileAtomic(dir.File("t.stl"), BinaryStl(1, 1));
   const TriangleMesh off = LoadMesh(dir.File("t.off"));
@@ -49,8 +50,9 @@ TEST(Mesh, HeaderCountsTheFileCannotHoldAreInputErrorsNamingFileAndCount) {
   ScopedTempDir dir;
   const std::string off = dir.File("huge.off"), ply = dir.File("huge.ply"), stl = dir.File("huge.stl");
   WriteFileAtomic(off, "OFF\n2000000000 1 0\n0 0 0\n3 0 0 0\n");
-  WriteFileAtomic(ply, "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
-                       "property float y\nproperty float z\nend_header\n");
+  WriteFileAtomic(ply,
+                  "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                  "property float y\nproperty float z\nend_header\n");
   WriteFileAtomic(stl, BinaryStl(0xFFFFFFFFu, 1));
   std::string e = InputErrorOf([&] { LoadMesh(off); });
   EXPECT_NE(e.find(off), std::string::npos) << e;
@@ -133,7 +135,10 @@ TEST(Mesh, ObjFacesOfFewerThanThreeCornersLinesOrBadIndicesAreInputErrors) {
   EXPECT_NE(error_of("s.obj", "v 1 2 3 0\nf 1 2 3\n").find("w != 0"), std::string::npos);
   EXPECT_NE(error_of("t.obj", "# a comment \\\nf 1 2 3\n").find("line continuation"), std::string::npos);
   // A byte-order mark does not hide a face from the check.
-  WriteFileAtomic(dir.File("o.obj"), "\xEF\xBB\xBF" "f 1 2\n" + vertices);
+  WriteFileAtomic(dir.File("o.obj"),
+                  "\xEF\xBB\xBF"
+                  "f 1 2\n" +
+                      vertices);
   EXPECT_NE(InputErrorOf([&] { LoadMesh(dir.File("o.obj")); }).find("at least 3 corners"), std::string::npos);
   // Valid corner forms and negative (relative) indices load.
   EXPECT_EQ(error_of("ok.obj", "f 1/1 2/1 3/1\nf 1//1 3//1 4//1\nf -4/1/1 -3/1/1 -2/1/1\n"), "");
@@ -161,9 +166,10 @@ TEST(Mesh, PlyFacesWithFewerThanThreeVerticesOrIndicesOutOfRangeAreInputErrors) 
   e = InputErrorOf([&] { LoadMesh(path); });
   EXPECT_NE(e.find("vertex indices below the vertex count 3"), std::string::npos) << e;
   // ASCII, a quad with a negative index.
-  WriteFileAtomic(path, "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
-                        "element face 1\nproperty list uchar int vertex_index\nend_header\n"
-                        "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 -1\n");
+  WriteFileAtomic(path,
+                  "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                  "element face 1\nproperty list uchar int vertex_index\nend_header\n"
+                  "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 -1\n");
   EXPECT_NE(InputErrorOf([&] { LoadMesh(path); }).find("face 0"), std::string::npos);
   // The fuzzer's next input: a tab after end_header moved where rply starts the body.
   WriteFileAtomic(path, header.substr(0, header.size() - 1) + "\t" + vertices + face(3, {0, 1, 2}));

@@ -41,14 +41,19 @@ PlyType ParsePlyType(const std::string& t) {
 int PlyTypeBytes(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
+    case PlyType::kUint16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
-    default: return 0;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
+    default:
+      return 0;
   }
 }
 
@@ -127,8 +132,9 @@ class PlyReader {
       ThrowInputError(path_, "header", "a PLY header of at most " + std::to_string(kMaxHeaderBytes) + " bytes");
     }
     if (c < 0x20 && c != '\t' && c != '\r' && c != '\n') {
-      ThrowInputError(path_, "header", "printable text, spaces, tabs and line breaks (byte " + std::to_string(c) +
-                                           " at offset " + std::to_string(offset_ - 1) + ")");
+      ThrowInputError(path_, "header",
+                      "printable text, spaces, tabs and line breaks (byte " + std::to_string(c) + " at offset " +
+                          std::to_string(offset_ - 1) + ")");
     }
   }
 
@@ -157,12 +163,24 @@ bool ReadValue(const std::string& path, PlyReader* r, bool ascii, bool big_endia
     *v = static_cast<double>(std::strtol(word.c_str(), &end, 10));
     double lo = 0, hi = 0;
     switch (t) {
-      case PlyType::kInt8: lo = INT8_MIN, hi = INT8_MAX; break;
-      case PlyType::kUint8: hi = UINT8_MAX; break;
-      case PlyType::kInt16: lo = INT16_MIN, hi = INT16_MAX; break;
-      case PlyType::kUint16: hi = UINT16_MAX; break;
-      case PlyType::kInt32: lo = INT32_MIN, hi = INT32_MAX; break;
-      default: hi = UINT32_MAX; break;
+      case PlyType::kInt8:
+        lo = INT8_MIN, hi = INT8_MAX;
+        break;
+      case PlyType::kUint8:
+        hi = UINT8_MAX;
+        break;
+      case PlyType::kInt16:
+        lo = INT16_MIN, hi = INT16_MAX;
+        break;
+      case PlyType::kUint16:
+        hi = UINT16_MAX;
+        break;
+      case PlyType::kInt32:
+        lo = INT32_MIN, hi = INT32_MAX;
+        break;
+      default:
+        hi = UINT32_MAX;
+        break;
     }
     return *end == '\0' && *v >= lo && *v <= hi;
   }
@@ -179,14 +197,30 @@ bool ReadValue(const std::string& path, PlyReader* r, bool ascii, bool big_endia
     return static_cast<double>(x);
   };
   switch (t) {
-    case PlyType::kInt8: *v = as(std::int8_t()); break;
-    case PlyType::kUint8: *v = as(std::uint8_t()); break;
-    case PlyType::kInt16: *v = as(std::int16_t()); break;
-    case PlyType::kUint16: *v = as(std::uint16_t()); break;
-    case PlyType::kInt32: *v = as(std::int32_t()); break;
-    case PlyType::kUint32: *v = as(std::uint32_t()); break;
-    case PlyType::kFloat32: *v = as(float()); break;
-    default: *v = as(double()); break;
+    case PlyType::kInt8:
+      *v = as(std::int8_t());
+      break;
+    case PlyType::kUint8:
+      *v = as(std::uint8_t());
+      break;
+    case PlyType::kInt16:
+      *v = as(std::int16_t());
+      break;
+    case PlyType::kUint16:
+      *v = as(std::uint16_t());
+      break;
+    case PlyType::kInt32:
+      *v = as(std::int32_t());
+      break;
+    case PlyType::kUint32:
+      *v = as(std::uint32_t());
+      break;
+    case PlyType::kFloat32:
+      *v = as(float());
+      break;
+    default:
+      *v = as(double());
+      break;
   }
   return true;
 }
@@ -288,8 +322,8 @@ void CheckPlyForOpen3d(const std::string& path) {
   }
   // Where the body starts must be unambiguous: end_header, then the magic line's line break.
   if (rn ? (terminator != '\r' || r.Get() != '\n') : terminator != '\n') {
-    refuse("end_header", std::string("\"end_header\" followed by the line break after \"ply\" (") +
-                             (rn ? "\\r\\n" : "\\n") + ")");
+    refuse("end_header",
+           std::string("\"end_header\" followed by the line break after \"ply\" (") + (rn ? "\\r\\n" : "\\n") + ")");
   }
   r.set_header(false);
 
@@ -346,7 +380,8 @@ void CheckPlyForOpen3d(const std::string& path) {
         for (std::int64_t j = 0; j < n; ++j) {
           if (!ReadValue(path, &r, ascii, big_endian, p.type, &v)) return;
           if (checked && !(v >= 0 && v < num_vertices)) {
-            refuse("face " + std::to_string(i), "vertex indices below the vertex count " + std::to_string(num_vertices));
+            refuse("face " + std::to_string(i),
+                   "vertex indices below the vertex count " + std::to_string(num_vertices));
           }
         }
       }

@@ -39,13 +39,15 @@ class PlyCheck : public ::testing::Test {
 
 TEST_F(PlyCheck, ValidAsciiAndBinaryFilesPassAndLoad) {
   const std::string ascii = std::string(kAsciiVertices) +
-                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n" + kQuad + "4 0 1 2 3\n";
+                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n" + kQuad +
+                            "4 0 1 2 3\n";
   EXPECT_EQ(ErrorOf(ascii), "");
   EXPECT_EQ(LoadMesh(path_).triangles.size(), 2u);
   // Big-endian binary, "\r\n" line breaks (rply then skips one byte more after end_header).
-  std::string big = "ply\r\nformat binary_big_endian 1.0\r\nelement vertex 3\r\nproperty float x\r\n"
-                    "property float y\r\nproperty float z\r\nelement face 1\r\n"
-                    "property list uchar int vertex_indices\r\nend_header\r\n";
+  std::string big =
+      "ply\r\nformat binary_big_endian 1.0\r\nelement vertex 3\r\nproperty float x\r\n"
+      "property float y\r\nproperty float z\r\nelement face 1\r\n"
+      "property list uchar int vertex_indices\r\nend_header\r\n";
   const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
   for (float f : xyz) {
     const char* b = reinterpret_cast<const char*>(&f);
@@ -73,18 +75,21 @@ TEST_F(PlyCheck, HeaderKeywordsAreReadAsWordsLikeRply) {
             std::string::npos);
   std::string comments;
   for (int k = 0; k < 10; ++k) comments += "comment " + std::string(900, 'c') + "\n";
-  EXPECT_NE(ErrorOf("ply\nformat ascii 1.0\n" + comments + "end_header\n").find(": header: expected a PLY header of at most"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf("ply\nformat ascii 1.0\n" + comments + "end_header\n").find(": header: expected a PLY header of at most"),
+      std::string::npos);
   EXPECT_NE(ErrorOf("ply\nformat ascii 1.0\ncomment " + std::string(1100, 'c') + "\nend_header\n")
                 .find(": comment: expected a line of at most 1023 bytes"),
             std::string::npos);
   // "3abc" is a count to rply's sscanf; refused here.
-  EXPECT_NE(ErrorOf("ply\nformat ascii 1.0\nelement vertex 3abc\nend_header\n").find("element vertex: expected a decimal count"),
+  EXPECT_NE(ErrorOf("ply\nformat ascii 1.0\nelement vertex 3abc\nend_header\n")
+                .find("element vertex: expected a decimal count"),
             std::string::npos);
 }
 
 TEST_F(PlyCheck, AsciiValuesAreSplitLikeRply) {
-  const std::string header = std::string(kAsciiVertices) + "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string header =
+      std::string(kAsciiVertices) + "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
   // A NUL ends a word in rply (fuzzer find): "0\0" is a face of 0 vertices.
   std::string e = ErrorOf(header + kQuad + std::string("0\0 1 2\n", 7));
   EXPECT_NE(e.find("face 0: expected a polygon of at least 3 vertices"), std::string::npos) << e;
@@ -98,21 +103,24 @@ TEST_F(PlyCheck, TheFaceListOpen3dReadsIsTheOneChecked) {
   // Two vertex_indices lists: rply calls Open3D back on the first.
   std::string e = ErrorOf(std::string(kAsciiVertices) +
                           "element face 1\nproperty list uchar int vertex_indices\n"
-                          "property list uchar int vertex_indices\nend_header\n" + kQuad + "3 0 1 7 3 0 1 2\n");
+                          "property list uchar int vertex_indices\nend_header\n" +
+                          kQuad + "3 0 1 7 3 0 1 2\n");
   EXPECT_NE(e.find("face 0: expected vertex indices below"), std::string::npos) << e;
   // A list of negative length before the faces is read as empty by rply; the check goes on.
-  e = ErrorOf("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
-              "property list char int extra\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-              "0 0 0 -1\n1 0 0 0\n1 1 0 0\n0 1 0 0\n2 0 1\n");
+  e = ErrorOf(
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "property list char int extra\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0 -1\n1 0 0 0\n1 1 0 0\n0 1 0 0\n2 0 1\n");
   EXPECT_NE(e.find("face 0: expected a polygon of at least 3 vertices (got 2)"), std::string::npos) << e;
   // A float list count (cast to long by rply) and a scalar face "list" are refused.
-  EXPECT_NE(ErrorOf(std::string(kAsciiVertices) + "element face 1\nproperty list float int vertex_indices\nend_header\n")
-                .find("integer COUNT_TYPE"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf(std::string(kAsciiVertices) + "element face 1\nproperty int vertex_indices\nend_header\n" + kQuad +
-                    "0\n")
-                .find("property vertex_indices: expected a list"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf(std::string(kAsciiVertices) + "element face 1\nproperty list float int vertex_indices\nend_header\n")
+          .find("integer COUNT_TYPE"),
+      std::string::npos);
+  EXPECT_NE(
+      ErrorOf(std::string(kAsciiVertices) + "element face 1\nproperty int vertex_indices\nend_header\n" + kQuad + "0\n")
+          .find("property vertex_indices: expected a list"),
+      std::string::npos);
 }
 
 }  // namespace

@@ -16,7 +16,8 @@ namespace nerfreg {
 
 namespace {
 
-void MovePoints(std::vector<Eigen::Vector3d>* points, std::vector<Eigen::Vector3d>* normals, const Sim3d& new_from_old) {
+void MovePoints(std::vector<Eigen::Vector3d>* points, std::vector<Eigen::Vector3d>* normals,
+                const Sim3d& new_from_old) {
   const Eigen::Matrix3d r = new_from_old.rotation.toRotationMatrix();
   for (Eigen::Vector3d& p : *points) p = new_from_old * p;
   for (Eigen::Vector3d& n : *normals) n = r * n;
@@ -38,7 +39,8 @@ PlyTransformSummary TransformPlyFile(const std::string& input, const std::string
   const bool is_mesh = open3d::io::ReadTriangleMeshFromPLY(input, mesh, mesh_options) && !mesh.triangles_.empty();
   if (is_mesh) {
     MovePoints(&mesh.vertices_, &mesh.vertex_normals_, new_from_old);
-    summary = {true, static_cast<std::int64_t>(mesh.vertices_.size()), static_cast<std::int64_t>(mesh.triangles_.size())};
+    summary = {true, static_cast<std::int64_t>(mesh.vertices_.size()),
+               static_cast<std::int64_t>(mesh.triangles_.size())};
     WriteAtomically(output, [&](const std::string& tmp) {
       if (!open3d::io::WriteTriangleMeshToPLY(tmp, mesh, ascii, false, mesh.HasVertexNormals(), mesh.HasVertexColors(),
                                               false, false)) {

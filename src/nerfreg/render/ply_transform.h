@@ -11,7 +11,7 @@
 namespace nerfreg {
 
 struct PlyTransformSummary {
-  bool mesh = false;       // faces were found (a triangle mesh), else a point cloud
+  bool mesh = false;  // faces were found (a triangle mesh), else a point cloud
   std::int64_t vertices = 0;
   std::int64_t triangles = 0;
 };

@@ -6,7 +6,8 @@
 
 namespace nerfreg {
 
-Image SplatPoints(const std::vector<ColoredPoints>& clouds, const Camera& camera, const Rigid3d& cam_from_world, int radius) {
+Image SplatPoints(const std::vector<ColoredPoints>& clouds, const Camera& camera, const Rigid3d& cam_from_world,
+                  int radius) {
   Image im(camera.width, camera.height, 3, 1.f);
   std::vector<float> zbuf(size_t(camera.width) * camera.height, std::numeric_limits<float>::infinity());
   for (const auto& cloud : clouds) {
@@ -18,7 +19,8 @@ Image SplatPoints(const std::vector<ColoredPoints>& clouds, const Camera& camera
       for (int dy = -radius; dy <= radius; ++dy)
         for (int dx = -radius; dx <= radius; ++dx) {
           const int x = cx + dx, y = cy + dy;
-          if (x < 0 || y < 0 || x >= camera.width || y >= camera.height || dx * dx + dy * dy > radius * radius) continue;
+          if (x < 0 || y < 0 || x >= camera.width || y >= camera.height || dx * dx + dy * dy > radius * radius)
+            continue;
           float& z = zbuf[size_t(y) * camera.width + x];
           if (p.z() >= z) continue;
           z = static_cast<float>(p.z());
@@ -30,7 +32,8 @@ Image SplatPoints(const std::vector<ColoredPoints>& clouds, const Camera& camera
   return im;
 }
 
-Image ThreeViewOverlay(const std::vector<ColoredPoints>& clouds, const Eigen::Vector3d& centre, double distance, int size) {
+Image ThreeViewOverlay(const std::vector<ColoredPoints>& clouds, const Eigen::Vector3d& centre, double distance,
+                       int size) {
   const Camera cam = Camera::Pinhole(size, size, size * 1.2, size * 1.2, size / 2.0, size / 2.0);
   const Eigen::Vector3d eyes[3] = {centre + Eigen::Vector3d(0, -distance, 0), centre + Eigen::Vector3d(distance, 0, 0),
                                    centre + Eigen::Vector3d(0, 0, distance)};

@@ -11,8 +11,8 @@
 namespace nerfreg {
 
 struct ColoredPoints {
-  Eigen::Matrix3Xd xyz;         // [3, N]
-  Eigen::Vector3f color;        // one colour for the cloud
+  Eigen::Matrix3Xd xyz;   // [3, N]
+  Eigen::Vector3f color;  // one colour for the cloud
 };
 
 // White background; nearer points win. radius in pixels.

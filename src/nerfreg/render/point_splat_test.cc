@@ -16,7 +16,7 @@ TEST(PointSplat, NearerPointWinsAtItsPixel) {
   const Image im = SplatPoints({near, far}, cam, cam_from_world, 0);
   EXPECT_FLOAT_EQ(im.at(10, 10, 0), 1.f);  // red (near) over blue (far)
   EXPECT_FLOAT_EQ(im.at(10, 10, 2), 0.f);
-  EXPECT_FLOAT_EQ(im.at(0, 0, 0), 1.f);    // background white
+  EXPECT_FLOAT_EQ(im.at(0, 0, 0), 1.f);  // background white
   EXPECT_FLOAT_EQ(im.at(0, 0, 2), 1.f);
   const Image sheet = ThreeViewOverlay({near, far}, Eigen::Vector3d::Zero(), 5.0, 32);
   EXPECT_EQ(sheet.width, 3 * 32 + 4);

@@ -32,12 +32,23 @@ Eigen::Vector3f HsvToRgb(float h, float s, float v) {
   Eigen::Vector3f rgb;
   const int sector = static_cast<int>(h * 6) % 6;
   switch (sector) {
-    case 0: rgb = {c, x, 0}; break;
-    case 1: rgb = {x, c, 0}; break;
-    case 2: rgb = {0, c, x}; break;
-    case 3: rgb = {0, x, c}; break;
-    case 4: rgb = {x, 0, c}; break;
-    default: rgb = {c, 0, x};
+    case 0:
+      rgb = {c, x, 0};
+      break;
+    case 1:
+      rgb = {x, c, 0};
+      break;
+    case 2:
+      rgb = {0, c, x};
+      break;
+    case 3:
+      rgb = {0, x, c};
+      break;
+    case 4:
+      rgb = {x, 0, c};
+      break;
+    default:
+      rgb = {c, 0, x};
   }
   return rgb + Eigen::Vector3f::Constant(m);
 }
@@ -48,10 +59,14 @@ TriangleMesh RandomPrimitive(std::mt19937& rng) {
   const int kind = std::uniform_int_distribution<int>(0, 3)(rng);
   const float size = 0.25f + 0.35f * u(rng);
   switch (kind) {
-    case 0: return MakeBox({size * (0.5f + u(rng)), size * (0.5f + u(rng)), size * (0.5f + u(rng))}, color);
-    case 1: return MakeSphere(size, color);
-    case 2: return MakeCylinder(size * 0.6f, size * (1.0f + 1.5f * u(rng)), color);
-    default: return MakeTorus(size, size * (0.2f + 0.2f * u(rng)), color);
+    case 0:
+      return MakeBox({size * (0.5f + u(rng)), size * (0.5f + u(rng)), size * (0.5f + u(rng))}, color);
+    case 1:
+      return MakeSphere(size, color);
+    case 2:
+      return MakeCylinder(size * 0.6f, size * (1.0f + 1.5f * u(rng)), color);
+    default:
+      return MakeTorus(size, size * (0.2f + 0.2f * u(rng)), color);
   }
 }
 
@@ -197,9 +212,12 @@ SceneMaterial ParseSceneMaterial(const std::string& name) {
 
 float MaterialTextureModulation(SceneMaterial material) {
   switch (material) {
-    case SceneMaterial::kLowTexture: return 0.03f;
-    case SceneMaterial::kRepetitive: return 0.0f;
-    default: return RenderOptions().texture_modulation;
+    case SceneMaterial::kLowTexture:
+      return 0.03f;
+    case SceneMaterial::kRepetitive:
+      return 0.0f;
+    default:
+      return RenderOptions().texture_modulation;
   }
 }
 
@@ -217,8 +235,9 @@ TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y, SceneMateri
       const int j = static_cast<int>(std::lround((scene.vertices[k].z() + 4.5f) * 10.f));
       const bool grout = i % 6 == 0 || j % 6 == 0;
       const bool dark = ((i / 6) + (j / 6)) % 2 == 1;
-      scene.vertex_colors[k] = grout ? Eigen::Vector3f(0.15f, 0.15f, 0.18f)
-                                     : dark ? Eigen::Vector3f(0.55f, 0.35f, 0.25f) : Eigen::Vector3f(0.85f, 0.8f, 0.7f);
+      scene.vertex_colors[k] = grout  ? Eigen::Vector3f(0.15f, 0.15f, 0.18f)
+                               : dark ? Eigen::Vector3f(0.55f, 0.35f, 0.25f)
+                                      : Eigen::Vector3f(0.85f, 0.8f, 0.7f);
     }
   }
   TransformMesh(&scene, Eigen::Matrix3f::Identity(), {0, backdrop_y, 0});

@@ -21,7 +21,8 @@ TriangleMesh MakeTorus(float major_radius, float minor_radius, const Eigen::Vect
 TriangleMesh MakeBackdrop(float width, float height, int cells_x, int cells_z, float pattern_scale);
 
 // Applies x -> s * R * x + t to every vertex.
-void TransformMesh(TriangleMesh* mesh, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& translation, float scale = 1.f);
+void TransformMesh(TriangleMesh* mesh, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& translation,
+                   float scale = 1.f);
 
 // 3 to 8 primitives, normalised so the largest bbox side is 2.5 (the DReg-NeRF convention).
 TriangleMesh ProceduralObject(unsigned seed);

@@ -10,9 +10,9 @@
 namespace nerfreg {
 
 struct RayHit {
-  float t = 0;                 // distance along the (unit) direction; +inf when missed
-  int triangle = -1;           // -1 when missed
-  float u = 0, v = 0;          // barycentrics of vertices 1 and 2 (Embree's convention)
+  float t = 0;                                       // distance along the (unit) direction; +inf when missed
+  int triangle = -1;                                 // -1 when missed
+  float u = 0, v = 0;                                // barycentrics of vertices 1 and 2 (Embree's convention)
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // unit geometric normal (unoriented)
   bool hit() const { return triangle >= 0; }
 };

@@ -22,7 +22,8 @@ namespace fs = std::filesystem;
 namespace nerfreg {
 
 void RenderDatasetOptions::Check() const {
-  if (trajectory != "orbit" && trajectory != "forward") ThrowInputError("--trajectory", "", "orbit or forward, got " + trajectory);
+  if (trajectory != "orbit" && trajectory != "forward")
+    ThrowInputError("--trajectory", "", "orbit or forward, got " + trajectory);
   if (views < 0 || views > 100000) ThrowInputError("--views", "", "a count in 1..100000");
   if (width < 0 || height < 0 || width > 8192 || height > 8192) ThrowInputError("--size", "", "W[xH] in 1..8192");
   if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
@@ -41,15 +42,30 @@ void RenderDatasetOptions::Check() const {
 }
 
 Json RenderDatasetOptions::ToJson() const {
-  return {{"trajectory", trajectory}, {"views", views}, {"width", width}, {"height", height}, {"blocks", blocks},
-          {"test_every", test_every}, {"seed", seed}, {"forward_spread", forward_spread}, {"block_max_rotation_deg", block_frame.max_rotation_deg},
-          {"block_max_translation", block_frame.max_translation}, {"block_min_scale", block_frame.min_scale},
-          {"block_max_scale", block_frame.max_scale}, {"supersample", render.supersample}, {"write_depth", write_depth},
-          {"k1", k1}, {"k2", k2}, {"noise_sigma", noise_sigma}, {"jpeg_quality", jpeg_quality},
-          {"write_splats", write_splats}, {"splat_voxel", splats.voxel}};
+  return {{"trajectory", trajectory},
+          {"views", views},
+          {"width", width},
+          {"height", height},
+          {"blocks", blocks},
+          {"test_every", test_every},
+          {"seed", seed},
+          {"forward_spread", forward_spread},
+          {"block_max_rotation_deg", block_frame.max_rotation_deg},
+          {"block_max_translation", block_frame.max_translation},
+          {"block_min_scale", block_frame.min_scale},
+          {"block_max_scale", block_frame.max_scale},
+          {"supersample", render.supersample},
+          {"write_depth", write_depth},
+          {"k1", k1},
+          {"k2", k2},
+          {"noise_sigma", noise_sigma},
+          {"jpeg_quality", jpeg_quality},
+          {"write_splats", write_splats},
+          {"splat_voxel", splats.voxel}};
 }
 
-RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options, const std::string& out_dir) {
+RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDatasetOptions& options,
+                                   const std::string& out_dir) {
   options.Check();
   mesh.Check("mesh");
   Timer timer;
@@ -66,8 +82,10 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     if (options.views) o.num_views = options.views;
     if (options.forward_spread > 0) o.spread = options.forward_spread;
     if (options.width) o.width = options.width;
-    if (options.height) o.height = options.height;
-    else if (options.width) o.height = options.width * 3 / 4;
+    if (options.height)
+      o.height = options.height;
+    else if (options.width)
+      o.height = options.width * 3 / 4;
     cams = ForwardTrajectory(o);
   }
   for (PosedCamera& c : cams) c.camera.k1 = options.k1, c.camera.k2 = options.k2;
@@ -90,7 +108,8 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
         for (size_t p = 0; p < im.data.size(); ++p)
           if (im.channels != 4 || p % 4 != 3) im.data[p] += noise(noise_rng);
       return im;
-    };    for (int i = 0; i < n; ++i) {
+    };
+    for (int i = 0; i < n; ++i) {
       char name[32];
       std::snprintf(name, sizeof(name), options.jpeg_quality > 0 ? "r_%03d.jpg" : "r_%03d.png", i);
       const RenderResult r = RenderView(caster, mesh, cams[i].camera, cams[i].cam_from_world, options.render);

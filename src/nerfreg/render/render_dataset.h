@@ -35,13 +35,13 @@ struct RenderDatasetOptions {
   double k1 = 0, k2 = 0;
   double noise_sigma = 0;
   int jpeg_quality = 0;
-  bool write_depth = false;          // depth maps as DIR/depth/r_XXX.npy (z-depth, 0 = no surface)
+  bool write_depth = false;  // depth maps as DIR/depth/r_XXX.npy (z-depth, 0 = no surface)
   // 3D Gaussian splats of the surface the views saw (render/surface_splats.h): DIR/splats.ply from
   // every view (world frame) and, with blocks, DIR/block_k/splats.ply from block k's views in its frame.
   bool write_splats = false;
   SurfaceSplatOptions splats;
-  bool force = false;                // replace an existing DIR
-  void Check() const;                // throws InputError naming the option
+  bool force = false;  // replace an existing DIR
+  void Check() const;  // throws InputError naming the option
   Json ToJson() const;
 };
 

@@ -39,7 +39,8 @@ TEST(RenderDataset, BlocksMappedBackByTheGroundTruthEqualTheWorldCameras) {
     const Sim3d block_from_world = Sim3d::FromMatrix(JsonField(gt, "gt")["blocks"][k]["block_from_world"].Matrix(4, 4));
     // Identity would make this test pass vacuously: the frames must really differ.
     EXPECT_GT(RotationErrorDeg(block_from_world.rotation, Eigen::Quaterniond::Identity()) +
-                  block_from_world.translation.norm(), 1e-3);
+                  block_from_world.translation.norm(),
+              1e-3);
     int tests = 0;
     for (size_t j = 0; j < block.frames.size(); ++j) {
       const Frame& f = block.frames[j];

@@ -63,7 +63,7 @@ float ProceduralPattern(const Eigen::Vector3f& p, float scale) {
 
 Eigen::Vector3f ProceduralAlbedo(const Eigen::Vector3f& p, float scale) {
   static const Eigen::Vector3f kPalette[] = {{0.85f, 0.25f, 0.2f}, {0.95f, 0.75f, 0.2f}, {0.2f, 0.6f, 0.3f},
-                                             {0.2f, 0.4f, 0.85f}, {0.6f, 0.3f, 0.7f},  {0.9f, 0.9f, 0.85f}};
+                                             {0.2f, 0.4f, 0.85f},  {0.6f, 0.3f, 0.7f},   {0.9f, 0.9f, 0.85f}};
   const float a = ValueNoise3(p * scale, 11) * 5.999f;
   const int i = static_cast<int>(a);
   const float f = a - i;
@@ -108,12 +108,15 @@ RenderResult RenderView(const RayCaster& caster, const TriangleMesh& mesh, const
           const Eigen::Vector3f p = origin + hit.t * dir;
           Eigen::Vector3f albedo;
           if (textured) {
-            const Eigen::Vector2f t = b0 * mesh.triangle_uvs[3 * hit.triangle] + hit.u * mesh.triangle_uvs[3 * hit.triangle + 1] +
+            const Eigen::Vector2f t = b0 * mesh.triangle_uvs[3 * hit.triangle] +
+                                      hit.u * mesh.triangle_uvs[3 * hit.triangle + 1] +
                                       hit.v * mesh.triangle_uvs[3 * hit.triangle + 2];
             albedo = SampleTexture(mesh.texture, t.x(), t.y());
           } else if (colored) {
-            albedo = b0 * mesh.vertex_colors[tri(0)] + hit.u * mesh.vertex_colors[tri(1)] + hit.v * mesh.vertex_colors[tri(2)];
-            albedo *= (1 - options.texture_modulation) + options.texture_modulation * 2.f * ProceduralPattern(p, options.pattern_scale);
+            albedo = b0 * mesh.vertex_colors[tri(0)] + hit.u * mesh.vertex_colors[tri(1)] +
+                     hit.v * mesh.vertex_colors[tri(2)];
+            albedo *= (1 - options.texture_modulation) +
+                      options.texture_modulation * 2.f * ProceduralPattern(p, options.pattern_scale);
           } else {
             albedo = ProceduralAlbedo(p, options.pattern_scale);
           }

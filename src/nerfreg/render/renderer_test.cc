@@ -60,7 +60,8 @@ TEST(Renderer, ShadingShowsTextureOnUntexturedMeshes) {
   plain.vertex_colors.clear();
   RayCaster caster(plain);
   const Camera cam = Camera::Pinhole(64, 64, 60, 60, 32, 32);
-  const RenderResult r = RenderView(caster, plain, cam, LookAt({1, -3, 1.5}, {0, 0, 0}, Eigen::Vector3d::UnitZ()), RenderOptions{});
+  const RenderResult r =
+      RenderView(caster, plain, cam, LookAt({1, -3, 1.5}, {0, 0, 0}, Eigen::Vector3d::UnitZ()), RenderOptions{});
   double mean = 0, var = 0;
   int count = 0;
   for (int y = 24; y < 40; ++y)
@@ -75,9 +76,10 @@ TEST(Renderer, ShadingShowsTextureOnUntexturedMeshes) {
 }
 
 TEST(Mesh, LoadsEveryFormatFromTheDebianTestModels) {
-  for (const std::string path : {"/usr/share/assimp/models/OBJ/spider.obj", "/usr/share/assimp/models/OFF/Wuson.off",
-                                 "/usr/share/assimp/models/PLY/cube.ply", "/usr/share/openscad/testdata/scad/3D/features/import.stl",
-                                 "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"}) {
+  for (const std::string path :
+       {"/usr/share/assimp/models/OBJ/spider.obj", "/usr/share/assimp/models/OFF/Wuson.off",
+        "/usr/share/assimp/models/PLY/cube.ply", "/usr/share/openscad/testdata/scad/3D/features/import.stl",
+        "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"}) {
     const TriangleMesh m = LoadMesh(path);
     EXPECT_GT(m.triangles.size(), 0u) << path;
     TriangleMesh n = m;

@@ -20,11 +20,11 @@
 namespace nerfreg {
 
 struct SurfaceSplatOptions {
-  double voxel = 0.02;       // scene units: one splat per voxel
-  int pixel_stride = 1;      // a ray through every n-th pixel of each row and column
-  double thickness = 0.2;    // the normal standard deviation, as a fraction of the in-plane one
-  double opacity = 0.95;     // in (0, 1); stored as its logit
-  void Check() const;        // throws InputError naming the option
+  double voxel = 0.02;     // scene units: one splat per voxel
+  int pixel_stride = 1;    // a ray through every n-th pixel of each row and column
+  double thickness = 0.2;  // the normal standard deviation, as a fraction of the in-plane one
+  double opacity = 0.95;   // in (0, 1); stored as its logit
+  void Check() const;      // throws InputError naming the option
 };
 
 class SurfaceSplatter {

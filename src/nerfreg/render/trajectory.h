@@ -8,15 +8,15 @@
 namespace nerfreg {
 
 struct OrbitOptions {
-  int num_views = 120;                        // two full turns at 6 deg per view
+  int num_views = 120;                         // two full turns at 6 deg per view
   double camera_angle_x = 0.6911112070083618;  // horizontal field of view, rad
   int width = 100, height = 100;
   // The DReg-NeRF rig: the camera starts at (0, 4, 0.5) (radius 4.03, elevation 7.1 deg) looking
   // at the origin; after frame i the rig tilts up by X = max_tilt * (cos(3 i deg) + 1) / 2 rad
   // and turns by 6 deg in azimuth.
-  double radius = 4.031128874149275;          // |(0, 4, 0.5)|
+  double radius = 4.031128874149275;            // |(0, 4, 0.5)|
   double base_elevation = 0.12435499454676144;  // atan2(0.5, 4), rad
-  double max_tilt = 0.7;                      // rad
+  double max_tilt = 0.7;                        // rad
   double azimuth_step_deg = 6.0;
   double tilt_period_step_deg = 3.0;
   void Check() const;
@@ -36,10 +36,10 @@ std::vector<PosedCamera> OrbitTrajectory(const OrbitOptions& options);
 struct ForwardOptions {
   int num_views = 20;
   int width = 128, height = 96;
-  double focal_factor = 1.1;           // focal length = factor * width
-  double distance = 4.0;               // cameras at y = -distance, looking along +y at the scene
-  double spread = 0.35;                // half-extent of the planar spiral of camera centres
-  double look_depth = 3.0;             // cameras look at (0, look_depth - distance, 0) offsets
+  double focal_factor = 1.1;  // focal length = factor * width
+  double distance = 4.0;      // cameras at y = -distance, looking along +y at the scene
+  double spread = 0.35;       // half-extent of the planar spiral of camera centres
+  double look_depth = 3.0;    // cameras look at (0, look_depth - distance, 0) offsets
   void Check() const;
 };
 

@@ -30,7 +30,7 @@ TEST(Trajectory, OrbitFollowsTheDRegNeRFRig) {
     EXPECT_NEAR(o_cam.x(), 0, 1e-9);
     EXPECT_NEAR(o_cam.y(), 0, 1e-9);
   }
-  EXPECT_NEAR(min_el / deg, 7.1, 0.1);   // "elevation oscillating ~7..47 deg"
+  EXPECT_NEAR(min_el / deg, 7.1, 0.1);  // "elevation oscillating ~7..47 deg"
   EXPECT_NEAR(max_el / deg, 47.2, 0.1);
   EXPECT_NEAR(cams[0].camera.FovX(), 0.6911112070083618, 1e-12);
 }

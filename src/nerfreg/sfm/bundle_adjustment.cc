@@ -11,7 +11,8 @@
 namespace nerfreg {
 
 void BundleAdjustmentOptions::Check() const {
-  if (!(huber_scale_px > 0) || max_iterations < 0 || num_threads < 1) throw std::invalid_argument("BundleAdjustmentOptions: out of range");
+  if (!(huber_scale_px > 0) || max_iterations < 0 || num_threads < 1)
+    throw std::invalid_argument("BundleAdjustmentOptions: out of range");
 }
 
 namespace {
@@ -73,7 +74,8 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
   }
   if (summary.num_observations == 0) return summary;
   summary.initial_rms_px = std::sqrt(initial_sq / summary.num_observations);
-  if (problem.HasParameterBlock(params[fixed_camera].data())) problem.SetParameterBlockConstant(params[fixed_camera].data());
+  if (problem.HasParameterBlock(params[fixed_camera].data()))
+    problem.SetParameterBlockConstant(params[fixed_camera].data());
   // The scale gauge: the largest translation coordinate of the camera farthest from the fixed one
   // (in its own frame, as COLMAP does) is held too.
   const Eigen::Vector3d fixed_center = (*cam_from_world)[fixed_camera].Inverse().translation;

@@ -55,7 +55,8 @@ TEST(BundleAdjustment, RecoversPerturbedCamerasAndPointsFromNoisyKeypoints) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<Rigid3d> poses = s.cam_from_world;
   for (size_t k = 1; k < poses.size(); ++k) {  // camera 0 is the fixed gauge
-    poses[k] = Rigid3d(SmallRotation(rng, 1.0) * poses[k].rotation, poses[k].translation + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)));
+    poses[k] = Rigid3d(SmallRotation(rng, 1.0) * poses[k].rotation,
+                       poses[k].translation + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)));
   }
   std::vector<SfmPoint> points;
   for (const Track& t : tracks) {

@@ -51,7 +51,8 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   stage.Restart();
   std::vector<bool> usable = rotations.edge_inlier;
   for (bool u : usable) result.num_edges_used += u;
-  const TranslationAveragingResult centers = AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
+  const TranslationAveragingResult centers =
+      AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
   result.times.Record("translation averaging", stage.Seconds());
   int root = -1;
   for (int k = 0; k < n; ++k) {
@@ -86,8 +87,8 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     }
     seconds_triangulation += stage.Seconds();
     stage.Restart();
-    [[maybe_unused]] const auto ba = BundleAdjust(cameras, graph.keypoints, result.posed, root, &result.cam_from_world, &result.points,
-                                 options.bundle_adjustment);
+    [[maybe_unused]] const auto ba = BundleAdjust(cameras, graph.keypoints, result.posed, root, &result.cam_from_world,
+                                                  &result.points, options.bundle_adjustment);
     seconds_ba += stage.Seconds();
     LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
               result.points.size(), ba.initial_rms_px, ba.final_rms_px, ba.iterations, stage.Seconds());
@@ -154,7 +155,8 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   result.seconds_view_graph = seconds_view_graph;
   times.Append(result.times);
   result.times = times;
-  for (const auto& name : result.not_posed) LOG_WARN("{}: not posed (no consistent two-view geometry with the others)", name);
+  for (const auto& name : result.not_posed)
+    LOG_WARN("{}: not posed (no consistent two-view geometry with the others)", name);
   return result;
 }
 

@@ -50,15 +50,15 @@ struct SfmOptions {
 struct SfmResult {
   std::vector<Rigid3d> cam_from_world;  // one per image; identity where !posed
   std::vector<bool> posed;
-  std::vector<std::string> not_posed;   // names of the images left out (no edge, or outside the
-                                        // largest consistent component)
-  std::vector<SfmPoint> points;         // the triangulated tracks, elements index view_graph.keypoints
+  std::vector<std::string> not_posed;  // names of the images left out (no edge, or outside the
+                                       // largest consistent component)
+  std::vector<SfmPoint> points;        // the triangulated tracks, elements index view_graph.keypoints
   int num_points = 0;
   double mean_reprojection_error_px = 0;  // over the final observations
   ViewGraph view_graph;                   // the graph the poses came from, with its keypoints
   int num_edges_used = 0;                 // edges consistent with the averaged rotations
   double seconds_view_graph = 0;
-  double seconds_sfm = 0;                 // averaging, triangulation and bundle adjustment
+  double seconds_sfm = 0;  // averaging, triangulation and bundle adjustment
   // Per stage: features, matching, geometry (PoseImages only), rotation averaging, translation
   // averaging, tracks, triangulation, bundle adjustment (all rounds together).
   StageTimes times;

@@ -97,9 +97,11 @@ TEST(GlobalSfm, PosesEveryRenderedForwardFacingView) {
   const PoseEvaluation e = EvaluatePoses(r.cam_from_world, v.cam_from_world, PoseAlignment::kCenters);
   const PoseEvaluation er = EvaluatePoses(r.cam_from_world, v.cam_from_world, PoseAlignment::kRotationsAndCenters);
   ASSERT_TRUE(e.aligned && er.aligned);
-  std::printf("10 views: median rotation %.4f deg (Umeyama on centres: %.4f), median centre %.3f %% of %.3f, %d points, %.3f px\n",
-              er.median_rotation_deg, e.median_rotation_deg, e.median_center_percent, e.widest_baseline, r.num_points,
-              r.mean_reprojection_error_px);
+  std::printf(
+      "10 views: median rotation %.4f deg (Umeyama on centres: %.4f), median centre %.3f %% of %.3f, %d points, %.3f "
+      "px\n",
+      er.median_rotation_deg, e.median_rotation_deg, e.median_center_percent, e.widest_baseline, r.num_points,
+      r.mean_reprojection_error_px);
   // Measured (seed 7): 0.035 deg, 0.21 % of the baseline, 0.18 px. Rotations are compared after
   // the fit on rotations: with centres this close (a 0.63 spread, 0.0013 error) a centre-only
   // Umeyama fit is itself off by ~0.5 deg (printed above, not asserted).

@@ -11,7 +11,9 @@ namespace nerfreg {
 
 namespace {
 
-Eigen::Vector3d Center(const Rigid3d& cam_from_world) { return -(cam_from_world.rotation.conjugate() * cam_from_world.translation); }
+Eigen::Vector3d Center(const Rigid3d& cam_from_world) {
+  return -(cam_from_world.rotation.conjugate() * cam_from_world.translation);
+}
 
 bool AlignRotationsAndCenters(const std::vector<Rigid3d>& est, const std::vector<Rigid3d>& gt, Sim3d* gt_from_est) {
   const int n = static_cast<int>(est.size());
@@ -67,7 +69,8 @@ PoseEvaluation EvaluatePoses(const std::vector<Rigid3d>& estimated, const std::v
     out.rotation_error_deg.push_back(RotationErrorDeg(moved.rotation, ground_truth[k].rotation));
     out.center_error.push_back((Center(moved) - Center(ground_truth[k])).norm());
   }
-  for (int k = 0; k < n; ++k) out.mean_rotation_deg += out.rotation_error_deg[k] / n, out.mean_center += out.center_error[k] / n;
+  for (int k = 0; k < n; ++k)
+    out.mean_rotation_deg += out.rotation_error_deg[k] / n, out.mean_center += out.center_error[k] / n;
   out.median_rotation_deg = Median(out.rotation_error_deg);
   out.median_center = Median(out.center_error);
   out.median_center_percent = out.widest_baseline > 0 ? 100 * out.median_center / out.widest_baseline : 0;

@@ -19,7 +19,7 @@ enum class PoseAlignment {
 };
 
 struct PoseEvaluation {
-  bool aligned = false;   // false: too few (or degenerate) cameras to align
+  bool aligned = false;  // false: too few (or degenerate) cameras to align
   Sim3d gt_from_estimate;
   std::vector<double> rotation_error_deg;  // per evaluated camera, in the order given
   std::vector<double> center_error;        // ground-truth units

@@ -45,7 +45,8 @@ RelativePoseAveragingResult GlobalPosesFromRelativePoses(int num_images, const s
     e.j_from_i.rotation.normalize();
     const double length = r.j_from_i.translation.norm();
     has_direction.push_back(length > 1e-12 && std::isfinite(length));
-    e.j_from_i.translation = has_direction.back() ? Eigen::Vector3d(r.j_from_i.translation / length) : Eigen::Vector3d::Zero();
+    e.j_from_i.translation =
+        has_direction.back() ? Eigen::Vector3d(r.j_from_i.translation / length) : Eigen::Vector3d::Zero();
     graph.edges.push_back(std::move(e));
   }
 
@@ -60,7 +61,8 @@ RelativePoseAveragingResult GlobalPosesFromRelativePoses(int num_images, const s
   const RotationAveragingResult rotations = AverageRotations(graph, options.rotation);
   std::vector<bool> usable(edges.size(), false);
   for (size_t k = 0; k < edges.size(); ++k) usable[k] = rotations.edge_inlier[k] && has_direction[k];
-  const TranslationAveragingResult centers = AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
+  const TranslationAveragingResult centers =
+      AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
 
   // The classical frame: the first posed camera at the identity, mean distance of the others 1.
   // (Translation averaging already put the root's centre at the origin with that mean distance;
@@ -88,7 +90,8 @@ RelativePoseAveragingResult GlobalPosesFromRelativePoses(int num_images, const s
       // Centres: c_j - c_i is parallel to -R_j^T t_ij.
       const Eigen::Vector3d ci = result.cam_from_world[e.i].Inverse().translation;
       const Eigen::Vector3d cj = result.cam_from_world[e.j].Inverse().translation;
-      result.edge_direction_error_deg[k] = AngleDeg(cj - ci, -(result.cam_from_world[e.j].rotation.conjugate() * e.j_from_i.translation));
+      result.edge_direction_error_deg[k] =
+          AngleDeg(cj - ci, -(result.cam_from_world[e.j].rotation.conjugate() * e.j_from_i.translation));
     }
     result.edge_inlier[k] = usable[k] && result.edge_rotation_error_deg[k] <= options.rotation.max_edge_error_deg &&
                             result.edge_direction_error_deg[k] <= options.translation.max_edge_error_deg;

@@ -26,7 +26,8 @@ std::vector<Rigid3d> CapCameras(int n) {
 // Every pair of cameras less than `max_distance` apart, in both directions; each measurement's
 // rotation and translation direction perturbed by a random rotation of about `noise_deg` (RMS
 // angle), independently per direction.
-std::vector<RelativePose> NoisyEdges(const std::vector<Rigid3d>& cams, double max_distance, double noise_deg, unsigned seed) {
+std::vector<RelativePose> NoisyEdges(const std::vector<Rigid3d>& cams, double max_distance, double noise_deg,
+                                     unsigned seed) {
   std::mt19937 rng(seed);
   const double per_axis = noise_deg / std::sqrt(3.0);
   std::vector<RelativePose> edges;
@@ -91,7 +92,8 @@ TEST(RelativePoseAveraging, AWrongEdgeIsOutvotedAndReported) {
     if (edges[k].i == 2 && edges[k].j == 4) wrong = k;
   ASSERT_LT(wrong, edges.size());
   edges[wrong].j_from_i.rotation =
-      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 3, Eigen::Vector3d(1, 2, 0).normalized())) * edges[wrong].j_from_i.rotation;
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 3, Eigen::Vector3d(1, 2, 0).normalized())) *
+      edges[wrong].j_from_i.rotation;
   edges[wrong].j_from_i.translation = -edges[wrong].j_from_i.translation;
   const auto r = GlobalPosesFromRelativePoses(10, edges, {});
   const PoseEvaluation e = Evaluate(r, truth);

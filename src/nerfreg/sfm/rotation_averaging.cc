@@ -96,7 +96,8 @@ RotationAveragingResult AverageRotations(const ViewGraph& graph, const RotationA
   options.Check();
   const int n = static_cast<int>(graph.names.size());
   for (const auto& e : graph.edges)
-    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j) throw std::invalid_argument("AverageRotations: bad edge");
+    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j)
+      throw std::invalid_argument("AverageRotations: bad edge");
   RotationAveragingResult result;
   result.cam_from_world.assign(n, Eigen::Quaterniond::Identity());
   result.connected = LargestComponent(n, graph.edges);

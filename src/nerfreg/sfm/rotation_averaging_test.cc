@@ -48,7 +48,8 @@ TEST(RotationAveraging, NoisyEdgesAreAveragedAndWrongEdgesRejected) {
   // good edges. Relative to the fixed root (whose own noise adds in): measured max 0.72 deg.
   const std::vector<double> errors = RelativeErrors(s, r);
   for (double e : errors) EXPECT_LT(e, 0.9);
-  std::printf("rotation averaging: median %.3f max %.3f deg\n", Median(errors), *std::max_element(errors.begin(), errors.end()));
+  std::printf("rotation averaging: median %.3f max %.3f deg\n", Median(errors),
+              *std::max_element(errors.begin(), errors.end()));
   EXPECT_LT(Median(errors), 0.45);
   for (size_t k = 0; k < s.graph.edges.size(); ++k) {
     if (s.outlier_edge[k]) {

@@ -60,7 +60,8 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
   for (size_t k = 0; k < n; ++k) {
     if (!result.posed[k]) continue;
     per_image.push_back(q.points_per_image[k]);
-    q.min_points_per_image = q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
+    q.min_points_per_image =
+        q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
   }
   q.min_points_per_image = std::max(q.min_points_per_image, 0);
   q.median_points_per_image = UpperMedian(per_image);
@@ -73,8 +74,9 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
                          " are needed): a sub-pixel reprojection error there does not pin the cameras down");
   }
   if (q.min_points_per_image < options.min_points_per_image) {
-    q.problems.push_back("an image observes only " + std::to_string(q.min_points_per_image) + " triangulated points (at least " +
-                         std::to_string(options.min_points_per_image) + " are needed)");
+    q.problems.push_back("an image observes only " + std::to_string(q.min_points_per_image) +
+                         " triangulated points (at least " + std::to_string(options.min_points_per_image) +
+                         " are needed)");
   }
   if (q.median_track_length < options.min_median_track_length) {
     q.problems.push_back("points are seen by " + Fmt(q.median_track_length) + " images (median; at least " +

@@ -24,9 +24,9 @@ struct SfmQualityOptions {
 
 struct SfmQuality {
   int min_image_side_px = 0;
-  int min_points_per_image = 0;     // over posed images
+  int min_points_per_image = 0;  // over posed images
   double median_points_per_image = 0;
-  double median_track_length = 0;  // observations per point
+  double median_track_length = 0;             // observations per point
   double median_triangulation_angle_deg = 0;  // per point, the widest angle between two of its rays
   // Per posed image (index into the SfM's images), the points it observes; 0 for unposed images.
   std::vector<int> points_per_image;

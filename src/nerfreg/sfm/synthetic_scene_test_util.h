@@ -17,10 +17,10 @@ struct SyntheticSceneOptions {
   int num_cameras = 10;
   int num_points = 400;
   double keypoint_noise_px = 0.5;
-  double rotation_noise_deg = 0.0;   // on every edge's relative rotation
-  double direction_noise_deg = 0.0;  // on every edge's translation direction
-  double outlier_edge_fraction = 0.0;  // edges whose relative pose is replaced by a random one
-  double outlier_match_fraction = 0.0; // extra wrong matches per edge, as a fraction of its inliers
+  double rotation_noise_deg = 0.0;      // on every edge's relative rotation
+  double direction_noise_deg = 0.0;     // on every edge's translation direction
+  double outlier_edge_fraction = 0.0;   // edges whose relative pose is replaced by a random one
+  double outlier_match_fraction = 0.0;  // extra wrong matches per edge, as a fraction of its inliers
   unsigned seed = 1;
 };
 
@@ -68,7 +68,8 @@ inline SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& o) {
   for (int c = 0; c < o.num_cameras; ++c) {
     // Centres on a cap of radius 6 within 35 degrees of the -y axis, looking near the origin.
     const double az = u(rng) * 2 * M_PI, el = u(rng) * 35 * M_PI / 180;
-    const Eigen::Vector3d center = 6.0 * Eigen::Vector3d(std::sin(el) * std::cos(az), -std::cos(el), std::sin(el) * std::sin(az));
+    const Eigen::Vector3d center =
+        6.0 * Eigen::Vector3d(std::sin(el) * std::cos(az), -std::cos(el), std::sin(el) * std::sin(az));
     const Eigen::Vector3d target(u(rng) * 0.6 - 0.3, u(rng) * 0.6 - 0.3, u(rng) * 0.6 - 0.3);
     s.cameras.push_back(cam);
     s.cam_from_world.push_back(SyntheticLookAt(center, target));
@@ -100,7 +101,8 @@ inline SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& o) {
       e.i = i;
       e.j = j;
       for (int p = 0; p < o.num_points; ++p)
-        if (keypoint_of[i][p] >= 0 && keypoint_of[j][p] >= 0) e.inlier_matches.push_back({keypoint_of[i][p], keypoint_of[j][p]});
+        if (keypoint_of[i][p] >= 0 && keypoint_of[j][p] >= 0)
+          e.inlier_matches.push_back({keypoint_of[i][p], keypoint_of[j][p]});
       if (e.inlier_matches.size() < 30) continue;
       const int num_wrong = static_cast<int>(o.outlier_match_fraction * e.inlier_matches.size());
       for (int w = 0; w < num_wrong; ++w) {

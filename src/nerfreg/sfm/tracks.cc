@@ -26,7 +26,8 @@ int Find(std::vector<int>& parent, int x) {
 
 std::vector<Track> BuildTracks(const ViewGraph& graph, const std::vector<bool>& usable, const TrackOptions& options) {
   options.Check();
-  if (!usable.empty() && usable.size() != graph.edges.size()) throw std::invalid_argument("BuildTracks: usable has the wrong size");
+  if (!usable.empty() && usable.size() != graph.edges.size())
+    throw std::invalid_argument("BuildTracks: usable has the wrong size");
   const int n = static_cast<int>(graph.keypoints.size());
   std::vector<int> offset(n + 1, 0);  // keypoint (image, k) -> node offset[image] + k
   for (int i = 0; i < n; ++i) offset[i + 1] = offset[i] + static_cast<int>(graph.keypoints[i].size());
@@ -39,10 +40,12 @@ std::vector<Track> BuildTracks(const ViewGraph& graph, const std::vector<bool>& 
   std::vector<int> order;
   for (size_t e = 0; e < graph.edges.size(); ++e)
     if (usable.empty() || usable[e]) order.push_back(static_cast<int>(e));
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return graph.edges[a].num_inliers > graph.edges[b].num_inliers; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return graph.edges[a].num_inliers > graph.edges[b].num_inliers; });
   for (int e : order) {
     const ViewGraphEdge& edge = graph.edges[e];
-    if (edge.i < 0 || edge.j < 0 || edge.i >= n || edge.j >= n) throw std::invalid_argument("BuildTracks: edge names an image without keypoints");
+    if (edge.i < 0 || edge.j < 0 || edge.i >= n || edge.j >= n)
+      throw std::invalid_argument("BuildTracks: edge names an image without keypoints");
     for (const auto& [ki, kj] : edge.inlier_matches) {
       if (ki < 0 || kj < 0 || ki >= offset[edge.i + 1] - offset[edge.i] || kj >= offset[edge.j + 1] - offset[edge.j]) {
         throw std::invalid_argument("BuildTracks: match indexes a missing keypoint");

@@ -46,8 +46,10 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
                                                const TranslationAveragingOptions& options) {
   options.Check();
   const int n = static_cast<int>(graph.names.size());
-  if (static_cast<int>(cam_from_world.size()) != n) throw std::invalid_argument("AverageTranslations: one rotation per image");
-  if (!usable.empty() && usable.size() != graph.edges.size()) throw std::invalid_argument("AverageTranslations: usable has the wrong size");
+  if (static_cast<int>(cam_from_world.size()) != n)
+    throw std::invalid_argument("AverageTranslations: one rotation per image");
+  if (!usable.empty() && usable.size() != graph.edges.size())
+    throw std::invalid_argument("AverageTranslations: usable has the wrong size");
   TranslationAveragingResult result;
   result.centers.assign(n, Eigen::Vector3d::Zero());
   result.edge_error_deg.assign(graph.edges.size(), 180.0);
@@ -68,12 +70,15 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
     if (result.solved[k] && k != result.root) var[k] = num_vars++;
   std::vector<Eigen::Vector3d> dirs;  // world direction of c_j - c_i per usable edge (unused: zero)
   for (const auto& e : edges) {
-    dirs.push_back(result.solved[e.i] ? Eigen::Vector3d(-(cam_from_world[e.j].inverse() * e.j_from_i.translation).normalized())
-                                      : Eigen::Vector3d(Eigen::Vector3d::Zero()));
+    dirs.push_back(result.solved[e.i]
+                       ? Eigen::Vector3d(-(cam_from_world[e.j].inverse() * e.j_from_i.translation).normalized())
+                       : Eigen::Vector3d(Eigen::Vector3d::Zero()));
   }
   std::vector<double> weight(edges.size(), 1.0);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * num_vars);
-  auto center = [&](int k) -> Eigen::Vector3d { return var[k] < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(x.segment<3>(3 * var[k])); };
+  auto center = [&](int k) -> Eigen::Vector3d {
+    return var[k] < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(x.segment<3>(3 * var[k]));
+  };
   for (int round = 0; round < options.reweighting_rounds; ++round) {
     Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(3 * num_vars, 3 * num_vars);
     for (size_t m = 0; m < edges.size(); ++m) {
@@ -92,7 +97,8 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(normal);
     x = eig.eigenvectors().col(0);
     double agreement = 0;
-    for (size_t m = 0; m < edges.size(); ++m) agreement += weight[m] * dirs[m].dot(center(edges[m].j) - center(edges[m].i));
+    for (size_t m = 0; m < edges.size(); ++m)
+      agreement += weight[m] * dirs[m].dot(center(edges[m].j) - center(edges[m].i));
     if (agreement < 0) x = -x;
     for (size_t m = 0; m < edges.size(); ++m) {
       if (dirs[m].isZero()) continue;
@@ -129,10 +135,12 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
   double mean_distance = 0;
   int count = 0;
   for (int k = 0; k < n; ++k)
-    if (result.solved[k] && k != result.root) mean_distance += (result.centers[k] - result.centers[result.root]).norm(), ++count;
+    if (result.solved[k] && k != result.root)
+      mean_distance += (result.centers[k] - result.centers[result.root]).norm(), ++count;
   mean_distance = count > 0 ? mean_distance / count : 1.0;
   for (int k = 0; k < n; ++k)
-    if (result.solved[k]) result.centers[k] = (result.centers[k] - result.centers[result.root]) / std::max(mean_distance, 1e-12);
+    if (result.solved[k])
+      result.centers[k] = (result.centers[k] - result.centers[result.root]) / std::max(mean_distance, 1e-12);
   for (size_t m = 0; m < edges.size(); ++m) {
     if (dirs[m].isZero()) continue;
     const double a = AngleDeg(result.centers[edges[m].j] - result.centers[edges[m].i], dirs[m]);

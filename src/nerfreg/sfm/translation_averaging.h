@@ -22,12 +22,12 @@
 namespace nerfreg {
 
 struct TranslationAveragingOptions {
-  int reweighting_rounds = 3;     // linear solves, each reweighting edges by their angle error
-  double cauchy_scale_deg = 5.0;  // angle scale of those weights, degrees
-  double huber_scale = 0.05;      // Huber scale of the nonlinear residual (unit vectors; ~3 deg)
-  int max_iterations = 100;       // Ceres iterations of the nonlinear step
+  int reweighting_rounds = 3;        // linear solves, each reweighting edges by their angle error
+  double cauchy_scale_deg = 5.0;     // angle scale of those weights, degrees
+  double huber_scale = 0.05;         // Huber scale of the nonlinear residual (unit vectors; ~3 deg)
+  int max_iterations = 100;          // Ceres iterations of the nonlinear step
   double max_edge_error_deg = 15.0;  // edges whose final angle exceeds this are outliers
-  void Check() const;             // throws std::invalid_argument
+  void Check() const;                // throws std::invalid_argument
 };
 
 struct TranslationAveragingResult {

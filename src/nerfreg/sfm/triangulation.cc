@@ -9,7 +9,8 @@
 namespace nerfreg {
 
 void TriangulationOptions::Check() const {
-  if (!(max_reprojection_error_px > 0) || !(min_angle_deg >= 0)) throw std::invalid_argument("TriangulationOptions: out of range");
+  if (!(max_reprojection_error_px > 0) || !(min_angle_deg >= 0))
+    throw std::invalid_argument("TriangulationOptions: out of range");
 }
 
 bool TriangulateDlt(const std::vector<Rigid3d>& cam_from_world, const std::vector<Eigen::Vector3d>& x_normalized,
@@ -56,7 +57,8 @@ bool TriangulateTrack(const Track& track, const std::vector<std::vector<Eigen::V
     double worst_error = 0;
     for (size_t k = 0; k < elements.size(); ++k) {
       const auto& e = elements[k];
-      const double error = ReprojectionErrorPx(cameras[e.image], cam_from_world[e.image], x, keypoints[e.image][e.keypoint]);
+      const double error =
+          ReprojectionErrorPx(cameras[e.image], cam_from_world[e.image], x, keypoints[e.image][e.keypoint]);
       if (error > worst_error) worst_error = error, worst = static_cast<int>(k);
     }
     if (worst_error > options.max_reprojection_error_px) {

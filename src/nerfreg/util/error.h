@@ -17,16 +17,14 @@ class InputError : public std::runtime_error {
 
 // "FILE: FIELD: expected EXPECTED" — the one-line message format every parser uses, so scripts
 // and the bad-input battery can match on it. `field` may be empty when the whole file is bad.
-std::string FormatInputError(const std::string& file, const std::string& field,
-                             const std::string& expected);
+std::string FormatInputError(const std::string& file, const std::string& field, const std::string& expected);
 
-[[noreturn]] void ThrowInputError(const std::string& file, const std::string& field,
-                                  const std::string& expected);
+[[noreturn]] void ThrowInputError(const std::string& file, const std::string& field, const std::string& expected);
 
 }  // namespace nerfreg
 
 // Checks a condition about user input; on failure throws InputError(FILE: FIELD: expected ...).
-#define NERFREG_CHECK_INPUT(cond, file, field, expected)        \
-  do {                                                          \
+#define NERFREG_CHECK_INPUT(cond, file, field, expected)            \
+  do {                                                              \
     if (!(cond)) ::nerfreg::ThrowInputError(file, field, expected); \
   } while (0)

@@ -30,8 +30,7 @@ std::string ReadFileToString(const std::string& path, std::int64_t max_bytes) {
   const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
   if (ec) ThrowInputError(path, "", "a readable file");
   if (size > max_bytes) {
-    ThrowInputError(path, "size", "at most " + std::to_string(max_bytes) + " bytes, file has " +
-                                      std::to_string(size));
+    ThrowInputError(path, "size", "at most " + std::to_string(max_bytes) + " bytes, file has " + std::to_string(size));
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) ThrowInputError(path, "", "a readable file");
@@ -45,8 +44,8 @@ namespace {
 std::string TempPathFor(const std::string& path) {
   static std::atomic<int> counter{0};
   const fs::path p(path);
-  return (p.parent_path() / ("." + p.filename().string() + ".tmp." + std::to_string(::getpid()) +
-                             "." + std::to_string(counter++)))
+  return (p.parent_path() /
+          ("." + p.filename().string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++)))
       .string();
 }
 
@@ -183,7 +182,8 @@ void MoveIntoPlace(const std::string& tmp, const std::string& path, bool no_repl
       ::unlink(tmp.c_str());
       return;
     }
-    if (errno == EEXIST) ThrowInputError(path, "", "a new output, but another run wrote it meanwhile; pass --force to overwrite");
+    if (errno == EEXIST)
+      ThrowInputError(path, "", "a new output, but another run wrote it meanwhile; pass --force to overwrite");
     if (errno != EPERM && errno != ENOTSUP && errno != EOPNOTSUPP) ThrowWriteError(path, errno);
     // A file system without hard links: fall through to rename.
   }
@@ -213,7 +213,8 @@ void CheckFolderWritable(const std::string& path) {
   std::error_code ec;
   while (!dir.empty() && !fs::exists(dir, ec)) dir = dir.parent_path();
   if (dir.empty()) return;
-  if (!fs::is_directory(dir, ec)) ThrowInputError(path, "", "a path whose parent is a folder (" + dir.string() + " is a file)");
+  if (!fs::is_directory(dir, ec))
+    ThrowInputError(path, "", "a path whose parent is a folder (" + dir.string() + " is a file)");
   const std::string probe = (dir / (".nerfreg-probe." + std::to_string(::getpid()))).string();
   const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) {
@@ -225,8 +226,7 @@ void CheckFolderWritable(const std::string& path) {
 }
 }  // namespace
 
-void WriteAtomically(const std::string& path,
-                     const std::function<void(const std::string& tmp_path)>& write) {
+void WriteAtomically(const std::string& path, const std::function<void(const std::string& tmp_path)>& write) {
   const std::string parent = ParentDir(path);
   if (!parent.empty()) CreateDirectories(parent);
   RemoveStaleTempFiles(path);
@@ -280,10 +280,12 @@ OutputDir::OutputDir(const std::string& out, bool force, const std::vector<std::
   CheckCanWriteOutput(out_, force, inputs);
   std::error_code ec;
   if (fs::exists(out_, ec)) {
-    if (!fs::is_directory(out_, ec)) ThrowInputError(out_, "", "an output folder (a file of that name exists; remove it yourself)");
+    if (!fs::is_directory(out_, ec))
+      ThrowInputError(out_, "", "an output folder (a file of that name exists; remove it yourself)");
     if (!fs::exists(fs::path(out_) / kOutputMarker, ec) && !fs::is_empty(out_, ec)) {
-      ThrowInputError(out_, "", std::string("a folder written by nerfreg to replace with --force (it has no ") + kOutputMarker +
-                                    "; nerfreg deletes only what it wrote: remove or rename it yourself)");
+      ThrowInputError(out_, "",
+                      std::string("a folder written by nerfreg to replace with --force (it has no ") + kOutputMarker +
+                          "; nerfreg deletes only what it wrote: remove or rename it yourself)");
     }
   }
   const std::string parent = ParentDir(out_);
@@ -335,9 +337,12 @@ void OutputDir::Commit() {
       }
     }
   } else {
-    if (!force_) ThrowInputError(out_, "", "a new output, but another run wrote it meanwhile; pass --force to overwrite");
+    if (!force_)
+      ThrowInputError(out_, "", "a new output, but another run wrote it meanwhile; pass --force to overwrite");
     if (!fs::is_directory(out_, ec) || (!fs::exists(fs::path(out_) / kOutputMarker, ec) && !fs::is_empty(out_, ec))) {
-      ThrowInputError(out_, "", std::string("a folder written by nerfreg to replace with --force (it has no ") + kOutputMarker + ")");
+      ThrowInputError(
+          out_, "",
+          std::string("a folder written by nerfreg to replace with --force (it has no ") + kOutputMarker + ")");
     }
     // Swap the two folders in one step, then delete the old one (now under the temporary name).
     if (Rename2(tmp_, out_, kRenameExchange) != 0) {

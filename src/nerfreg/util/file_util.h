@@ -28,8 +28,7 @@ void WriteFileAtomic(const std::string& path, const std::string& contents);
 // Calls write(tmp_path) to produce the file, then moves it into place as WriteFileAtomic does. If
 // write throws, the temp file is removed and `path` is untouched. Prefer WriteFileAtomic with an
 // in-memory buffer: a writer given a path may not report a failed write.
-void WriteAtomically(const std::string& path,
-                     const std::function<void(const std::string& tmp_path)>& write);
+void WriteAtomically(const std::string& path, const std::function<void(const std::string& tmp_path)>& write);
 
 // Checks an output path before any work starts:
 //  - empty: "--out: expected a path";

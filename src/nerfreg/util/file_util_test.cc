@@ -33,7 +33,8 @@ TEST(FileUtil, AtomicWriteRoundTripAndNoTempLeft) {
 // it when its process is gone, and leaves those of live processes (this one) alone.
 TEST(FileUtil, NextWriteRemovesTempFilesOfDeadWriters) {
   ScopedTempDir dir;
-  const std::string dead = dir.File(".x.json.tmp.2147483646.3"), live = dir.File(".x.json.tmp." + std::to_string(::getpid()) + ".99");
+  const std::string dead = dir.File(".x.json.tmp.2147483646.3"),
+                    live = dir.File(".x.json.tmp." + std::to_string(::getpid()) + ".99");
   const std::string other = dir.File(".y.json.tmp.2147483646.3");
   for (const auto& f : {dead, live, other}) WriteFileAtomic(f, "partial");
   WriteFileAtomic(dir.File("x.json"), "{}");
@@ -118,12 +119,16 @@ TEST(FileUtil, OutputChecksRefuseInputsEmptyPathsAndUnwritableFolders) {
   ScopedTempDir dir;
   WriteFileAtomic(dir.File("data/transforms.json"), "{}");
   // The output is an input, or a folder holding one: refused even with --force.
-  EXPECT_NE(InputErrorOf([&] { CheckCanWriteOutput(dir.File("data/transforms.json"), true, {dir.File("data/transforms.json")}); }),
+  EXPECT_NE(InputErrorOf([&] {
+              CheckCanWriteOutput(dir.File("data/transforms.json"), true, {dir.File("data/transforms.json")});
+            }),
             "");
   EXPECT_NE(InputErrorOf([&] { CheckCanWriteOutput(dir.File("data"), true, {dir.File("data/transforms.json")}); }), "");
   EXPECT_NE(InputErrorOf([&] { CheckCanWriteOutput(dir.File("data/../data"), true, {dir.File("data")}); }), "");
   // A sibling of an input is fine.
-  EXPECT_EQ(InputErrorOf([&] { CheckCanWriteOutput(dir.File("data/out.json"), false, {dir.File("data/transforms.json")}); }), "");
+  EXPECT_EQ(
+      InputErrorOf([&] { CheckCanWriteOutput(dir.File("data/out.json"), false, {dir.File("data/transforms.json")}); }),
+      "");
   EXPECT_NE(InputErrorOf([] { CheckCanWriteOutput("", true); }).find("--out: expected a path"), std::string::npos);
   // A parent that is a file cannot hold the output.
   EXPECT_NE(InputErrorOf([&] { CheckCanWriteOutput(dir.File("data/transforms.json/x"), false); }), "");
@@ -141,7 +146,8 @@ TEST(FileUtil, ANewFileOutputIsNotReplacedByAnotherRunsWrite) {
     std::fputs("theirs", f);
     std::fclose(f);
   }
-  EXPECT_NE(InputErrorOf([&] { WriteFileAtomic(path, "ours"); }).find("another run wrote it meanwhile"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { WriteFileAtomic(path, "ours"); }).find("another run wrote it meanwhile"),
+            std::string::npos);
   EXPECT_EQ(ReadFileToString(path), "theirs");
   EXPECT_EQ(CountEntries(dir.path()), 1);  // no temporary file
   // A path this run created itself is then replaced by its later writes (checkpoints).

@@ -24,7 +24,8 @@ void CheckPngChunks(const std::string& bytes, const std::string& path) {
     const auto* u = reinterpret_cast<const unsigned char*>(bytes.data() + pos);
     const std::uint64_t length = (std::uint64_t(u[0]) << 24) | (u[1] << 16) | (u[2] << 8) | u[3];
     if (length > bytes.size() - pos - 8) {
-      ThrowInputError(path, "PNG chunk at byte " + std::to_string(pos), "a chunk length within the file, got " + std::to_string(length));
+      ThrowInputError(path, "PNG chunk at byte " + std::to_string(pos),
+                      "a chunk length within the file, got " + std::to_string(length));
     }
     if (bytes.compare(pos + 4, 4, "IEND") == 0) return;
     pos += 12 + length;  // length, type, data, CRC
@@ -42,8 +43,8 @@ Image Decode(const std::string& bytes, const std::string& path, int channels, in
   }
   if (channels < 0) return Image();  // size only
   CheckPngChunks(bytes, path);
-  unsigned char* pixels =
-      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), w, h, c, channels);
+  unsigned char* pixels = stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
+                                                static_cast<int>(bytes.size()), w, h, c, channels);
   if (pixels == nullptr) {
     ThrowInputError(path, "", std::string("a decodable PNG or JPEG (") + stbi_failure_reason() + ")");
   }
@@ -67,8 +68,8 @@ void ReadImageSize(const std::string& path, int* width, int* height, int* channe
   }
   if (*width <= 0 || *height <= 0 || static_cast<std::int64_t>(*width) * *height > kMaxImagePixels) {
     ThrowInputError(path, "size",
-                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*width) + "x" +
-                        std::to_string(*height));
+                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*width) +
+                        "x" + std::to_string(*height));
   }
 }
 

@@ -10,17 +10,15 @@ namespace nerfreg {
 struct Image {
   int width = 0;
   int height = 0;
-  int channels = 0;          // 1 (grey), 3 (RGB) or 4 (RGBA)
-  std::vector<float> data;   // [height * width * channels], values in [0, 1]
+  int channels = 0;         // 1 (grey), 3 (RGB) or 4 (RGBA)
+  std::vector<float> data;  // [height * width * channels], values in [0, 1]
 
   Image() = default;
   Image(int w, int h, int c, float fill = 0.f)
       : width(w), height(h), channels(c), data(static_cast<size_t>(w) * h * c, fill) {}
 
   float& at(int x, int y, int c) { return data[(static_cast<size_t>(y) * width + x) * channels + c]; }
-  float at(int x, int y, int c) const {
-    return data[(static_cast<size_t>(y) * width + x) * channels + c];
-  }
+  float at(int x, int y, int c) const { return data[(static_cast<size_t>(y) * width + x) * channels + c]; }
   bool empty() const { return data.empty(); }
 };
 

@@ -46,8 +46,10 @@ TEST(Image, HugeHeaderRefusedBeforeDecoding) {
   std::string bytes = ReadFileToString(dir.File("t.png"));
   // IHDR width/height are big-endian at byte offsets 16 and 20.
   auto put = [&](size_t off, unsigned v) {
-    bytes[off] = char(v >> 24); bytes[off + 1] = char(v >> 16);
-    bytes[off + 2] = char(v >> 8); bytes[off + 3] = char(v);
+    bytes[off] = char(v >> 24);
+    bytes[off + 1] = char(v >> 16);
+    bytes[off + 2] = char(v >> 8);
+    bytes[off + 3] = char(v);
   };
   put(16, 100000);
   put(20, 100000);
@@ -86,10 +88,10 @@ TEST(Image, ContactSheetTilesImages) {
   const Image sheet = ContactSheet(ims, 2);
   EXPECT_EQ(sheet.width, 2 * 4 + 2);
   EXPECT_EQ(sheet.height, 2 * 3 + 2);
-  EXPECT_FLOAT_EQ(sheet.at(0, 0, 0), 0.f);      // first image
-  EXPECT_FLOAT_EQ(sheet.at(6, 0, 1), 1.f);      // second (opaque white)
-  EXPECT_FLOAT_EQ(sheet.at(4, 0, 0), 1.f);      // gap
-  EXPECT_FLOAT_EQ(sheet.at(1, 6, 2), 0.5f);     // third, grey
+  EXPECT_FLOAT_EQ(sheet.at(0, 0, 0), 0.f);   // first image
+  EXPECT_FLOAT_EQ(sheet.at(6, 0, 1), 1.f);   // second (opaque white)
+  EXPECT_FLOAT_EQ(sheet.at(4, 0, 0), 1.f);   // gap
+  EXPECT_FLOAT_EQ(sheet.at(1, 6, 2), 0.5f);  // third, grey
 }
 
 }  // namespace

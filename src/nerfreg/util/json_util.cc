@@ -38,9 +38,7 @@ void JsonField::Fail(const std::string& expected) const {
   ThrowInputError(file_, path_.empty() ? "(top level)" : path_, expected);
 }
 
-bool JsonField::Has(const std::string& key) const {
-  return json_->is_object() && json_->contains(key);
-}
+bool JsonField::Has(const std::string& key) const { return json_->is_object() && json_->contains(key); }
 
 JsonField JsonField::operator[](const std::string& key) const {
   const std::string child = path_.empty() ? key : path_ + "." + key;

@@ -11,19 +11,21 @@ namespace {
 
 TEST(JsonUtil, NestingIsBoundedWithANamedError) {
   const std::string deep = std::string(100000, '[') + std::string(100000, ']');
-  EXPECT_NE(InputErrorOf([&] { ParseJson(deep, "deep.json"); }).find("deep.json: expected JSON nested at most 64 levels deep"),
+  EXPECT_NE(InputErrorOf([&] {
+              ParseJson(deep, "deep.json");
+            }).find("deep.json: expected JSON nested at most 64 levels deep"),
             std::string::npos);
   const std::string ok = std::string(kMaxJsonDepth, '[') + std::string(kMaxJsonDepth, ']');
   EXPECT_EQ(InputErrorOf([&] { ParseJson(ok, "ok.json"); }), "");
-  EXPECT_NE(InputErrorOf([] { ParseJson("{\"a\": [1,", "t.json"); }).find("t.json: expected valid JSON"), std::string::npos);
+  EXPECT_NE(InputErrorOf([] { ParseJson("{\"a\": [1,", "t.json"); }).find("t.json: expected valid JSON"),
+            std::string::npos);
 }
 
 TEST(JsonUtil, ErrorsNameFileAndFieldPath) {
   const Json j = Json::parse(R"({"frames": [{"transform_matrix": [[1,0,0],[0,1,0]]}]})");
   const JsonField root(j, "t.json");
   const std::string msg = InputErrorOf([&] { root["frames"][0]["transform_matrix"].Matrix(4, 4); });
-  EXPECT_NE(msg.find("t.json: frames[0].transform_matrix: expected a 4x4 matrix"), std::string::npos)
-      << msg;
+  EXPECT_NE(msg.find("t.json: frames[0].transform_matrix: expected a 4x4 matrix"), std::string::npos) << msg;
   EXPECT_NE(InputErrorOf([&] { root["camera_angle_x"]; }).find("camera_angle_x"), std::string::npos);
   EXPECT_NE(InputErrorOf([&] { root["frames"][3]; }).find("frames"), std::string::npos);
 }

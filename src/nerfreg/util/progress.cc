@@ -61,8 +61,8 @@ void ProgressBar::Draw(bool final) {
   const double eta = rate > 0 && total_ > 0 ? (total_ - done_) / rate : NAN;
   if (opt.json) {
     std::string line = "{\"progress\":\"" + label_ + "\",\"done\":" + std::to_string(done_) +
-                       ",\"total\":" + std::to_string(total_) + ",\"rate\":" +
-                       std::to_string(rate) + ",\"elapsed_s\":" + std::to_string(elapsed);
+                       ",\"total\":" + std::to_string(total_) + ",\"rate\":" + std::to_string(rate) +
+                       ",\"elapsed_s\":" + std::to_string(elapsed);
     if (std::isfinite(eta)) line += ",\"eta_s\":" + std::to_string(eta);
     // A diverged loss is NaN, which JSON cannot write: null.
     for (const auto& [k, v] : metrics_) line += ",\"" + k + "\":" + (std::isfinite(v) ? std::to_string(v) : "null");
@@ -81,10 +81,9 @@ void ProgressBar::Draw(bool final) {
     metrics += buf;
   }
   const bool tty = isatty(STDERR_FILENO);
-  std::fprintf(stderr, "%s%s [%s] %lld/%lld %.2f %s/s elapsed %s ETA %s%s%s", tty ? "\r\033[K" : "",
-               label_.c_str(), bar.c_str(), static_cast<long long>(done_),
-               static_cast<long long>(total_), rate, unit_.c_str(), FormatDuration(elapsed).c_str(),
-               final ? "0s" : FormatDuration(eta).c_str(), metrics.c_str(),
+  std::fprintf(stderr, "%s%s [%s] %lld/%lld %.2f %s/s elapsed %s ETA %s%s%s", tty ? "\r\033[K" : "", label_.c_str(),
+               bar.c_str(), static_cast<long long>(done_), static_cast<long long>(total_), rate, unit_.c_str(),
+               FormatDuration(elapsed).c_str(), final ? "0s" : FormatDuration(eta).c_str(), metrics.c_str(),
                (final || !tty) ? "\n" : "");
   std::fflush(stderr);
 }

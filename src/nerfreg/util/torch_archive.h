@@ -75,7 +75,8 @@ inline std::string ZipArchiveProblem(const std::string& b) {
   std::string folder;  // the first entry's top folder, with its slash
   bool has_version = false;
   for (std::uint32_t e = 0; e < entries; ++e) {
-    if (p + 46 > eocd || u32(p) != 0x02014b50u) return "zip central directory entry " + std::to_string(e) + " unreadable";
+    if (p + 46 > eocd || u32(p) != 0x02014b50u)
+      return "zip central directory entry " + std::to_string(e) + " unreadable";
     const std::uint32_t method = u16(p + 10), crc = u32(p + 16), size = u32(p + 20), local = u32(p + 42);
     const size_t next = p + 46 + u16(p + 28) + u16(p + 30) + u16(p + 32);
     const std::string name = b.substr(p + 46, std::min<size_t>(u16(p + 28), eocd - p - 46));
@@ -84,13 +85,15 @@ inline std::string ZipArchiveProblem(const std::string& b) {
       if (slash == std::string::npos) return "zip entry " + name + " is not in a folder";
       folder = name.substr(0, slash + 1);
     }
-    if (name.compare(0, folder.size(), folder) != 0) return "zip entry " + name + " is outside the archive's folder " + folder;
+    if (name.compare(0, folder.size(), folder) != 0)
+      return "zip entry " + name + " is outside the archive's folder " + folder;
     has_version = has_version || name == folder + "version";
     if (size == 0xFFFFFFFFu || local == 0xFFFFFFFFu || method != 0) {
       p = next;
       continue;
     }
-    if (std::uint64_t(local) + 30 > b.size() || u32(local) != 0x04034b50u) return "zip entry " + name + " has no local header";
+    if (std::uint64_t(local) + 30 > b.size() || u32(local) != 0x04034b50u)
+      return "zip entry " + name + " has no local header";
     if (std::uint64_t(local) + 30 + u16(local + 26) > b.size() || b.compare(local + 30, u16(local + 26), name) != 0) {
       return "zip entry " + name + " has another name in its local header";
     }
@@ -115,8 +118,8 @@ inline void SaveArchiveAtomic(torch::serialize::OutputArchive& archive, const st
 // Loads `path` into `archive` and returns its meta JSON after checking the format tag and the
 // version. `what` names the kind of file in errors ("NeRF checkpoint"). Throws InputError naming
 // the file when it is missing, unreadable or truncated, of another format, or of another version.
-inline Json LoadArchiveMeta(const std::string& path, const std::string& what, const std::string& format_tag, int version,
-                            torch::serialize::InputArchive* archive) {
+inline Json LoadArchiveMeta(const std::string& path, const std::string& what, const std::string& format_tag,
+                            int version, torch::serialize::InputArchive* archive) {
   if (!FileExists(path)) ThrowInputError(path, "", "an existing " + what);
   const std::string problem = ZipArchiveProblem(ReadFileToString(path, std::int64_t(1) << 40));
   if (!problem.empty()) ThrowInputError(path, "", "a nerfreg " + what + " (unreadable or truncated: " + problem + ")");
@@ -130,7 +133,8 @@ inline Json LoadArchiveMeta(const std::string& path, const std::string& what, co
     ThrowInputError(path, "", "a nerfreg " + what + " (unreadable or truncated)");
   }
   const JsonField m(meta, path);
-  if (!meta.is_object() || m.StringOr("format", "") != format_tag) ThrowInputError(path, "format", "\"" + format_tag + "\"");
+  if (!meta.is_object() || m.StringOr("format", "") != format_tag)
+    ThrowInputError(path, "format", "\"" + format_tag + "\"");
   if (m["version"].Int() != version) {
     ThrowInputError(path, "version", std::to_string(version) + " (written by another nerfreg version)");
   }

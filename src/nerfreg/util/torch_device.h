@@ -15,10 +15,22 @@
 // the same names exist in 1.13 and 2.x. Under 2.x this gives back the names the code uses.
 #if !__has_include(<torch/linalg.h>)
 namespace torch::linalg {
-template <class... A> auto inv(A&&... a) { return at::linalg_inv(std::forward<A>(a)...); }
-template <class... A> auto det(A&&... a) { return at::linalg_det(std::forward<A>(a)...); }
-template <class... A> auto svd(A&&... a) { return at::linalg_svd(std::forward<A>(a)...); }
-template <class... A> auto qr(A&&... a) { return at::linalg_qr(std::forward<A>(a)...); }
+template <class... A>
+auto inv(A&&... a) {
+  return at::linalg_inv(std::forward<A>(a)...);
+}
+template <class... A>
+auto det(A&&... a) {
+  return at::linalg_det(std::forward<A>(a)...);
+}
+template <class... A>
+auto svd(A&&... a) {
+  return at::linalg_svd(std::forward<A>(a)...);
+}
+template <class... A>
+auto qr(A&&... a) {
+  return at::linalg_qr(std::forward<A>(a)...);
+}
 }  // namespace torch::linalg
 #endif
 
@@ -43,7 +55,9 @@ inline torch::Device ParseDevice(const std::string& text, const std::string& fla
       index = std::stoi(digits);
     }
     if (!CudaAvailable()) {
-      ThrowInputError(flag, text, "a CUDA device (none is available: this build's LibTorch has no CUDA or the machine has no GPU; use --device cpu or auto)");
+      ThrowInputError(flag, text,
+                      "a CUDA device (none is available: this build's LibTorch has no CUDA or the machine has no GPU; "
+                      "use --device cpu or auto)");
     }
     const int count = static_cast<int>(torch::cuda::device_count());
     if (index >= count) {

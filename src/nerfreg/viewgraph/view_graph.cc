@@ -26,10 +26,12 @@ void ViewGraphOptions::Check() const {
   if (!(ratio > 0 && ratio < 1)) ThrowInputError("ratio", "", "in (0, 1)");
   if (!(ransac_threshold_px > 0)) ThrowInputError("ransac_threshold_px", "", "> 0");
   if (!(ransac_confidence > 0 && ransac_confidence < 1)) ThrowInputError("ransac_confidence", "", "in (0, 1)");
-  if (min_inliers < 5) ThrowInputError("--min-inliers", "", ">= 5 (an essential matrix needs 5), got " + std::to_string(min_inliers));
+  if (min_inliers < 5)
+    ThrowInputError("--min-inliers", "", ">= 5 (an essential matrix needs 5), got " + std::to_string(min_inliers));
   if (!(contrast_threshold > 0)) ThrowInputError("--sift-contrast", "", "> 0");
   if (upsample < 1 || upsample > 4) ThrowInputError("--sift-upsample", "", "1..4, got " + std::to_string(upsample));
-  if (upsample_max_side < 0) ThrowInputError("--sift-upsample-max-side", "", ">= 0, got " + std::to_string(upsample_max_side));
+  if (upsample_max_side < 0)
+    ThrowInputError("--sift-upsample-max-side", "", ">= 0, got " + std::to_string(upsample_max_side));
 }
 
 std::vector<int> ViewGraph::Neighbors(int i, int k) const {
@@ -38,7 +40,8 @@ std::vector<int> ViewGraph::Neighbors(int i, int k) const {
     if (e.i == i) scored.push_back({e.num_inliers, e.j});
     if (e.j == i) scored.push_back({e.num_inliers, e.i});
   }
-  std::sort(scored.begin(), scored.end(), [](auto a, auto b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+  std::sort(scored.begin(), scored.end(),
+            [](auto a, auto b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
   std::vector<int> out;
   for (int n = 0; n < static_cast<int>(scored.size()) && n < k; ++n) out.push_back(scored[n].second);
   return out;
@@ -81,7 +84,7 @@ struct Features {
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> eigen;  // descriptors, one per row
-  Eigen::VectorXf norms;                                                         // squared row norms
+  Eigen::VectorXf norms;                                                        // squared row norms
 };
 
 // Mutual nearest neighbours passing the ratio test in both directions, from one matrix of
@@ -101,10 +104,14 @@ std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, d
     int j1 = -1;
     for (int j = 0; j < nb; ++j) {
       const float d = a.norms(i) + b.norms(j) - 2 * dot(i, j);
-      if (d < d1) d2 = d1, d1 = d, j1 = j;
-      else if (d < d2) d2 = d;
-      if (d < d1b[j]) d2b[j] = d1b[j], d1b[j] = d, i1b[j] = i;
-      else if (d < d2b[j]) d2b[j] = d;
+      if (d < d1)
+        d2 = d1, d1 = d, j1 = j;
+      else if (d < d2)
+        d2 = d;
+      if (d < d1b[j])
+        d2b[j] = d1b[j], d1b[j] = d, i1b[j] = i;
+      else if (d < d2b[j])
+        d2b[j] = d;
     }
     if (d1 < r2 * d2) best_ab[i] = j1;
     distance[i] = std::sqrt(std::max(d1, 0.f));
@@ -127,13 +134,13 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   }
   for (size_t k = 0; k < images.size(); ++k) {
     if (images[k].width != images[0].width || images[k].height != images[0].height) {
-      ThrowInputError(names[k], "size", std::to_string(images[0].width) + "x" + std::to_string(images[0].height) +
-                                            " like " + names[0] + ", got " + std::to_string(images[k].width) +
-                                            "x" + std::to_string(images[k].height));
+      ThrowInputError(names[k], "size",
+                      std::to_string(images[0].width) + "x" + std::to_string(images[0].height) + " like " + names[0] +
+                          ", got " + std::to_string(images[k].width) + "x" + std::to_string(images[k].height));
     }
     if (images[k].width != cameras[k].width || images[k].height != cameras[k].height) {
-      ThrowInputError(names[k], "size", "the camera's " + std::to_string(cameras[k].width) + "x" +
-                                            std::to_string(cameras[k].height));
+      ThrowInputError(names[k], "size",
+                      "the camera's " + std::to_string(cameras[k].width) + "x" + std::to_string(cameras[k].height));
     }
   }
   ViewGraph graph;
@@ -212,7 +219,8 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       edge.num_inliers = inliers;
       edge.j_from_i = Rigid3d(rot, trans.normalized());
       for (size_t m = 0; m < matches.size(); ++m) {
-        if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
+        if (mask.at<uint8_t>(static_cast<int>(m)) != 0)
+          edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
       }
       pair_edges[p] = std::move(edge);
     }

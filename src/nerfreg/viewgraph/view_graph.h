@@ -25,7 +25,7 @@ struct ViewGraphOptions {
   double ratio = 0.8;                // Lowe ratio test
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
-  int min_inliers = 30;              // fewer geometric inliers: no edge
+  int min_inliers = 30;  // fewer geometric inliers: no edge
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
   double contrast_threshold = 0.04;
@@ -35,7 +35,7 @@ struct ViewGraphOptions {
   // ... but only while the enlarged image's longer side stays within this many pixels (0: always):
   // photo-sized images have features enough, and SIFT's cost grows with the pixel count.
   int upsample_max_side = 0;
-  void Check() const;                // throws std::invalid_argument
+  void Check() const;  // throws std::invalid_argument
 };
 
 // Two views related by an essential matrix: x_in_j = j_from_i * x_in_i with |t| = 1 (the scale
