@@ -19,6 +19,7 @@ OUT_JSON = os.environ.get("OUT_JSON", os.path.join(ROOT, "results", "dbarf_poses
 METHODS = os.environ.get("METHODS", "network network+finetune auto classical colmap").split()
 FINETUNE_STEPS = int(os.environ.get("FINETUNE_STEPS", "200"))
 FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))
+NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
 
@@ -58,7 +59,8 @@ def render(seed, views, size, material, spread, out):
     if os.path.exists(os.path.join(out, "transforms.json")):
         return
     cmd = [NERFREG, "render", "--procedural", str(seed), "--trajectory", "forward", "--views", str(views), "--size", size,
-           "--material", material, "--test-every", "0", "--quiet", "--force", "--out", out]
+           "--material", material, "--test-every", str(NOVEL_TEST_EVERY if views >= 20 else 0), "--quiet", "--force",
+           "--out", out]
     if spread > 0:
         cmd += ["--spread", str(spread)]
     if subprocess.call(cmd) != 0:
@@ -193,6 +195,31 @@ def run_method(method, data, work):
     return evaluate(os.path.join(out, "transforms.json"), gt, len(os.listdir(images))), seconds
 
 
+# Row (c): the test views of a 20-view set rendered at the method's cameras for them, from the
+# training views at their cameras (`dbarf eval --cameras`: one protocol for every method), with
+# the shipped DBARF weights, or the finetuned ones for network+finetune. COLMAP's cameras have no
+# view graph or depth range to render from, so it has no row here.
+def novel_views(method, data, work):
+    if method == "colmap":
+        return {}
+    gt = os.path.join(data, "transforms.json")
+    if method == "network+finetune":
+        cams, weights = os.path.join(work, "finetuned_cameras.json"), os.path.join(work, "finetuned.pt")
+    else:
+        cams, weights = os.path.join(work, method, "transforms.json"), None
+    if not os.path.exists(cams):
+        return {}
+    cmd = [NERFREG, "dbarf", "eval", gt, "--cameras", cams, "--out", os.path.join(work, "eval_" + method.replace("+", "_")),
+           "--force", "--quiet"]
+    if weights:
+        cmd += ["--weights", weights]
+    rc, _ = run(cmd, os.path.join(work, "eval_" + method.replace("+", "_") + ".log"))
+    if rc != 0:
+        return {}
+    j = json.load(open(os.path.join(work, "eval_" + method.replace("+", "_"), "eval.json")))
+    return {"psnr": j["psnr_mean"], "ssim": j["ssim_mean"], "novel_views": j["rendered"]}
+
+
 def median(xs):
     xs = sorted(x for x in xs if x is not None)
     return xs[len(xs) // 2] if xs else None
@@ -214,6 +241,8 @@ def main():
         render(seed, views, size, material, spread, data)
         for method in METHODS:
             result, seconds = run_method(method, data, data + ".runs")
+            if views >= 20:
+                result.update(novel_views(method, data, data + ".runs"))
             result.update({"row": row, "seed": seed, "views": views, "size": size, "material": material, "spread": spread,
                            "method": method, "seconds": seconds})
             records.append(result)
@@ -233,7 +262,9 @@ def main():
                          "rotation_deg_median": median([r["rotation_deg"] for r in rs]),
                          "direction_deg_median": median([r["direction_deg"] for r in rs]),
                          "centre_percent_median": median([r["centre_percent"] for r in rs]),
-                         "seconds_median": median([r["seconds"] for r in rs])})
+                         "seconds_median": median([r["seconds"] for r in rs]),
+                         "psnr_median": median([r.get("psnr") for r in rs]),
+                         "ssim_median": median([r.get("ssim") for r in rs])})
     command = "bash bench/dbarf_poses_bench.sh " + WORK
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
                                          "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_STAGE_STEPS")
@@ -258,14 +289,19 @@ def main():
               "error (deg, over image pairs, alignment-free) and the centre error (%% of the widest baseline); median wall "
               "time per set (s, the whole command; network+finetune: `dbarf poses --method network` plus `dbarf finetune "
               "--refine-cameras`, %d steps in stages of %d). COLMAP 3.8 (CPU) with SIFT's peak threshold lowered to "
-              "0.00167 (its default finds 15-30 features on these renders)." % (FINETUNE_STEPS, FINETUNE_STAGE_STEPS), "",
-              "| set | method | sets | posed | all posed | all posed, <= 2 deg | rotation (deg) | direction (deg) | centre (%) | wall (s) |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "0.00167 (its default finds 15-30 features on these renders). Novel views (20-view rows): every 5th view "
+              "rendered at the method's camera for it from the other views at theirs (`dbarf eval --cameras`), mean PSNR / "
+              "SSIM per set, median over sets; `models/dbarf_cpu.pt`, or the finetuned weights for network+finetune; "
+              "none for COLMAP (its output has no view graph or depth range to render from)." % (FINETUNE_STEPS,
+                                                                                               FINETUNE_STAGE_STEPS), "",
+              "| set | method | sets | posed | all posed | all posed, <= 2 deg | rotation (deg) | direction (deg) | centre (%) | wall (s) | novel PSNR (dB) | novel SSIM |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append("| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %s | %s | %s |" % (
+        lines.append("| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %s | %s | %s | %s | %s |" % (
             r["row"], r["method"], r["sets"], r["posed"], r["images"], r["sets_all_posed"], r["sets"],
             r["sets_all_posed_within_2deg"], r["sets"], fmt(r["rotation_deg_median"], "%.3f"),
-            fmt(r["direction_deg_median"], "%.2f"), fmt(r["centre_percent_median"], "%.2f"), fmt(r["seconds_median"], "%.1f")))
+            fmt(r["direction_deg_median"], "%.2f"), fmt(r["centre_percent_median"], "%.2f"), fmt(r["seconds_median"], "%.1f"),
+            fmt(r.get("psnr_median"), "%.2f"), fmt(r.get("ssim_median"), "%.4f")))
     with open(OUT_MD, "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))

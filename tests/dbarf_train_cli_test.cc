@@ -169,6 +169,23 @@ TEST(DbarfTrainCli, FinetuneRenderAndEval) {
   EXPECT_LT(e["rotation_deg_median"].get<double>(), 0.5);
   EXPECT_GT(e["psnr_mean"].get<double>(), 15.0);
   EXPECT_TRUE(std::filesystem::exists(s.dir.File("eval/compare.png")));
+
+  // The cameras of dbarf poses given with --cameras are scored by the same protocol: here they are
+  // what eval estimated itself (the same SfM), so the figures agree.
+  r = RunNerfreg("dbarf eval " + s.data + "/transforms.json --cameras " + s.posed + "/transforms.json --weights " + ft +
+                 " --sources 2 --json --quiet --out " + s.dir.File("eval_given"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json given = ReadJsonFile(s.dir.File("eval_given/eval.json"));
+  EXPECT_EQ(given["posed"], e["posed"]);
+  EXPECT_EQ(given["rendered"], e["rendered"]);
+  EXPECT_NEAR(given["rotation_deg_median"].get<double>(), e["rotation_deg_median"].get<double>(), 0.05);
+  EXPECT_NEAR(given["psnr_mean"].get<double>(), e["psnr_mean"].get<double>(), 0.5);
+  // A file that dbarf poses did not write is refused.
+  r = RunNerfreg("dbarf eval " + s.data + "/transforms.json --cameras " + s.data + "/transforms.json --weights " + ft +
+                 " --quiet --out " + s.dir.File("eval_bad"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error: " + s.data + "/transforms.json"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(s.dir.File("eval_bad")));
 }
 
 // The finetune's camera refinement: cameras that dbarf poses got right, each turned by 2 degrees

@@ -32,6 +32,9 @@ int RunDbarfEval(int argc, char** argv) {
   app.add_option("dataset", o.dataset, "A dataset with ground-truth poses and a test split")->required();
   app.add_option("--weights", o.weights, "DBARF weights (default: the shipped ones)");
   app.add_option("--out", o.out, "Output folder")->required();
+  app.add_option("--cameras", o.cameras,
+                 "Evaluate these cameras (a transforms.json of dbarf poses --method M, or of dbarf finetune "
+                 "--refine-cameras) instead of estimating them");
   app.add_option("--sources", o.num_sources, "Source views per rendered view");
   app.add_option("--max-width", o.scene.max_width, "Downsample wider images to this width (0: as they are)");
   app.add_option("--perturb-deg", o.perturb.deg,

@@ -1,6 +1,8 @@
 #include "nerfreg/pipeline/evaluate_dbarf.h"
 
 #include <filesystem>
+#include <map>
+#include <set>
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/util/error.h"
@@ -61,6 +63,49 @@ void EvaluateScenePoses(const DbarfEvaluationOptions& o, DbarfModel& model, cons
   }
 }
 
+// The cameras of `cameras` (a posed-images file for the dataset's images) in place of the
+// dataset's estimated ones: matched by file name; images the file lacks or did not pose are
+// unposed; the view graph and depth range are the file's.
+void UsePosedCameras(const std::string& cameras, const DbarfSceneOptions& scene_options, LoadedDbarfScene* loaded) {
+  DbarfSceneOptions posed_options;
+  posed_options.hold_out_test = false;
+  posed_options.max_width = scene_options.max_width;
+  posed_options.cameras = "ground-truth";  // a file of another kind is then read without an SfM, and refused
+  const LoadedDbarfScene posed = LoadDbarfScene(cameras, posed_options);
+  if (posed.ground_truth.defined()) {
+    ThrowInputError(cameras, "", "posed images written by dbarf poses or dbarf finetune --refine-cameras");
+  }
+  DbarfScene& scene = loaded->scene;
+  const auto base = [](const std::string& name) { return fs::path(name).filename().string(); };
+  std::map<std::string, int> index;  // dataset view of a file name
+  for (int v = 0; v < scene.NumViews(); ++v) index[base(scene.image_names[v])] = v;
+  std::set<std::string> unposed;
+  for (const auto& name : posed.not_posed) unposed.insert(base(name));
+  std::vector<int> of_posed(posed.scene.NumViews(), -1);  // dataset view of each posed view
+  std::vector<bool> have(scene.NumViews(), false);
+  for (int p = 0; p < posed.scene.NumViews(); ++p) {
+    const auto it = index.find(base(posed.scene.image_names[p]));
+    if (it == index.end() || unposed.count(it->first)) continue;
+    of_posed[p] = it->second;
+    have[it->second] = true;
+    scene.cam_from_world[it->second].copy_(posed.scene.cam_from_world[p]);
+  }
+  loaded->not_posed.clear();
+  for (int v = 0; v < scene.NumViews(); ++v) {
+    scene.neighbours[v].clear();
+    if (!have[v]) loaded->not_posed.push_back(scene.image_names[v]);
+    scene.usable[v] = have[v] && !loaded->is_test[v];
+  }
+  for (int p = 0; p < posed.scene.NumViews(); ++p) {
+    if (of_posed[p] < 0) continue;
+    for (int q : posed.scene.neighbours[p])
+      if (of_posed[q] >= 0) scene.neighbours[of_posed[p]].push_back(of_posed[q]);
+  }
+  scene.near = posed.scene.near;
+  scene.far = posed.scene.far;
+  scene.supervision_cam_from_world = torch::Tensor();
+}
+
 }  // namespace
 
 void DbarfEvaluationOptions::Check() const {
@@ -72,13 +117,18 @@ void DbarfEvaluationOptions::Check() const {
 
 DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   o.Check();
-  CheckCanWriteOutput(o.out, o.force, {o.dataset, o.weights});
+  CheckCanWriteOutput(o.out, o.force, {o.dataset, o.weights, o.cameras});
   DbarfModel model = LoadDbarfWeights(o.weights);
   model.To(o.device);
   const Timer timer;
-  LoadedDbarfScene loaded = LoadDbarfScene(o.dataset, o.scene);
+  DbarfSceneOptions scene_options = o.scene;
+  // Given cameras replace the estimate, so none is made (the dataset's own poses stand in until
+  // UsePosedCameras overwrites every one of them).
+  if (!o.cameras.empty()) scene_options.cameras = "ground-truth";
+  LoadedDbarfScene loaded = LoadDbarfScene(o.dataset, scene_options);
   if (!loaded.ground_truth.defined())
     ThrowInputError(o.dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
+  if (!o.cameras.empty()) UsePosedCameras(o.cameras, o.scene, &loaded);
   DbarfEvaluation e;
   e.seconds_poses = timer.Seconds();
   const DbarfScene& scene = loaded.scene;
@@ -87,7 +137,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   EvaluateScenePoses(o, model, loaded, &posed, &e, &relative);
 
   // Novel views: test views at their estimated cameras, from training views.
-  OutputDir output(o.out, o.force, {o.dataset, o.weights});
+  OutputDir output(o.out, o.force, {o.dataset, o.weights, o.cameras});
   const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "views"));
   Json views = Json::array();
@@ -127,6 +177,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   e.ssim_mean = Mean(ssims);
   e.seconds = timer.Seconds();
   e.json = {{"dataset", o.dataset},
+            {"cameras", o.cameras.empty() ? Json("estimated") : Json(o.cameras)},
             {"weights", o.weights},
             {"images", scene.NumViews()},
             {"posed", e.posed},

@@ -20,6 +20,10 @@ struct DbarfEvaluationOptions {
   std::string weights;  // DBARF weights
   int num_sources = 8;  // source views per rendered view
   DbarfSceneOptions scene;
+  // `--cameras`: a transforms.json written by `dbarf poses` (or `dbarf finetune --refine-cameras`)
+  // for the dataset's images: its cameras, view graph and depth range are evaluated instead of
+  // estimating them here, so every pose method is scored by the same protocol. Empty: estimate.
+  std::string cameras;
   // Also score the network refining cameras perturbed by this much (inactive: zero).
   RelativePoseNoise perturb;
   torch::Device device = torch::kCPU;  // where the networks run (`--device`)
