@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "cli_test_util.h"
+#include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
@@ -54,9 +55,16 @@ TEST(DbarfTrainCli, PretrainThenResume) {
   EXPECT_EQ(CountLines(w + ".log.jsonl"), 4);
   r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --steps 4 --out " + w + train);
   EXPECT_NE(r.exit_code, 0);  // exists: --force or --resume
+  // As if the run had gone on past its checkpoint and been killed mid-line: the resumed run logs
+  // step 5 again, so the log drops the stale step and the half line first.
+  {
+    std::ofstream stale(w + ".log.jsonl", std::ios::app);
+    stale << "{\"step\":5,\"stage\":\"stale\"}\n{\"step\":6,\"sta";
+  }
   r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --steps 6 --resume --out " + w + train);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(CountLines(w + ".log.jsonl"), 6);
+  EXPECT_EQ(ReadFileToString(w + ".log.jsonl").find("stale"), std::string::npos);
   const Json summary = ReadJsonFile(w + ".json");
   EXPECT_EQ(summary["steps"].get<int>(), 6);
   // Continue pretraining from those weights in a new run, with perturbed camera initialisations.

@@ -18,6 +18,7 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/progress.h"
 #include "nerfreg/util/torch_archive.h"
+#include "nerfreg/util/training_log.h"
 
 namespace nerfreg {
 namespace {
@@ -488,6 +489,7 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
                                         model->training["seconds"].is_number() && run.resume
                                     ? model->training["seconds"].get<double>()
                                     : 0.0;
+  if (run.resume) RewindTrainingLog(run.out + ".log.jsonl", trainer.step());
   std::ofstream log(run.out + ".log.jsonl", run.resume ? std::ios::app : std::ios::trunc);
   ProgressBar bar("dbarf train", run.steps, "step");
   bar.Tick(trainer.step());

@@ -12,6 +12,7 @@
 #include "nerfreg/util/progress.h"
 #include "nerfreg/util/timer.h"
 #include "nerfreg/util/torch_device.h"
+#include "nerfreg/util/training_log.h"
 
 namespace nerfreg {
 
@@ -205,6 +206,7 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   const std::int64_t P = rays.origins.size(0);
   const bool has_alpha = (rays.rgba.select(1, 3) < 0.999).any().item<bool>();
   const std::string log_path = ckpt + ".log.jsonl";
+  if (resume) RewindTrainingLog(log_path, block.step);
   std::ofstream log(log_path, resume ? std::ios::app : std::ios::trunc);
 
   auto save = [&] {

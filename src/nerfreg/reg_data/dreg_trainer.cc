@@ -17,6 +17,7 @@
 #include "nerfreg/util/progress.h"
 #include "nerfreg/util/timer.h"
 #include "nerfreg/util/torch_archive.h"
+#include "nerfreg/util/training_log.h"
 
 namespace nerfreg {
 
@@ -295,7 +296,10 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   };
 
   std::ofstream log;
-  if (group.is_main()) log.open(out + ".log.jsonl", resume ? std::ios::app : std::ios::trunc);
+  if (group.is_main()) {
+    if (resume) RewindTrainingLog(out + ".log.jsonl", step);
+    log.open(out + ".log.jsonl", resume ? std::ios::app : std::ios::trunc);
+  }
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;
   ProgressBar bar("reg train", options.iterations, "it");
   bar.Tick(step);
