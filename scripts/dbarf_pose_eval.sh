@@ -9,6 +9,7 @@
 #   test hard            seeds 4101-4106: 4101-4102 low-texture, 4103-4104 repetitive, 4105-4106
 #                        spread 0.7 (as validation hard); rendered here when missing
 # Usage: [TEST=1] bash scripts/dbarf_pose_eval.sh WEIGHTS...   (label: the file name)
+# TABLE_ONLY=1 rewrites the table from the JSON an earlier run left in WORK.
 # Writes OUT_MD / OUT_JSON (default results/dbarf_pose_network.md / .json): per weights and set,
 # the mean rotation and translation-direction errors over the pairs, and the identity's.
 set -euo pipefail
@@ -48,6 +49,7 @@ for w in "$@"; do
       "test textured") files=("${test_textured[@]}"); flags=(--sfm-cache "$WORK/sfm_cache_test") ;;
       "test hard") files=("${test_hard[@]}"); flags=(--scene-cameras ground-truth) ;;
     esac
+    [ "${TABLE_ONLY:-0}" = 1 ] && continue
     echo "$label: $set (${#files[@]} scenes)" >&2
     OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} nice -n 5 "$BIN" dbarf eval-net "${files[@]}" --weights "$w" "${flags[@]}" \
       --json-out "$WORK/${label}_${key}.json" --quiet > /dev/null

@@ -108,11 +108,12 @@ TEST(DbarfTrainCli, SupervisedPosesFromTheIdentityAndEvalNet) {
   EXPECT_NEAR(e["start_translation_direction_deg"].get<double>(), 90.0, 1e-6);
 }
 
-// What models/dbarf_pose_cpu.pt reaches on the held-out scene below from the identity (its model
-// card has the figures): the rotation error below this fraction of the identity's, the
-// translation direction below this many degrees.
-constexpr double kPoseRotationKept = 0.7;
-constexpr double kPoseDirectionBelow = 15.0;
+// What models/dbarf_pose_cpu.pt must reach on the held-out scene below from the identity: the
+// rotation error cut by at least 70 % (the bar; it reaches 3.436 -> 0.580 deg, an 83 %
+// cut, with batch statistics in its BatchNorm layers), the translation direction below 8 deg
+// (3.71 deg). Its model card has the figures.
+constexpr double kPoseRotationKept = 0.3;
+constexpr double kPoseDirectionBelow = 8.0;
 
 // The shipped pose weights pose a held-out scene (seed 4001: not a training, validation or test
 // scene) from the identity; the weights trained for camera initialisations do not.

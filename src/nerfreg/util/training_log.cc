@@ -14,7 +14,8 @@ int RewindTrainingLog(const std::string& path, std::int64_t step) {
   int dropped = 0;
   while (std::getline(in, line)) {
     const Json j = Json::parse(line, nullptr, /*allow_exceptions=*/false);
-    const bool keep = j.is_object() && (!j.contains("step") || (j["step"].is_number() && j["step"].get<double>() <= step));
+    const bool keep =
+        j.is_object() && (!j.contains("step") || (j["step"].is_number() && j["step"].get<double>() <= step));
     if (keep) {
       kept += line + "\n";
     } else if (!line.empty()) {
