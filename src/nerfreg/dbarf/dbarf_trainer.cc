@@ -79,6 +79,17 @@ const char* DbarfStageName(DbarfStage stage) {
   return "?";
 }
 
+torch::Tensor BoxBlur(const torch::Tensor& images, int radius, int passes) {
+  TORCH_CHECK(images.dim() == 4 && radius >= 0 && passes >= 0, "BoxBlur: expected [N, C, H, W], radius, passes >= 0");
+  torch::Tensor out = images;
+  namespace F = torch::nn::functional;
+  for (int p = 0; p < passes && radius > 0; ++p) {
+    out =
+        F::avg_pool2d(out, F::AvgPool2dFuncOptions(2 * radius + 1).stride(1).padding(radius).count_include_pad(false));
+  }
+  return out;
+}
+
 DbarfStage DbarfStageOfStep(int64_t step, int64_t stage_steps) {
   const int64_t k = step / std::max<int64_t>(stage_steps, 1);
   if (k > 0 && k % 3 == 0) return DbarfStage::kJoint;
@@ -132,6 +143,9 @@ void DbarfTrainOptions::Check() const {
   if (!sfm.Check()) throw InputError("SfM loss options: expected valid weights (see the log)");
   if (!(supervise_rotation_weight >= 0 && std::isfinite(supervise_rotation_weight))) {
     throw InputError("--supervise-rotation-weight: expected >= 0, got " + std::to_string(supervise_rotation_weight));
+  }
+  if (!(blur_probability >= 0 && blur_probability <= 1) || blur_max_radius < 1) {
+    throw InputError("--augment-blur: expected a probability in [0, 1] (and a blur radius >= 1)");
   }
   if (!(supervise_depth >= 0 && std::isfinite(supervise_depth))) {
     throw InputError("--supervise-depth: expected a weight >= 0, got " + std::to_string(supervise_depth));
@@ -321,7 +335,12 @@ DbarfStepResult DbarfTrainer::Step() {
     if (pose_grad && init.defined() && (options_.init_noise_deg > 0 || options_.init_noise_translation > 0)) {
       init = PerturbRelativePoses(init, options_.init_noise_deg, options_.init_noise_translation);
     }
-    pred = model_->pose_net->forward(target, source_images, k_t, init);
+    torch::Tensor pose_input = target;  // [1, 3, H, W]
+    if (options_.blur_probability > 0 &&
+        std::uniform_real_distribution<double>(0, 1)(rng_) < options_.blur_probability) {
+      pose_input = BoxBlur(target, std::uniform_int_distribution<int>(1, options_.blur_max_radius)(rng_), 3);
+    }
+    pred = model_->pose_net->forward(pose_input, source_images, k_t, init);
     src_from_tgt = pred.src_from_tgt.back();
   }
   torch::Tensor loss = torch::zeros({}, torch::kFloat);

@@ -53,6 +53,10 @@ struct DbarfScene {
   void Check() const;
 };
 
+// [N, C, H, W] -> the same, each channel box-filtered `passes` times with a (2 radius + 1)^2 window,
+// edges averaged over the pixels inside the image (close to a Gaussian after three passes).
+torch::Tensor BoxBlur(const torch::Tensor& images, int radius, int passes);
+
 enum class DbarfStage { kPose, kNerf, kJoint };
 const char* DbarfStageName(DbarfStage stage);
 DbarfStage DbarfStageOfStep(int64_t step, int64_t stage_steps);
@@ -111,6 +115,13 @@ struct DbarfTrainOptions {
   // a photometric signal in the estimated cameras' units while the predicted poses are still
   // wrong, instead of retreating to the far bound (where a wrong translation costs least).
   double supervise_depth = 0;
+  // Probability per step that the pose network sees the target image box-blurred (radius drawn in
+  // 1..blur_max_radius, three passes; the losses keep the sharp image): user photos have defocus
+  // and motion blur that renders never do, and a blurred image is the one SIFT cannot match, i.e.
+  // the one `dbarf poses --method auto` hands to the network. 0 = off (no random draw either, so
+  // runs without it replay as before).
+  double blur_probability = 0;
+  int blur_max_radius = 4;
   // The SfM loss's options (smoothness weight, auto-masking, ...): the original's by default.
   SfmLossOptions sfm;
   uint64_t seed = 0;

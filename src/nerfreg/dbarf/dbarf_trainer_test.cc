@@ -324,6 +324,45 @@ TEST(DbarfTrainer, SupervisedPosesNeedGroundTruthAndTeachPosesFromTheIdentity) {
   EXPECT_LT(after.translation_deg, 0.5 * before.translation_deg);
 }
 
+TEST(DbarfTrainer, BoxBlurKeepsFlatImagesAndSmoothsEdges) {
+  const torch::Tensor flat = torch::full({2, 3, 12, 16}, 0.25f);
+  EXPECT_TRUE(torch::allclose(BoxBlur(flat, 2, 3), flat, 1e-6, 1e-6));  // edges average inside the image
+  // A checkerboard of 1-pixel squares: radius 1 averages 5 of one colour with 4 of the other.
+  const torch::Tensor ij = torch::arange(16).view({4, 4});
+  const torch::Tensor board =
+      ((torch::div(ij, 4, "floor") + ij % 4) % 2).to(torch::kFloat).view({1, 1, 4, 4}).repeat({1, 1, 3, 3});
+  const torch::Tensor once = BoxBlur(board, 1, 1);
+  EXPECT_EQ(once.sizes(), board.sizes());
+  EXPECT_NEAR(once[0][0][5][5].item<float>(), board[0][0][5][5].item<float>() > 0.5f ? 5.0f / 9 : 4.0f / 9, 1e-6);
+  EXPECT_LT(BoxBlur(board, 2, 3).std().item<float>(), 0.1 * board.std().item<float>());
+  EXPECT_TRUE(torch::equal(BoxBlur(board, 0, 3), board));
+}
+
+// --augment-blur: checked, and drawn from the trainer's own stream (a run replays) only when on;
+// the pose network then sees another image, so the step's SfM loss differs from the unblurred run.
+TEST(DbarfTrainer, BlurAugmentationIsSeededAndChangesWhatThePoseNetworkSees) {
+  torch::Tensor truth;
+  DbarfScene scene = RidgeScene(&truth);
+  scene.supervision_cam_from_world = truth;
+  DbarfTrainOptions options = SmallOptions();
+  options.stage_steps = 1000;  // pose stage only
+  options.supervise_poses = 1.0;
+  options.pose_init = "network";
+  options.blur_probability = 1.5;
+  EXPECT_THROW(options.Check(), InputError);
+  const auto first_loss = [&](double blur) {
+    DbarfTrainOptions o = options;
+    o.blur_probability = blur;
+    torch::manual_seed(5);
+    DbarfModel model(DbarfOptions::Cpu());
+    DbarfTrainer trainer(&model, {scene}, o);
+    return trainer.Step().sfm_loss;  // through the predicted depth (a fresh network returns the identity pose)
+  };
+  const double plain = first_loss(0), blurred = first_loss(1), again = first_loss(1);
+  EXPECT_EQ(blurred, again);
+  EXPECT_NE(blurred, plain);
+}
+
 TEST(DbarfTrainer, RejectsScenesWithoutUsableNeighboursOrDepthRange) {
   torch::Tensor truth;
   DbarfModel model(DbarfOptions::Cpu());

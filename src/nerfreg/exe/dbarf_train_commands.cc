@@ -101,6 +101,8 @@ int RunDbarfPretrain(int argc, char** argv) {
   app.add_option("--supervise-depth", c.train.supervise_depth,
                  "Weight of an SfM loss on the predicted depth with the sources placed by the datasets' own relative "
                  "poses (a departure like --supervise-poses; 0: off)");
+  app.add_option("--augment-blur", c.train.blur_probability,
+                 "Probability per step that the pose network sees the target blurred (radius 1-4 px; default 0)");
   app.add_option("--supervise-rotation-weight", c.train.supervise_rotation_weight,
                  "Weight of the rotation term of the supervised pose loss against the translation term (default 5)");
   app.add_option("--rotation-scale", c.rotation_scale,

@@ -73,6 +73,7 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
     model.training["pose_init"] = c.train.pose_init;
     model.training["supervise_poses"] = c.train.supervise_poses;
     model.training["supervise_depth"] = c.train.supervise_depth;
+    if (c.train.blur_probability > 0) model.training["augment_blur"] = c.train.blur_probability;
     if (!c.weights.empty()) model.training["initial_weights"] = c.weights;
   }
   model.training["data"] = c.scenes;
