@@ -21,10 +21,11 @@ for k in 0 1; do
 done
 
 echo "== 3/4 register block 0 into block 1 (auto: DReg-NeRF and FPFH + RANSAC, each refined on the two fields, the best kept)"
-# name:method:refine. auto: every method refined on the fields, the best kept; "ransac": the
-# classical pipeline alone (FPFH + RANSAC + ICP), for comparison.
-RUNS="ransac:ransac:field"
-[ -f models/dreg_cpu.pt ] && RUNS="auto:auto:field ransac:ransac:icp"
+# name:method:refine. auto: every method refined on the fields, the best kept; "ransac_field": FPFH
+# + RANSAC with the same field refinement (like with like: what the choice adds); "ransac": the
+# classical pipeline alone (FPFH + RANSAC + ICP).
+RUNS="ransac_field:ransac:field ransac:ransac:icp"
+[ -f models/dreg_cpu.pt ] && RUNS="auto:auto:field $RUNS"
 METHODS=""
 for run in $RUNS; do
   IFS=: read -r name method refine <<< "$run"
