@@ -225,8 +225,14 @@ def median(xs):
     return xs[len(xs) // 2] if xs else None
 
 
+# A set whose images were posed but that `dbarf eval-poses` cannot score (cameras collapsed onto a
+# point or a line) counts as a failure, not as a missing value, in the error medians.
+def errors_of(rs, key):
+    return [float("inf") if r[key] is None else r[key] for r in rs if r["posed"] > 0]
+
+
 def fmt(x, spec):
-    return "-" if x is None else spec % x
+    return "-" if x is None else "fail" if x == float("inf") else spec % x
 
 
 def main():
@@ -259,9 +265,9 @@ def main():
             rows.append({"row": row, "method": method, "sets": len(rs), "images": sum(r["images"] for r in rs),
                          "posed": sum(r["posed"] for r in rs), "sets_all_posed": len(complete),
                          "sets_all_posed_within_2deg": len(ok),
-                         "rotation_deg_median": median([r["rotation_deg"] for r in rs]),
-                         "direction_deg_median": median([r["direction_deg"] for r in rs]),
-                         "centre_percent_median": median([r["centre_percent"] for r in rs]),
+                         "rotation_deg_median": median(errors_of(rs, "rotation_deg")),
+                         "direction_deg_median": median(errors_of(rs, "direction_deg")),
+                         "centre_percent_median": median(errors_of(rs, "centre_percent")),
                          "seconds_median": median([r["seconds"] for r in rs]),
                          "psnr_median": median([r.get("psnr") for r in rs]),
                          "ssim_median": median([r.get("ssim") for r in rs])})
@@ -273,10 +279,14 @@ def main():
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command
     machine = "%s, %d cores, load %s" % (platform.machine(), os.cpu_count(), open("/proc/loadavg").read().split()[0])
     date = datetime.datetime.utcnow().strftime("%Y-%m-%d %H:%M UTC")
+    if os.environ.get("REPORT_FROM_JSON"):  # the figures' own date and machine
+        earlier = json.load(open(os.environ["REPORT_FROM_JSON"]))
+        date, machine = earlier["date"], earlier["machine"]
     os.makedirs(os.path.dirname(OUT_JSON), exist_ok=True)
     with open(OUT_JSON, "w") as f:
-        json.dump({"date": date, "machine": machine, "command": command, "reduced": REDUCED, "rows": rows, "sets": records}, f,
-                  indent=1)
+        json_rows = [{k: "fail" if v == float("inf") else v for k, v in r.items()} for r in rows]
+        json.dump({"date": date, "machine": machine, "command": command, "reduced": REDUCED, "rows": json_rows,
+                   "sets": records}, f, indent=1)
     lines = ["# Poses of unposed images by method (`bench/dbarf_poses_bench.sh`)", "",
              "Date %s; machine %s; command `%s`; raw per-set figures in `%s`." % (date, machine, command,
                                                                                   os.path.relpath(OUT_JSON, ROOT)), ""]
