@@ -594,18 +594,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     ThrowInputError(names.empty() ? std::string("images") : names[0], "",
                     "at least 3 images to pose, got " + std::to_string(n));
   }
-  // As the view graph checks them (the network method may not build one).
-  for (int k = 0; k < n; ++k) {
-    if (images[k].width != images[0].width || images[k].height != images[0].height) {
-      ThrowInputError(names[k], "size",
-                      std::to_string(images[0].width) + "x" + std::to_string(images[0].height) + " like " + names[0] +
-                          ", got " + std::to_string(images[k].width) + "x" + std::to_string(images[k].height));
-    }
-    if (images[k].width != cameras[k].width || images[k].height != cameras[k].height) {
-      ThrowInputError(names[k], "size",
-                      "the camera's " + std::to_string(cameras[k].width) + "x" + std::to_string(cameras[k].height));
-    }
-  }
+  CheckImageSizes(images, cameras, names);  // the network method may not build a view graph
   const Timer timer;
   // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
   // pose everything and the network not run).

@@ -126,12 +126,8 @@ std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, d
 
 }  // namespace
 
-ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times) {
-  options.Check();
-  if (images.size() != cameras.size() || images.size() != names.size()) {
-    throw std::invalid_argument("BuildViewGraph: images, cameras and names differ in count");
-  }
+void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names) {
   for (size_t k = 0; k < images.size(); ++k) {
     if (images[k].width != images[0].width || images[k].height != images[0].height) {
       ThrowInputError(names[k], "size",
@@ -143,6 +139,15 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
                       "the camera's " + std::to_string(cameras[k].width) + "x" + std::to_string(cameras[k].height));
     }
   }
+}
+
+ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times) {
+  options.Check();
+  if (images.size() != cameras.size() || images.size() != names.size()) {
+    throw std::invalid_argument("BuildViewGraph: images, cameras and names differ in count");
+  }
+  CheckImageSizes(images, cameras, names);
   ViewGraph graph;
   graph.names = names;
   const int n = static_cast<int>(images.size());

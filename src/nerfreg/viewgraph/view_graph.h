@@ -68,6 +68,11 @@ struct ViewGraph {
 // The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
 int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 
+// Throws InputError naming the image when an image's size differs from the first image's or from
+// its camera's (what BuildViewGraph checks; callers that may not build a graph check it too).
+void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names);
+
 // Builds the graph over all pairs. images: 8-bit-range float images (grey or colour) of equal size;
 // cameras: one per image (intrinsics only). Throws InputError naming the image when sizes differ
 // from the first image or from the camera. times (optional): the stages "features", "matching"
