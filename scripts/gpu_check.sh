@@ -13,6 +13,8 @@
 #   GPU_BUILD_DIR   build folder (default build-gpu)
 #   GPU_RESULTS     output JSON (default results/gpu.json)
 #   CUDA_ARCHS      CMAKE_CUDA_ARCHITECTURES (default native: the GPU present)
+#   GPU_CTEST_JOBS, GPU_CTEST_TIMEOUT  ctest's -j (default 4) and per-test limit in s (default 900)
+#   GPU_BUILD_ONLY=1  stop after the build (to run chosen tests first; a second call rebuilds nothing)
 #   GPU_SKIP_TESTS=1  reuse the test logs of an earlier run in the same build folder (a second
 #                   call on a warm machine that only times)
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
@@ -70,9 +72,23 @@ echo "gpu_check: ${GPU_NAME} (driver ${DRIVER}), torch ${TORCH_VERSION} (CUDA ${
 LOGS=${BUILD_DIR}/gpu_check
 mkdir -p "${LOGS}"
 
+# A compiler with only a static libstdc++ (the GPU machines' /opt/gcc g++ 13: -print-file-name
+# finds no libstdc++.so) puts a second C++ runtime into each executable beside the libstdc++.so.6
+# that LibTorch loads. Objects that cross between the two abort: a torch::jit stringstream freed a
+# std::locale of the other copy ("free(): invalid pointer" in every torch::serialize load, seen on
+# an H200, 2026-11-26). Each executable then names the shared runtime LibTorch uses, first.
+LINK_FLAGS=()
+CXX_FOR_BUILD=${CXX:-c++}
+if [ ! -f "$("${CXX_FOR_BUILD}" -print-file-name=libstdc++.so)" ]; then
+  SHARED_STDCXX=$(ldconfig -p | sed -n 's/^[[:space:]]*libstdc++\.so\.6 (libc6,x86-64) => //p' | head -n 1)
+  [ -f "${SHARED_STDCXX}" ] || fail "${CXX_FOR_BUILD} has no libstdc++.so and ldconfig knows no libstdc++.so.6"
+  echo "gpu_check: ${CXX_FOR_BUILD} links libstdc++ statically; linking ${SHARED_STDCXX} instead"
+  LINK_FLAGS=("-DCMAKE_EXE_LINKER_FLAGS=-Wl,--push-state,--no-as-needed ${SHARED_STDCXX} -Wl,--pop-state")
+fi
+
 # 1. Build.
 build_start=$(date +%s)
-cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release "${LINK_FLAGS[@]}" \
   -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY=ON -DNERFREG_BUILD_BENCH=OFF \
   -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
   -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-native}" >"${LOGS}/configure.log" 2>&1 ||
@@ -82,6 +98,7 @@ cmake --build "${BUILD_DIR}" -j "${JOBS}" -- -k 0 >"${LOGS}/build.log" 2>&1 ||
   { grep -B2 -A12 -E "error:|FAILED:" "${LOGS}/build.log" | head -n 150 >&2; fail "build failed (${LOGS}/build.log)"; }
 build_seconds=$(( $(date +%s) - build_start ))
 echo "gpu_check: built ${BUILD_DIR} in ${build_seconds} s"
+if [ "${GPU_BUILD_ONLY:-0}" = 1 ]; then exit 0; fi
 
 # 2. Tests: all of the learned core's, then the CUDA cases alone, which must run.
 tests_rc=0
@@ -89,7 +106,7 @@ if [ "${GPU_SKIP_TESTS:-0}" = 1 ] && [ -f "${LOGS}/ctest.log" ]; then
   echo "gpu_check: GPU_SKIP_TESTS=1: the tests' logs of the last run in ${LOGS} are reported again"
   grep -q "tests passed, 0 tests failed\|100% tests passed" "${LOGS}/ctest.log" || tests_rc=8
 else
-ctest --test-dir "${BUILD_DIR}" --output-on-failure -j 4 --timeout 900 >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
+ctest --test-dir "${BUILD_DIR}" --output-on-failure -j "${GPU_CTEST_JOBS:-4}" --timeout "${GPU_CTEST_TIMEOUT:-900}" >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
 fi
 tests_summary=$(grep -E "tests passed|tests failed" "${LOGS}/ctest.log" | tail -n 1 || true)
 # A backtrace of each failed test (cuda-gdb also debugs host code; the GPU images have no gdb), so

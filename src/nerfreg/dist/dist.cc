@@ -116,12 +116,21 @@ std::string FirstLine(const std::string& s) {
   return line.size() > 200 ? line.substr(0, 200) : line;
 }
 
+// A collective that ends without success: its message for the caller's DistError.
+void WaitOrThrow(const c10::intrusive_ptr<c10d::Work>& work) {
+  if (!work->wait() || !work->isSuccess()) {
+    throw std::runtime_error("the collective did not complete (aborted)");
+  }
+}
+
 }  // namespace
 
 void DistGroup::AllReduceSum(std::vector<torch::Tensor>& tensors) {
   if (world_size_ == 1) return;
   try {
-    impl_->pg->allreduce(tensors)->wait();
+    // Work::wait() throws for a failed collective, and (LibTorch 2.x's Work.hpp) returns false
+    // for an aborted one: both are a lost peer.
+    WaitOrThrow(impl_->pg->allreduce(tensors));
   } catch (const std::exception& e) {
     throw DistError("rank " + std::to_string(rank_) + ": a peer was lost during an all-reduce (" + FirstLine(e.what()) +
                     "); continue with --resume");
@@ -133,7 +142,7 @@ void DistGroup::Broadcast(std::vector<torch::Tensor>& tensors, int root) {
   c10d::BroadcastOptions options;
   options.rootRank = root;
   try {
-    impl_->pg->broadcast(tensors, options)->wait();
+    WaitOrThrow(impl_->pg->broadcast(tensors, options));
   } catch (const std::exception& e) {
     throw DistError("rank " + std::to_string(rank_) + ": a peer was lost during a broadcast (" + FirstLine(e.what()) +
                     "); continue with --resume");
