@@ -418,8 +418,21 @@ DbarfStepResult DbarfTrainer::Step() {
     pose_optimizer_->step();
   }
   if (camera_optimizer_ && result.stage == DbarfStage::kNerf && rgb_valid) {
+    // Adam moves a parameter by its momentum also on steps that gave it no gradient: a camera
+    // this step did not render from would keep drifting. Only the target and its sources move
+    // (lazy Adam, as SparseAdam for the hash grids).
+    torch::NoGradGuard no_grad;
+    std::vector<torch::Tensor> before;  // per scene [V, 6]
+    for (const torch::Tensor& twist : camera_twists_) before.push_back(twist.detach().clone());
     SetLearningRates(camera_optimizer_.get(), {options_.lr_cameras}, decay);
     camera_optimizer_->step();
+    torch::Tensor touched = torch::zeros({scene.NumViews(), 1}, camera_twists_[s].options());  // [V, 1]
+    touched[t] = 1.0;
+    for (int j : sources) touched[j] = 1.0;
+    for (size_t i = 0; i < camera_twists_.size(); ++i) {
+      const torch::Tensor keep = static_cast<int>(i) == s ? touched : torch::zeros_like(touched.slice(0, 0, 1));
+      camera_twists_[i].copy_(before[i] + (camera_twists_[i].detach() - before[i]) * keep);
+    }
   }
   ++step_;
   return result;

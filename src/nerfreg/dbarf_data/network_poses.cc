@@ -295,6 +295,49 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
   return out;
 }
 
+std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                   double fraction) {
+  const size_t n = cam_from_world.size();
+  std::vector<int> out(n, -1);
+  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (size_t k = 0; k < n; ++k) {
+    if (!posed[k]) continue;
+    centres[k] = cam_from_world[k].Inverse().translation;
+    mean += centres[k];
+    ++count;
+  }
+  if (count < 2) return out;
+  mean /= count;
+  double spread = 0;
+  for (size_t k = 0; k < n; ++k)
+    if (posed[k]) spread += (centres[k] - mean).squaredNorm();
+  spread = std::sqrt(spread / count);
+  for (size_t a = 0; a < n; ++a) {
+    for (size_t b = 0; b < n && posed[a] && out[a] < 0; ++b) {
+      if (b != a && posed[b] && (centres[a] - centres[b]).norm() <= fraction * spread) out[a] = static_cast<int>(b);
+    }
+  }
+  return out;
+}
+
+bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>& p98, double scale,
+                       const NetworkPosesOptions& options, double* near, double* far) {
+  *near = options.near;
+  *far = options.far;
+  if (p02.empty() || p98.empty() || !(scale > 0)) return false;
+  const double lo = Median(p02), hi = Median(p98);
+  // A collapsed depth (the self-supervised failure mode, docs/poses_and_views.md): the network's
+  // weights put every pixel of an unseen scene at the far bound, and a range built from that
+  // (0.7 to 1.4 x far) misses the content: views rendered at these cameras then sample empty space.
+  const bool collapsed = !(hi >= 1.5 * lo) || lo >= 0.9 * options.far || hi <= 1.1 * options.near;
+  if (collapsed) return false;
+  *near = 0.7 * scale * lo;
+  *far = 1.4 * scale * hi;
+  return true;
+}
+
 namespace {
 
 torch::Tensor StackImages(const std::vector<Image>& images) {
@@ -461,10 +504,12 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     }
     result->num_network_edges += static_cast<int>(poses.size());
     average = AverageNetworkEdges(n, poses, graph, options.averaging, options.graph_edge_weight);
-    // The depth range: the network's predicted depths, widened as DepthRangeFromPoints widens the
-    // triangulated ones, brought into the output frame by the fitted scale.
-    result->near = p02.empty() ? options.near : 0.7 * average.scale * Median(p02);
-    result->far = p98.empty() ? options.far : 1.4 * average.scale * Median(p98);
+    if (!NetworkDepthRange(p02, p98, average.scale, options, &result->near, &result->far) && pass == 0) {
+      LOG_INFO(
+          "network poses: the network's depths are collapsed (median 2nd / 98th percentile {:.3g} / {:.3g}); "
+          "the output's depth range is --near / --far ({:.3g} / {:.3g})",
+          p02.empty() ? 0.0 : Median(p02), p98.empty() ? 0.0 : Median(p98), options.near, options.far);
+    }
   }
   if (options.bundle_adjust) {
     PhotometricRefine(images, intrinsics, inv_depths, sources, average.averaged.posed, average.scale,
@@ -662,7 +707,19 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                result.auto_network_score);
       result.seconds_network = net.seconds_network;
       result.num_network_edges = net.num_network_edges;
-      if (result.auto_network_score < result.auto_sfm_score) {
+      // A collapsed solution loses whatever its photometric error (collapsed centres can explain
+      // low-texture or repeated content about as well as the true ones).
+      const auto collapsed = [](const std::vector<Rigid3d>& cams, const std::vector<bool>& posed) {
+        const std::vector<int> c = CoincidentCentres(cams, posed);
+        return std::count_if(c.begin(), c.end(), [](int j) { return j >= 0; });
+      };
+      const auto sfm_collapsed = collapsed(result.cam_from_world, result.posed);
+      const auto network_collapsed = collapsed(net.cam_from_world, net.posed);
+      if (sfm_collapsed != network_collapsed) {
+        LOG_INFO("cameras on another's centre: SfM {}, network {}", sfm_collapsed, network_collapsed);
+      }
+      if (network_collapsed < sfm_collapsed ||
+          (network_collapsed == sfm_collapsed && result.auto_network_score < result.auto_sfm_score)) {
         const SfmResult sfm = std::move(result.sfm);
         const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;
         result = std::move(net);
@@ -709,6 +766,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   const bool matched = options.method != "network" || options.network.match_images;
   const std::vector<std::string> problems =
       ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
+  const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);
   for (int k = 0; k < n; ++k) {
     if (!result.posed[k]) {
       result.not_posed.push_back(names[k]);
@@ -716,6 +774,9 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     }
     ImagePoseConfidence& c = result.confidence[k];
     c.problem = problems[k];
+    if (c.problem.empty() && coincident[k] >= 0) {
+      c.problem = "its camera centre coincides with " + names[coincident[k]] + "'s (a collapsed solution)";
+    }
     c.low = !c.problem.empty() || c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
             c.direction_residual_deg > options.low_confidence_direction_deg ||
             (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);

@@ -182,6 +182,22 @@ std::vector<std::vector<int>> AppearanceNeighbours(const torch::Tensor& images);
 std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::vector<std::vector<int>>& appearance,
                                const std::vector<bool>& allowed, const NetworkPosesOptions& options);
 
+// The depth range of method network's output, from the percentiles of the network's predicted
+// target depths (one p02 / p98 per target, in the network's units) brought into the output frame
+// by `scale`, widened as DepthRangeFromPoints widens triangulated depths. A depth the network has
+// collapsed (nearly constant: median p98 < 1.5 x median p02, or pinned to a bound of the range
+// options.near / far it was run with) says nothing of the content: then options.near / far, the
+// range typical of the scenes it was trained on. Returns whether the network's own range was used.
+bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>& p98, double scale,
+                       const NetworkPosesOptions& options, double* near, double* far);
+
+// Per image, another posed image whose camera centre coincides with its own (closer than
+// `fraction` of the root-mean-square spread of the posed centres), or -1. A solution with such
+// images has collapsed (seen from the SfM on repetitive texture and from the network on
+// low-texture images): an image capture for a NeRF has no two photographs from one point.
+std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                   double fraction = 0.01);
+
 struct NetworkRelativePose {
   int target = 0, source = 0;
   Rigid3d src_from_tgt;  // the network's last prediction, in the depth range's units

@@ -142,6 +142,35 @@ TEST(NetworkPoses, SourcesComeFromTheViewGraphAndFromAppearanceWhereItHasTooFewE
   EXPECT_EQ(ChooseSources(4, graph, appearance, {true, true, false, false, false}, o), (std::vector<int>{1, 0}));
 }
 
+// Coincident camera centres (a collapsed solution) are named per image; distinct ones are not.
+TEST(NetworkPoses, CoincidentCentresNameTheCollapsedImages) {
+  std::vector<Rigid3d> cams;
+  for (int k = 0; k < 5; ++k) cams.push_back(Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.5 * k, 0, 0)));
+  std::vector<bool> posed(5, true);
+  EXPECT_EQ(CoincidentCentres(cams, posed), std::vector<int>(5, -1));
+  cams[3].translation = cams[1].translation + Eigen::Vector3d(1e-4, 0, 0);  // image 3 collapsed onto 1
+  EXPECT_EQ(CoincidentCentres(cams, posed), (std::vector<int>{-1, 3, -1, 1, -1}));
+  posed[1] = false;  // an unposed image is nobody's twin
+  EXPECT_EQ(CoincidentCentres(cams, posed), std::vector<int>(5, -1));
+}
+
+// The output's depth range follows the network's depths where they have a spread, and falls back
+// to --near / --far where they collapsed (constant, or pinned to a bound).
+TEST(NetworkPoses, DepthRangeFromTheNetworkUnlessItsDepthCollapsed) {
+  NetworkPosesOptions o;  // near 7, far 40
+  double near = 0, far = 0;
+  EXPECT_TRUE(NetworkDepthRange({9, 10, 11}, {25, 26, 27}, 2.0, o, &near, &far));
+  EXPECT_DOUBLE_EQ(near, 0.7 * 2.0 * 10);
+  EXPECT_DOUBLE_EQ(far, 1.4 * 2.0 * 26);
+  EXPECT_FALSE(NetworkDepthRange({39.9, 40, 40}, {40, 40, 40}, 1.0, o, &near, &far));  // at the far bound
+  EXPECT_DOUBLE_EQ(near, 7);
+  EXPECT_DOUBLE_EQ(far, 40);
+  EXPECT_FALSE(NetworkDepthRange({20, 21}, {22, 23}, 1.0, o, &near, &far));  // nearly constant
+  EXPECT_FALSE(NetworkDepthRange({7, 7}, {7.5, 7.5}, 1.0, o, &near, &far));  // at the near bound
+  EXPECT_FALSE(NetworkDepthRange({}, {}, 1.0, o, &near, &far));
+  EXPECT_DOUBLE_EQ(near, 7);
+}
+
 // The whole network method with whatever weights are given (here untrained ones): every image is a
 // target once, every (target, source) pair an edge, and the images are posed by the network.
 TEST(NetworkPoses, NetworkMethodPosesEveryImageFromTheWeightsGiven) {
