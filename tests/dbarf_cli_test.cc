@@ -256,6 +256,40 @@ TEST(DbarfCli, AutoPosesWithTheNetworkAnImageTheSfmCannotPose) {
       << c3.transpose() << " | " << c4.transpose() << " | " << c5.transpose();
 }
 
+// --method auto on repetitive texture: the SfM poses every image but matches the wrong copies of
+// the pattern, doubts its own solution, and auto poses all images with the network too, keeping
+// the cameras with the lower photometric error. Both errors are recorded, the network's cameras
+// are kept, and they are closer to the truth than the SfM's (a held-out seed of the bench's
+// repetitive sets, bench/dbarf_poses_bench.py).
+TEST(DbarfCli, AutoReplacesADoubtfulSfmOnRepetitiveTextureByTheNetwork) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("scene");
+  CommandResult r = RunNerfreg(
+      "render --procedural 5501 --trajectory forward --views 10 --size 128x96 "
+      "--material repetitive --test-every 0 --quiet --out " +
+      data);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string args = "dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --quiet --out ";
+  const auto rotation_error = [&](const std::string& out) {
+    const CommandResult e = RunNerfreg("dbarf eval-poses " + out + "/transforms.json --ground-truth " + data +
+                                       "/transforms.json --align rotations --json");
+    EXPECT_EQ(e.exit_code, 0) << e.output;
+    return Json::parse(e.output.substr(e.output.find('{')))["rotation_deg_median"].get<double>();
+  };
+  r = RunNerfreg(args + dir.File("classical") + " --method classical");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunNerfreg(args + dir.File("auto") + " --method auto");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = ReadJsonFile(dir.File("auto") + "/transforms.json");
+  ASSERT_TRUE(j["dbarf_poses"].contains("auto_check")) << j["dbarf_poses"].dump();
+  const Json& check = j["dbarf_poses"]["auto_check"];
+  EXPECT_EQ(check["kept"], "network") << check.dump();
+  EXPECT_LT(check["network_photometric_error"].get<double>(), check["sfm_photometric_error"].get<double>());
+  for (const Json& f : j["frames"]) EXPECT_EQ(f["posed_by"], "network") << f.dump();
+  const double sfm_error = rotation_error(dir.File("classical")), auto_error = rotation_error(dir.File("auto"));
+  EXPECT_LT(auto_error, sfm_error) << "auto " << auto_error << " deg, classical " << sfm_error << " deg";
+}
+
 // Images no method can pose with confidence (a flat grey one, two identical, one of another scene
 // drawn upside down): each is posed or not, but never a confident pose; the warning names each
 // with its confidence and the reason. A weights file of another kind is a named error.
