@@ -707,19 +707,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                result.auto_network_score);
       result.seconds_network = net.seconds_network;
       result.num_network_edges = net.num_network_edges;
-      // A collapsed solution loses whatever its photometric error (collapsed centres can explain
-      // low-texture or repeated content about as well as the true ones).
-      const auto collapsed = [](const std::vector<Rigid3d>& cams, const std::vector<bool>& posed) {
-        const std::vector<int> c = CoincidentCentres(cams, posed);
-        return std::count_if(c.begin(), c.end(), [](int j) { return j >= 0; });
-      };
-      const auto sfm_collapsed = collapsed(result.cam_from_world, result.posed);
-      const auto network_collapsed = collapsed(net.cam_from_world, net.posed);
-      if (sfm_collapsed != network_collapsed) {
-        LOG_INFO("cameras on another's centre: SfM {}, network {}", sfm_collapsed, network_collapsed);
-      }
-      if (network_collapsed < sfm_collapsed ||
-          (network_collapsed == sfm_collapsed && result.auto_network_score < result.auto_sfm_score)) {
+      if (result.auto_network_score < result.auto_sfm_score) {
         const SfmResult sfm = std::move(result.sfm);
         const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;
         result = std::move(net);
