@@ -524,7 +524,7 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
   if (run.resume) RewindTrainingLog(run.out + ".log.jsonl", trainer.step());
   std::ofstream log(run.out + ".log.jsonl", run.resume ? std::ios::app : std::ios::trunc);
   ProgressBar bar("dbarf train", run.steps, "step");
-  bar.Tick(trainer.step());
+  bar.Resume(trainer.step());
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   std::vector<double> psnrs, sfms;

@@ -228,7 +228,7 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
   auto density_fn = [&](const torch::Tensor& x) { return block.field->Density(x); };
 
   ProgressBar bar("nerf train", options.iterations, "it");
-  bar.Tick(block.step);
+  bar.Resume(block.step);
   double loss_value = 0, psnr_test = 0;
   const double step_size = block.march.step_size;
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;

@@ -302,7 +302,7 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   }
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;
   ProgressBar bar("reg train", options.iterations, "it");
-  bar.Tick(step);
+  bar.Resume(step);
   std::normal_distribution<double> normal(0, 1);
   DregTrainResult result;
   double loss_ema = 0;

@@ -53,12 +53,27 @@ void ProgressBar::Finish() {
   Draw(true);
 }
 
+void ProgressBar::Resume(std::int64_t done) {
+  done_ += done;
+  resumed_ += done;
+}
+
+double ProgressBar::Rate() const {
+  const double elapsed = ElapsedSeconds();
+  return elapsed > 0 ? (done_ - resumed_) / elapsed : 0.0;
+}
+
+double ProgressBar::EtaSeconds() const {
+  const double rate = Rate();
+  return rate > 0 && total_ > 0 ? (total_ - done_) / rate : NAN;
+}
+
 void ProgressBar::Draw(bool final) {
   const LogOptions& opt = CurrentLogOptions();
   if (opt.quiet) return;
   const double elapsed = ElapsedSeconds();
-  const double rate = elapsed > 0 ? done_ / elapsed : 0.0;
-  const double eta = rate > 0 && total_ > 0 ? (total_ - done_) / rate : NAN;
+  const double rate = Rate();
+  const double eta = EtaSeconds();
   if (opt.json) {
     std::string line = "{\"progress\":\"" + label_ + "\",\"done\":" + std::to_string(done_) +
                        ",\"total\":" + std::to_string(total_) + ",\"rate\":" + std::to_string(rate) +

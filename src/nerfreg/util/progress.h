@@ -16,6 +16,11 @@ class ProgressBar {
 
   // Advances by n and redraws if enough time passed.
   void Tick(std::int64_t n = 1);
+  // A resumed run: `done` units were done by an earlier run. They fill the bar but not the rate,
+  // so the rate and ETA are this run's.
+  void Resume(std::int64_t done);
+  double Rate() const;        // units per second in this run
+  double EtaSeconds() const;  // NaN while the rate is unknown
   // Sets a metric shown after the bar (kept until changed).
   void SetMetric(const std::string& name, double value);
   // Final redraw and newline.
@@ -31,6 +36,7 @@ class ProgressBar {
   std::int64_t total_;
   std::string unit_;
   std::int64_t done_ = 0;
+  std::int64_t resumed_ = 0;  // of done_, what an earlier run did
   std::map<std::string, double> metrics_;
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_draw_;
