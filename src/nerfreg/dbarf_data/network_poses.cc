@@ -328,9 +328,9 @@ bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>
   *far = options.far;
   if (p02.empty() || p98.empty() || !(scale > 0)) return false;
   const double lo = Median(p02), hi = Median(p98);
-  // A collapsed depth (the self-supervised failure mode, docs/poses_and_views.md): the network's
-  // weights put every pixel of an unseen scene at the far bound, and a range built from that
-  // (0.7 to 1.4 x far) misses the content: views rendered at these cameras then sample empty space.
+  // A collapsed depth (docs/poses_and_views.md): the shipped pose weights put every pixel, of any
+  // scene, at the far bound, and a range built from that (0.7 to 1.4 x far) misses the content:
+  // views rendered at these cameras then sample empty space.
   const bool collapsed = !(hi >= 1.5 * lo) || lo >= 0.9 * options.far || hi <= 1.1 * options.near;
   if (collapsed) return false;
   *near = 0.7 * scale * lo;
