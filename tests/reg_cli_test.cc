@@ -221,9 +221,18 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   EXPECT_LT(RotationErrorDeg(est.rotation, Eigen::Quaterniond::Identity()), 0.2);
   EXPECT_LT(est.translation.norm(), 0.005);
 
-  const CommandResult many =
-      RunNerfreg("reg register-many " + block + " " + block + " " + block + " --quiet --out " + dir.File("many.json"));
+  const CommandResult many = RunNerfreg("reg register-many " + block + " " + block + " " + block + " --quiet --out " +
+                                        dir.File("many.json") + " --merged-cameras " + dir.File("cams.json"));
   ASSERT_EQ(many.exit_code, 0) << many.output;
+  // One block three times: each image once in the merged cameras, seen by all three, the three
+  // cameras together (the registration's identity).
+  const Json cams = ReadJsonFile(dir.File("cams.json"));
+  ASSERT_EQ(cams["frames"].size(), ReadJsonFile(dir.File("data/transforms.json"))["frames"].size()) << cams.dump();
+  for (const Json& f : cams["frames"]) {
+    EXPECT_EQ(f["blocks"], Json::array({0, 1, 2})) << f.dump();
+    EXPECT_LT(f["spread"]["rotation_deg"].get<double>(), 0.2) << f.dump();
+    EXPECT_LT(f["spread"]["centre"].get<double>(), 0.05) << f.dump();
+  }
   const Json m = ReadJsonFile(dir.File("many.json"));
   ASSERT_EQ(m["world_from_block"].size(), 3u);
   for (int k = 0; k < 3; ++k) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <thread>
@@ -10,6 +11,7 @@
 #include "cli_test_util.h"
 #include "nerfreg/data/ground_truth.h"
 #include "nerfreg/data/splat_ply.h"
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/pipeline/register_blocks.h"
@@ -155,6 +157,44 @@ TEST_F(RegisterBlocksCli, AppliedBlockLandsInTheOtherFrame) {
   EXPECT_NE(resume.output.find("b0_in_b1.ckpt: world_from_field: expected a block in the frame it was trained in"),
             std::string::npos)
       << resume.output;
+}
+
+// register-many --merged-cameras: every block's cameras in block 0's frame, in one transforms.json
+// that reads back; block 0's as they were, block 1's where the truth puts them (the registration's
+// error at their distance), and each image path absolute so the file works from anywhere.
+TEST_F(RegisterBlocksCli, RegisterManyWritesEveryCameraInOneFrame) {
+  const std::string out = File("many_cams.json");
+  const CommandResult many = RunNerfreg("reg register-many " + File("b0.ckpt") + " " + File("b1.ckpt") +
+                                        " --seed 0 --quiet --out " + File("many.json") + " --merged-cameras " + out);
+  ASSERT_EQ(many.exit_code, 0) << many.output;
+  const Dataset merged = ReadTransformsJson(out);
+  const Dataset in0 = ReadTransformsJson(File("data/block_0/transforms.json"));
+  const Dataset in1 = ReadTransformsJson(File("data/block_1/transforms.json"));
+  ASSERT_EQ(merged.frames.size(), in0.frames.size() + in1.frames.size());
+  const Json j = ReadJsonFile(out);
+  const Sim3d block0_from_block1 = GroundTruthFile(File("data/ground_truth.json")).TargetFromSource(1, 0);
+  for (size_t i = 0; i < merged.frames.size(); ++i) {
+    const Frame& f = merged.frames[i];
+    EXPECT_EQ(f.file_path.front(), '/') << f.file_path;
+    EXPECT_TRUE(FileExists(f.file_path)) << f.file_path;
+    const int block = j["frames"][i]["block"].get<int>();
+    const Dataset& own = block == 0 ? in0 : in1;
+    const Frame* mine = nullptr;
+    for (const Frame& g : own.frames)
+      if (g.name == std::filesystem::path(f.file_path).filename().string()) mine = &g;
+    ASSERT_NE(mine, nullptr) << f.file_path;
+    const Rigid3d expected =
+        block == 0 ? mine->cam_from_world : block0_from_block1.TransformCamera(mine->cam_from_world);
+    EXPECT_LT(RotationErrorDeg(f.cam_from_world.rotation, expected.rotation), 5.0) << f.file_path;
+    EXPECT_LT((f.cam_from_world.Inverse().translation - expected.Inverse().translation).norm(), 0.1 * kObjectExtent)
+        << f.file_path;
+    if (block == 0) EXPECT_LT((f.cam_from_world.Inverse().translation - expected.Inverse().translation).norm(), 1e-6);
+  }
+  // An existing output needs --force; nothing is written.
+  const CommandResult again = RunNerfreg("reg register-many " + File("b0.ckpt") + " " + File("b1.ckpt") +
+                                         " --quiet --out " + File("many2.json") + " --merged-cameras " + out);
+  EXPECT_EQ(again.exit_code, 2) << again.output;
+  EXPECT_FALSE(FileExists(File("many2.json")));
 }
 
 }  // namespace

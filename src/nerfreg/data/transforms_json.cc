@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <set>
 
 #include "nerfreg/geometry/conventions.h"
 #include "nerfreg/util/error.h"
@@ -171,6 +172,14 @@ Dataset DatasetFromTransformsJson(const Json& json, const std::string& path, con
       jf["transform_matrix"].Fail(std::string("a camera-to-world matrix with a rotation block (") + e.what() + ")");
     }
     dataset.frames.push_back(std::move(frame));
+  }
+  // Images of several captures in one file (reg register-many --merged-cameras, or a user's merge)
+  // share file names (frame_00001.jpg in each folder): then every frame is named by its path.
+  std::set<std::string> file_names;
+  bool repeated = false;
+  for (const Frame& f : dataset.frames) repeated = repeated || !file_names.insert(f.name).second;
+  if (repeated) {
+    for (Frame& f : dataset.frames) f.name = fs::path(f.file_path).lexically_normal().generic_string();
   }
   dataset.Check(path);
   return dataset;

@@ -9,7 +9,8 @@
 //    Dataset::applied_transform / trained_from_data; poses are read as written);
 //  - instant-ngp's `aabb_scale`, `scale`, `offset`, and our `aabb`, `split`, `near`, `far`.
 // Image sizes missing from the file are read from the image headers. NeRF-synthetic paths without
-// an extension ("./train/r_0") get ".png".
+// an extension ("./train/r_0") get ".png". Frames are named by their file names, or by their paths
+// when two file names repeat (several captures in one file).
 #include <string>
 
 #include "nerfreg/data/dataset.h"

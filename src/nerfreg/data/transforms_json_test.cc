@@ -101,15 +101,31 @@ TEST(TransformsJson, BadFilesNameTheFileAndField) {
       err(R"({"fl_x": 10, "w": 4, "h": 4, "frames": [{"file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,NaN],[0,0,0,1]]}]})")
           .find("t.json"),
       std::string::npos);
-  const std::string two = R"({"fl_x": 10, "w": 4, "h": 4, "frames": [
+  // One image listed twice.
+  const std::string twice = R"({"fl_x": 10, "w": 4, "h": 4, "frames": [
       {"file_path": "a/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]},
-      {"file_path": "b/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})";
-  EXPECT_NE(err(two).find("unique image names"), std::string::npos);
+      {"file_path": "./a/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})";
+  EXPECT_NE(err(twice).find("unique image names, 'a/x.png' repeats"), std::string::npos) << err(twice);
   // No sizes and a missing image: the image path is named.
   EXPECT_NE(
       err(R"({"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_9", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})")
           .find("r_9.png"),
       std::string::npos);
+}
+
+// Two captures merged into one file (reg register-many --merged-cameras) repeat file names in
+// different folders: the frames are then named by their paths, all of them, so none is lost.
+TEST(TransformsJson, RepeatedFileNamesInDifferentFoldersAreNamedByTheirPaths) {
+  ScopedTempDir dir;
+  WriteFileAtomic(dir.File("t.json"), R"({"fl_x": 10, "w": 4, "h": 4, "frames": [
+      {"file_path": "a/x.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]},
+      {"file_path": "./b/x.png", "transform_matrix": [[1,0,0,1],[0,1,0,0],[0,0,1,0],[0,0,0,1]]},
+      {"file_path": "b/y.png", "transform_matrix": [[1,0,0,2],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
+  const Dataset d = ReadTransformsJson(dir.File("t.json"));
+  ASSERT_EQ(d.frames.size(), 3u);
+  EXPECT_EQ(d.frames[0].name, "a/x.png");
+  EXPECT_EQ(d.frames[1].name, "b/x.png");
+  EXPECT_EQ(d.frames[2].name, "b/y.png");
 }
 
 TEST(TransformsJson, ReadsNerfstudioModelsDistortionAndPerFrameIntrinsics) {

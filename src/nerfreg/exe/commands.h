@@ -4,6 +4,10 @@
 
 #include <string>
 
+namespace CLI {
+class App;
+}  // namespace CLI
+
 namespace nerfreg {
 // Sets torch's intra-op thread count from the hardware (Debian's LibTorch defaults to 1).
 void InitThreads();
@@ -21,7 +25,10 @@ int RunNerfImport(int argc, char** argv);
 // Registration (exe/reg_commands.cc)
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
+// reg register-many (exe/reg_many_command.cc)
 int RunRegRegisterMany(int argc, char** argv);
+// --max-points of reg register and register-many.
+void AddMaxPointsOption(CLI::App& app, int* max_points);
 // reg apply (exe/apply_command.cc)
 int RunRegApply(int argc, char** argv);
 // Registration data and training (exe/reg_data_commands.cc)

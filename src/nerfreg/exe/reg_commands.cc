@@ -1,4 +1,4 @@
-// Commands of the registration layer: reg register | reg eval.
+// Commands of the registration layer: reg register | reg eval (reg register-many: reg_many_command.cc).
 #include <fmt/format.h>
 
 #include "nerfreg/data/splat_ply.h"
@@ -21,16 +21,6 @@ using namespace nerfreg;
 
 namespace {
 
-// FPFH + RANSAC's time grows quickly with the points of a large block; the cap keeps it a few
-// seconds without changing a pose on the held-out pairs
-// (docs/notes/2026-11-23-grids-icp-half-turn.md, "The --max-points cap").
-void AddMaxPointsOption(CLI::App& app, int* max_points) {
-  app.add_option("--max-points", *max_points,
-                 "ransac / fgr on the occupied points: above this many points after downsampling, the features and "
-                 "the global search use a coarser voxel (ICP stays at --voxel); 0: no cap (default 5000)")
-      ->check(CLI::NonNegativeNumber);
-}
-
 // ICP on the grids: its points and the half-turn check (GridRegistrationOptions).
 void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, double* icp_distance) {
   app.add_option("--icp-points", *icp_points,
@@ -47,6 +37,16 @@ void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, doubl
 }
 
 }  // namespace
+
+// FPFH + RANSAC's time grows quickly with the points of a large block; the cap keeps it a few
+// seconds without changing a pose on the held-out pairs
+// (docs/notes/2026-11-23-grids-icp-half-turn.md, "The --max-points cap").
+void AddMaxPointsOption(CLI::App& app, int* max_points) {
+  app.add_option("--max-points", *max_points,
+                 "ransac / fgr on the occupied points: above this many points after downsampling, the features and "
+                 "the global search use a coarser voxel (ICP stays at --voxel); 0: no cap (default 5000)")
+      ->check(CLI::NonNegativeNumber);
+}
 
 // The shipped weights: NERFREG_WEIGHTS overrides; else models/dreg_cpu.pt of the source tree.
 std::string DefaultDregWeights() {
@@ -258,43 +258,4 @@ int RunRegEval(int argc, char** argv) {
   if (pair.empty() || gt_path.empty())
     ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
   return EvalPair(pair, gt_path, source, target, out);
-}
-
-int RunRegRegisterMany(int argc, char** argv) {
-  CLI::App app;
-  CommonOptions common;
-  AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Register many NeRF blocks into one frame (block 0's): every pair is registered (FPFH + RANSAC + "
-                  "ICP, then by default refined on the two fields), pairs that agree "
-                  "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
-                  "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
-                  "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
-  std::vector<std::string> paths;
-  std::string out, refine = "field";
-  ManyBlockRegistrationOptions o;
-  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")
-      ->required()
-      ->expected(2, 1000);
-  app.add_option("--out", out, "Output JSON")->required();
-  std::string merged;
-  app.add_option("--merged-splats", merged,
-                 "Also write the splat inputs moved into the world frame, merged, to this PLY");
-  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
-  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
-  AddMaxPointsOption(app, &o.max_points);
-  app.add_option("--min-confidence", o.min_confidence, "Pairs below this fitness are not used (default 0.3)");
-  app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
-      ->check(CLI::IsMember({"icp", "field"}));
-  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force, paths);
-  if (!merged.empty()) CheckCanWriteOutput(merged, common.force, paths);
-  o.refine = RegistrationRefinementFromName(refine);
-  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
-  WriteJsonFile(out, r.json);
-  if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
-  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
-           r.json["seconds"].get<double>());
-  return 0;
 }

@@ -1,5 +1,7 @@
 #include "nerfreg/nerf/nerf_block.h"
 
+#include <filesystem>
+
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/geometry/rays.h"
 #include "nerfreg/util/error.h"
@@ -198,6 +200,19 @@ FieldOptions FieldOptionsFromJson(const JsonField& j) {
 }
 }  // namespace
 
+namespace {
+
+// The cameras as transforms.json, with the folder their image paths start from ("root", absolute;
+// our own key, ignored by other readers) so the images can be found from the checkpoint alone
+// (reg register-many --merged-cameras).
+Json CamerasJson(const Dataset& cameras) {
+  Json j = TransformsJsonFromDataset(cameras);
+  if (!cameras.root.empty()) j["root"] = std::filesystem::absolute(cameras.root).lexically_normal().string();
+  return j;
+}
+
+}  // namespace
+
 void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                    const std::function<void(torch::serialize::OutputArchive&)>& extra) {
   Json meta = {{"format", kFormatTag},
@@ -214,7 +229,7 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                 {{"step_size", block.march.step_size},
                  {"near", block.march.near},
                  {"max_samples_per_ray", block.march.max_samples_per_ray}}},
-               {"cameras", TransformsJsonFromDataset(block.cameras)},
+               {"cameras", CamerasJson(block.cameras)},
                {"world_from_field", MatrixToJson(block.world_from_field.ToMatrix())},
                {"train_options", block.train_options}};
   torch::serialize::OutputArchive archive;
@@ -296,7 +311,12 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
   const Json& cams = meta["cameras"];
   const bool no_cameras =
       cams.is_object() && cams.contains("frames") && cams["frames"].is_array() && cams["frames"].empty();
-  if (!no_cameras) b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)", ParentDir(path));
+  if (!no_cameras) {
+    // Checkpoints written before "root" was recorded: paths from the checkpoint's folder.
+    const bool has_root = cams.is_object() && cams.contains("root") && cams["root"].is_string();
+    b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)",
+                                          has_root ? cams["root"].get<std::string>() : ParentDir(path));
+  }
   b.field->to(device);
   return b;
 }

@@ -3,9 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <map>
 
 #include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/posegraph/pose_graph.h"
@@ -192,6 +195,52 @@ Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlock
     at += n;
   }
   return out;
+}
+
+int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result,
+                       const std::string& out) {
+  Dataset merged;
+  std::vector<std::vector<int>> blocks_of;  // per kept frame: the inputs that have its image
+  std::vector<double> centre_spread, rotation_spread_deg;
+  std::map<std::string, size_t> kept;  // absolute image path -> frame index
+  for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
+    if (IsSplatPly(paths[k])) continue;
+    NerfBlock block = LoadNerfBlock(paths[k]);
+    MoveNerfBlock(&block, result.world_from_block[k]);
+    for (Frame f : block.cameras.frames) {
+      f.file_path = std::filesystem::absolute(block.cameras.ImagePath(f)).lexically_normal().string();
+      const auto [at, is_new] = kept.emplace(f.file_path, merged.frames.size());
+      if (is_new) {
+        merged.frames.push_back(std::move(f));
+        blocks_of.push_back({static_cast<int>(k)});
+        centre_spread.push_back(0), rotation_spread_deg.push_back(0);
+        continue;
+      }
+      // An image several blocks were trained on: its first camera is kept, and how far the others
+      // land from it in the world frame says how well the blocks agree.
+      const Frame& first = merged.frames[at->second];
+      blocks_of[at->second].push_back(static_cast<int>(k));
+      const double d = (first.cam_from_world.Inverse().translation - f.cam_from_world.Inverse().translation).norm();
+      centre_spread[at->second] = std::max(centre_spread[at->second], d);
+      rotation_spread_deg[at->second] = std::max(
+          rotation_spread_deg[at->second], RotationErrorDeg(first.cam_from_world.rotation, f.cam_from_world.rotation));
+    }
+  }
+  if (merged.frames.empty()) {
+    ThrowInputError("--merged-cameras", "", "at least one block checkpoint with cameras among the inputs");
+  }
+  Json j = TransformsJsonFromDataset(merged);
+  for (size_t i = 0; i < merged.frames.size(); ++i) {
+    Json& f = j["frames"][i];
+    f["block"] = blocks_of[i][0];
+    f["block_path"] = paths[blocks_of[i][0]];
+    if (blocks_of[i].size() > 1) {
+      f["blocks"] = blocks_of[i];
+      f["spread"] = {{"centre", centre_spread[i]}, {"rotation_deg", rotation_spread_deg[i]}};
+    }
+  }
+  WriteJsonFile(out, j);
+  return static_cast<int>(merged.frames.size());
 }
 
 }  // namespace nerfreg

@@ -47,4 +47,15 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
 // input is a splat PLY.
 Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result);
 
+// Every block checkpoint's cameras among `paths` moved into the world frame (MoveNerfBlock: centres
+// and axes by result.world_from_block, near / far bounds scaled) in one transforms.json, written
+// atomically to `out`: image paths absolute where the checkpoint records its images' folder; each
+// frame also names its input ("block": index, "block_path"). An image several blocks were trained
+// on is listed once, with the first block's camera, the blocks that have it ("blocks") and how far
+// their cameras lie from that one ("spread": largest centre distance, world units, and rotation,
+// degrees): how well the registration agrees with the blocks' own cameras. Splat PLYs carry no
+// cameras and are skipped. Returns the number of frames; throws InputError when no input has any.
+int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result,
+                       const std::string& out);
+
 }  // namespace nerfreg

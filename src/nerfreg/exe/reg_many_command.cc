@@ -1,0 +1,53 @@
+// reg register-many: many blocks (or splat captures) into one frame, and what it can write there.
+#include "nerfreg/exe/command.h"
+#include "nerfreg/exe/commands.h"
+#include "nerfreg/pipeline/register_many_blocks.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/logging.h"
+
+using namespace nerfreg;
+
+int RunRegRegisterMany(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Register many NeRF blocks into one frame (block 0's): every pair is registered (FPFH + RANSAC + "
+                  "ICP, then by default refined on the two fields), pairs that agree "
+                  "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
+                  "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
+                  "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
+  std::vector<std::string> paths;
+  std::string out, refine = "field";
+  ManyBlockRegistrationOptions o;
+  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")
+      ->required()
+      ->expected(2, 1000);
+  app.add_option("--out", out, "Output JSON")->required();
+  std::string merged, merged_cameras;
+  app.add_option("--merged-splats", merged,
+                 "Also write the splat inputs moved into the world frame, merged, to this PLY");
+  app.add_option("--merged-cameras", merged_cameras,
+                 "Also write every block's cameras moved into the world frame, in one transforms.json");
+  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
+  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
+  AddMaxPointsOption(app, &o.max_points);
+  app.add_option("--min-confidence", o.min_confidence, "Pairs below this fitness are not used (default 0.3)");
+  app.add_option("--seed", o.seed, "Random seed");
+  app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
+      ->check(CLI::IsMember({"icp", "field"}));
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force, paths);
+  if (!merged.empty()) CheckCanWriteOutput(merged, common.force, paths);
+  if (!merged_cameras.empty()) CheckCanWriteOutput(merged_cameras, common.force, paths);
+  o.refine = RegistrationRefinementFromName(refine);
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  WriteJsonFile(out, r.json);
+  if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
+  if (!merged_cameras.empty()) LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras), merged_cameras);
+  LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
+           r.json["seconds"].get<double>());
+  return 0;
+}
