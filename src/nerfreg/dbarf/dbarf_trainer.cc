@@ -10,6 +10,7 @@
 #include <ATen/CPUGeneratorImpl.h>
 
 #include "nerfreg/dbarf/ibr_render.h"
+#include "nerfreg/dist/dist.h"
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/dbarf/sfm_loss.h"
 #include "nerfreg/util/torch_device.h"
@@ -141,6 +142,10 @@ void DbarfTrainOptions::Check() const {
         "--init-noise-deg / --init-noise-translation: perturb camera initialisations, so need --pose-init cameras");
   }
   if (!sfm.Check()) throw InputError("SfM loss options: expected valid weights (see the log)");
+  if (samples_per_step < 0 || samples_per_step > 4096) {
+    throw InputError("--batch: expected targets per step in [1, 4096] (0: one per process), got " +
+                     std::to_string(samples_per_step));
+  }
   if (!(supervise_rotation_weight >= 0 && std::isfinite(supervise_rotation_weight))) {
     throw InputError("--supervise-rotation-weight: expected >= 0, got " + std::to_string(supervise_rotation_weight));
   }
@@ -155,9 +160,20 @@ void DbarfTrainOptions::Check() const {
   }
 }
 
-DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options)
+DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
+                           DistGroup* group)
     : model_(model), scenes_(std::move(scenes)), options_(options), rng_(options.seed) {
   options_.Check();
+  if (group == nullptr) single_ = std::make_unique<DistGroup>();
+  group_ = group != nullptr ? group : single_.get();
+  const int world = group_->world_size();
+  samples_per_step_ = options_.samples_per_step > 0 ? options_.samples_per_step : world;
+  if (samples_per_step_ < world) {
+    ThrowInputError("--batch", "", "at least one target per process (>= " + std::to_string(world) + ")");
+  }
+  if (options_.refine_cameras && world > 1) {
+    ThrowInputError("--refine-cameras", "", "one process (a scene's cameras are refined by one process)");
+  }
   if (scenes_.empty()) throw InputError("dbarf training: no scenes");
   for (size_t s = 0; s < scenes_.size(); ++s) {
     scenes_[s].Check();
@@ -198,7 +214,17 @@ DbarfTrainer::DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, co
     camera_optimizer_ =
         std::make_unique<torch::optim::Adam>(camera_twists_, torch::optim::AdamOptions(options_.lr_cameras));
   }
+  parameters_ = model_->NerfParameters();
+  for (const torch::Tensor& p : model_->PoseParameters()) parameters_.push_back(p);
+  // Every rank starts from rank 0's weights (and BatchNorm statistics), whatever it loaded.
+  std::vector<torch::Tensor> state = parameters_;
+  for (const torch::Tensor& b : model_->pose_net->buffers()) state.push_back(b);
+  for (const torch::Tensor& b : model_->nerf.feature_net->buffers()) state.push_back(b);
+  for (const torch::Tensor& b : model_->nerf.ibrnet->buffers()) state.push_back(b);
+  BroadcastParameters(*group_, state);
 }
+
+DbarfTrainer::~DbarfTrainer() = default;
 
 torch::Tensor DbarfTrainer::Cameras(int s) const {
   const DbarfScene& scene = scenes_.at(s);
@@ -294,17 +320,93 @@ torch::Tensor PerturbRelativePoses(const torch::Tensor& src_from_tgt, double deg
 }
 
 DbarfStepResult DbarfTrainer::Step() {
+  const DbarfStage stage =
+      options_.schedule == "nerf" ? DbarfStage::kNerf : DbarfStageOfStep(step_, options_.stage_steps);
+  // Every random draw of the step derives from rng_, whose state SaveState keeps: one seed per
+  // target, drawn by every rank alike, each rank training on targets rank, rank + world, ...
+  std::vector<uint64_t> seeds(samples_per_step_);
+  for (uint64_t& seed : seeds) seed = rng_();
+  model_->Train(true);
+  nerf_optimizer_->zero_grad();
+  pose_optimizer_->zero_grad();
+  if (camera_optimizer_) camera_optimizer_->zero_grad();
+  const int world = group_->world_size(), rank = group_->rank();
   DbarfStepResult result;
-  result.stage = options_.schedule == "nerf" ? DbarfStage::kNerf : DbarfStageOfStep(step_, options_.stage_steps);
-  // Every random draw of the step derives from rng_, whose state SaveState keeps.
-  torch::manual_seed(rng_());
-  const auto [s, t] = targets_[std::uniform_int_distribution<size_t>(0, targets_.size() - 1)(rng_)];
+  result.stage = stage;
+  std::vector<std::pair<int, int>> touched;  // (scene, view) of the cameras the step's renders used
+  int mine = 0;
+  // [1] float64: how many targets rendered a valid ray, over every rank.
+  torch::Tensor stats = torch::zeros({1}, torch::kFloat64);
+  for (int b = rank; b < samples_per_step_; b += world) {
+    bool rgb_valid = false;
+    const DbarfStepResult r = TrainOnSample(seeds[b], stage, 1.0 / samples_per_step_, &rgb_valid, &touched);
+    stats[0] += rgb_valid ? 1.0 : 0.0;
+    // This process's targets: the first one's identity, the mean of their figures.
+    if (mine == 0)
+      result = r;
+    else {
+      const double w = 1.0 / (mine + 1);
+      for (auto [sum, x] : {std::pair<double*, double>{&result.sfm_loss, r.sfm_loss},
+                            {&result.rgb_loss, r.rgb_loss},
+                            {&result.pose_loss, r.pose_loss},
+                            {&result.disparity, r.disparity},
+                            {&result.rotation_err_deg, r.rotation_err_deg},
+                            {&result.direction_err_deg, r.direction_err_deg},
+                            {&result.translation_ratio, r.translation_ratio},
+                            {&result.psnr, r.psnr}}) {
+        *sum += w * (x - *sum);
+      }
+    }
+    ++mine;
+  }
+  // Summed over the ranks; each target's loss was already divided by the step's targets, so the
+  // sum is their mean, as one process training on all of them has it.
+  AllReduceGradients(*group_, parameters_, &stats);
+  const bool pose_grad = stage != DbarfStage::kNerf;
+  const bool nerf_on = stage != DbarfStage::kPose;
+  const bool rgb_valid = stats[0].item<double>() > 0;
+  const double decay = std::pow(options_.lr_gamma, static_cast<double>(step_ / options_.lr_decay_steps));
+  if (nerf_on && rgb_valid) {
+    SetLearningRates(nerf_optimizer_.get(), {options_.lr_feature, options_.lr_mlp}, decay);
+    nerf_optimizer_->step();
+  }
+  if (pose_grad) {
+    SetLearningRates(pose_optimizer_.get(), {options_.lr_pose}, decay);
+    pose_optimizer_->step();
+  }
+  if (camera_optimizer_ && stage == DbarfStage::kNerf && rgb_valid) {
+    // Adam moves a parameter by its momentum also on steps that gave it no gradient: a camera
+    // this step did not render from would keep drifting. Only the targets and their sources move
+    // (lazy Adam, as SparseAdam for the hash grids).
+    torch::NoGradGuard no_grad;
+    std::vector<torch::Tensor> before;  // per scene [V, 6]
+    for (const torch::Tensor& twist : camera_twists_) before.push_back(twist.detach().clone());
+    SetLearningRates(camera_optimizer_.get(), {options_.lr_cameras}, decay);
+    camera_optimizer_->step();
+    std::vector<torch::Tensor> keep;  // per scene [V, 1]
+    for (const torch::Tensor& twist : camera_twists_) keep.push_back(torch::zeros({twist.size(0), 1}, twist.options()));
+    for (const auto& [scene, view] : touched) keep[scene][view] = 1.0;
+    for (size_t i = 0; i < camera_twists_.size(); ++i) {
+      camera_twists_[i].copy_(before[i] + (camera_twists_[i].detach() - before[i]) * keep[i]);
+    }
+  }
+  ++step_;
+  return result;
+}
+
+DbarfStepResult DbarfTrainer::TrainOnSample(uint64_t seed, DbarfStage stage, double weight, bool* rgb_valid_out,
+                                            std::vector<std::pair<int, int>>* touched) {
+  DbarfStepResult result;
+  result.stage = stage;
+  std::mt19937_64 rng(seed);
+  torch::manual_seed(rng());
+  const auto [s, t] = targets_[std::uniform_int_distribution<size_t>(0, targets_.size() - 1)(rng)];
   const DbarfScene& scene = scenes_[s];
-  const int jitter = std::uniform_int_distribution<int>(options_.source_jitter_min, options_.source_jitter_max)(rng_);
+  const int jitter = std::uniform_int_distribution<int>(options_.source_jitter_min, options_.source_jitter_max)(rng);
   // At least 2: a rendered sample needs two views that see it (ibr_render.h).
   std::vector<int> sources = SourcesOf(scene, t, std::max(2, options_.num_sources + jitter));
-  std::shuffle(sources.begin(), sources.end(), rng_);
-  if (sources.size() > 1 && std::uniform_real_distribution<double>(0, 1)(rng_) < options_.self_source_probability) {
+  std::shuffle(sources.begin(), sources.end(), rng);
+  if (sources.size() > 1 && std::uniform_real_distribution<double>(0, 1)(rng) < options_.self_source_probability) {
     sources.back() = t;
   }
   result.scene = s;
@@ -318,11 +420,7 @@ DbarfStepResult DbarfTrainer::Step() {
   const torch::Tensor k_t = scene.intrinsics[t];                              // [3, 3]
   const bool pose_grad = result.stage != DbarfStage::kNerf;
   const bool nerf_on = result.stage != DbarfStage::kPose;
-  model_->Train(true);
   model_->pose_net->SetDepthRange(scene.near, scene.far);
-  nerf_optimizer_->zero_grad();
-  pose_optimizer_->zero_grad();
-  if (camera_optimizer_) camera_optimizer_->zero_grad();
   const torch::Tensor cameras = Cameras(s);  // [V, 4, 4], with gradients to the twists when refined
 
   // The pose network (with gradients only where the pose optimiser steps).
@@ -337,8 +435,8 @@ DbarfStepResult DbarfTrainer::Step() {
     }
     torch::Tensor pose_input = target;  // [1, 3, H, W]
     if (options_.blur_probability > 0 &&
-        std::uniform_real_distribution<double>(0, 1)(rng_) < options_.blur_probability) {
-      pose_input = BoxBlur(target, std::uniform_int_distribution<int>(1, options_.blur_max_radius)(rng_), 3);
+        std::uniform_real_distribution<double>(0, 1)(rng) < options_.blur_probability) {
+      pose_input = BoxBlur(target, std::uniform_int_distribution<int>(1, options_.blur_max_radius)(rng), 3);
     }
     pred = model_->pose_net->forward(pose_input, source_images, k_t, init);
     src_from_tgt = pred.src_from_tgt.back();
@@ -407,34 +505,12 @@ DbarfStepResult DbarfTrainer::Step() {
     throw std::runtime_error("non-finite loss at step " + std::to_string(step_) + " (" + DbarfStageName(result.stage) +
                              " stage, scene " + scene.name + ", target " + scene.image_names[t] + ")");
   }
-  if (loss.requires_grad()) loss.backward();
-  const double decay = std::pow(options_.lr_gamma, static_cast<double>(step_ / options_.lr_decay_steps));
+  if (loss.requires_grad()) (weight * loss).backward();
   if (nerf_on && rgb_valid) {
-    SetLearningRates(nerf_optimizer_.get(), {options_.lr_feature, options_.lr_mlp}, decay);
-    nerf_optimizer_->step();
+    touched->push_back({s, t});
+    for (int j : sources) touched->push_back({s, j});
   }
-  if (pose_grad) {
-    SetLearningRates(pose_optimizer_.get(), {options_.lr_pose}, decay);
-    pose_optimizer_->step();
-  }
-  if (camera_optimizer_ && result.stage == DbarfStage::kNerf && rgb_valid) {
-    // Adam moves a parameter by its momentum also on steps that gave it no gradient: a camera
-    // this step did not render from would keep drifting. Only the target and its sources move
-    // (lazy Adam, as SparseAdam for the hash grids).
-    torch::NoGradGuard no_grad;
-    std::vector<torch::Tensor> before;  // per scene [V, 6]
-    for (const torch::Tensor& twist : camera_twists_) before.push_back(twist.detach().clone());
-    SetLearningRates(camera_optimizer_.get(), {options_.lr_cameras}, decay);
-    camera_optimizer_->step();
-    torch::Tensor touched = torch::zeros({scene.NumViews(), 1}, camera_twists_[s].options());  // [V, 1]
-    touched[t] = 1.0;
-    for (int j : sources) touched[j] = 1.0;
-    for (size_t i = 0; i < camera_twists_.size(); ++i) {
-      const torch::Tensor keep = static_cast<int>(i) == s ? touched : torch::zeros_like(touched.slice(0, 0, 1));
-      camera_twists_[i].copy_(before[i] + (camera_twists_[i].detach() - before[i]) * keep);
-    }
-  }
-  ++step_;
+  *rgb_valid_out = rgb_valid;
   return result;
 }
 
@@ -505,11 +581,12 @@ void DbarfRunOptions::Check() const {
 }
 
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
-                                const DbarfRunOptions& run) {
+                                const DbarfRunOptions& run, DistGroup* group) {
   run.Check();
   model->To(run.device);
   for (DbarfScene& scene : scenes) scene = DbarfSceneTo(scene, run.device);
-  DbarfTrainer trainer(model, std::move(scenes), options);
+  DbarfTrainer trainer(model, std::move(scenes), options, group);
+  const bool is_main = trainer.group().is_main();
   const std::string state_path = run.out + ".train";
   if (run.resume) {
     if (!FileExists(state_path))
@@ -521,19 +598,25 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
                                         model->training["seconds"].is_number() && run.resume
                                     ? model->training["seconds"].get<double>()
                                     : 0.0;
-  if (run.resume) RewindTrainingLog(run.out + ".log.jsonl", trainer.step());
-  std::ofstream log(run.out + ".log.jsonl", run.resume ? std::ios::app : std::ios::trunc);
+  std::ofstream log;
+  if (is_main) {
+    if (run.resume) RewindTrainingLog(run.out + ".log.jsonl", trainer.step());
+    log.open(run.out + ".log.jsonl", run.resume ? std::ios::app : std::ios::trunc);
+  }
   ProgressBar bar("dbarf train", run.steps, "step");
   bar.Resume(trainer.step());
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   std::vector<double> psnrs, sfms;
   const auto checkpoint = [&] {
+    if (!is_main) return;
     model->training["steps"] = trainer.step();
     model->training["seconds"] = seconds_before + elapsed();
     model->training["scenes"] = trainer.scenes().size();
     model->training["schedule"] = options.schedule;
     model->training["stage_steps"] = options.stage_steps;
+    model->training["samples_per_step"] = trainer.samples_per_step();
+    model->training["processes"] = trainer.group().world_size();
     SaveDbarfWeights(*model, run.out);
     trainer.SaveState(state_path);
   };
@@ -552,13 +635,13 @@ DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scene
       line["dir_err_deg"] = r.direction_err_deg;
       line["t_ratio"] = r.translation_ratio;
     }
-    log << line.dump() << "\n";
+    if (is_main) log << line.dump() << "\n";
     if (r.psnr > 0) bar.SetMetric("psnr", r.psnr);
     if (r.sfm_loss > 0) bar.SetMetric("sfm", r.sfm_loss);
     if (r.pose_loss > 0) bar.SetMetric("pose", r.pose_loss);
     bar.Tick();
     if (trainer.step() % run.checkpoint_every == 0 || trainer.step() == run.steps) {
-      log.flush();
+      if (is_main) log.flush();
       checkpoint();
     }
   }

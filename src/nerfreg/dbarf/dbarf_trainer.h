@@ -12,12 +12,18 @@
 // with a step decay, each stepping only in its stages.
 //
 // Source views come from the view graph (never from ground-truth poses), at training and test time.
+//
+// A step may take several targets (samples_per_step), their gradients averaged; over several
+// processes (a DistGroup, `--nproc`) each takes its share of them and the gradients are all-reduced
+// as DDP does, so N processes compute what one process computes with the same samples per step.
 #pragma once
 
 #include <torch/torch.h>
 
+#include <memory>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nerfreg/dbarf/dbarf_model.h"
@@ -25,6 +31,8 @@
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
+
+class DistGroup;
 
 // One scene as training and rendering need it (all views share one image size).
 struct DbarfScene {
@@ -125,6 +133,10 @@ struct DbarfTrainOptions {
   // The SfM loss's options (smoothness weight, auto-masking, ...): the original's by default.
   SfmLossOptions sfm;
   uint64_t seed = 0;
+  // Targets per step (`--batch`), each with its own sources and rays, the gradients averaged over
+  // them; 0: one per process. Each target's draws come from its own seed, drawn from the step's
+  // random state, so a target is drawn alike by whichever process trains on it.
+  int samples_per_step = 0;
 
   static DbarfTrainOptions Pretrain();
   // Finetuning on one scene: 10 sources (-2..+1), lower rates, faster decay (spec 4).
@@ -149,11 +161,17 @@ struct DbarfStepResult {
 
 class DbarfTrainer {
  public:
-  DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options);
+  // group: the processes training together (rank 0's parameters are copied to every rank here);
+  // nullptr: this process alone. Every rank passes the same scenes and options.
+  DbarfTrainer(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
+               DistGroup* group = nullptr);
+  ~DbarfTrainer();
 
   DbarfStepResult Step();
   int64_t step() const { return step_; }
   const std::vector<DbarfScene>& scenes() const { return scenes_; }
+  int samples_per_step() const { return samples_per_step_; }
+  const DistGroup& group() const { return *group_; }
 
   // Optimiser states, step and random state, atomically; Load throws InputError naming the file.
   void SaveState(const std::string& path) const;
@@ -167,9 +185,19 @@ class DbarfTrainer {
   torch::Tensor Cameras(int s) const;
 
  private:
+  // One target of the step, drawn from `seed`: forward, loss scaled by `weight`, backward (the
+  // gradients accumulate); the step's optimisers are not stepped here. `rgb_valid`: whether the
+  // NeRF rendered a valid ray; `touched`: the (scene, view) whose cameras it used.
+  DbarfStepResult TrainOnSample(uint64_t seed, DbarfStage stage, double weight, bool* rgb_valid,
+                                std::vector<std::pair<int, int>>* touched);
+
   DbarfModel* model_;
   std::vector<DbarfScene> scenes_;
   DbarfTrainOptions options_;
+  std::unique_ptr<DistGroup> single_;  // the group when none is given
+  DistGroup* group_ = nullptr;
+  int samples_per_step_ = 1;
+  std::vector<torch::Tensor> parameters_;  // the NeRF's and the pose network's, all-reduced each step
   std::unique_ptr<torch::optim::Adam> nerf_optimizer_, pose_optimizer_, camera_optimizer_;
   std::vector<torch::Tensor> camera_twists_;  // per scene [V, 6] when refine_cameras
   std::vector<torch::Tensor> camera_masks_;   // per scene [V, 1]: 0 for the frame's image
@@ -199,8 +227,10 @@ struct DbarfRunResult {
   double mean_sfm_last = 0;            // over the last 10% of the steps with an SfM loss
   std::vector<torch::Tensor> cameras;  // per scene [V, 4, 4] as trained (refined with refine_cameras)
 };
+// With a group of several processes, rank 0 alone writes the log and the checkpoints; every rank
+// resumes from them.
 DbarfRunResult RunDbarfTraining(DbarfModel* model, std::vector<DbarfScene> scenes, const DbarfTrainOptions& options,
-                                const DbarfRunOptions& run);
+                                const DbarfRunOptions& run, DistGroup* group = nullptr);
 
 // The supervised pose loss of one step (see DbarfTrainOptions::supervise_poses): predictions
 // src_from_tgts[k] [N, 4, 4], truth [N, 4, 4] in the same units -> scalar, sum over k of

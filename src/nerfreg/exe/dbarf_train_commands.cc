@@ -6,6 +6,8 @@
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dist/dist.h"
+#include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/render_dbarf_views.h"
@@ -70,11 +72,20 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
   app.add_option("--seed", c->train.seed, "Seed");
 }
 
-// Trains and prints the summary.
-int RunTraining(DbarfTrainingJob& c, const CommonOptions& common) {
+// Trains (with workers under --nproc) and prints the summary.
+int RunTraining(DbarfTrainingJob& c, const CommonOptions& common, const DistOptions& dist, int argc, char** argv) {
   c.force = common.force;
+  if (ShouldLaunch(dist) && !c.run.resume) {
+    // Refused before any worker starts (each would refuse alike).
+    std::vector<std::string> inputs = c.scenes;
+    inputs.push_back(c.weights);
+    CheckCanWriteOutput(c.run.out, c.force, inputs);
+  }
+  if (int rc = LaunchIfAsked(dist, argc, argv); rc >= 0) return rc;
+  const auto group = DistGroup::FromEnvironment(dist.timeout_s);
+  c.group = group.get();
   const DbarfTrainingResult r = TrainDbarf(c);
-  if (common.json) std::printf("%s\n", r.summary.dump().c_str());
+  if (common.json && group->is_main()) std::printf("%s\n", r.summary.dump().c_str());
   return 0;
 }
 
@@ -108,6 +119,10 @@ int RunDbarfPretrain(int argc, char** argv) {
   app.add_option("--rotation-scale", c.rotation_scale,
                  "Scale on the rotation half of the pose heads' twists (default: the config's or the weights', 0.01 "
                  "as in the original; --weights keep their function, rescaled; a resumed run must give the same)");
+  app.add_option("--batch", c.train.samples_per_step,
+                 "Targets per step, their gradients averaged (default: one per process)");
+  DistOptions dist;
+  AddDistOptions(app, &dist);
   std::string device = "cpu";
   AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
@@ -122,7 +137,7 @@ int RunDbarfPretrain(int argc, char** argv) {
     expected.pose.rotation_scale = LoadDbarfWeights(c.weights).options.pose.rotation_scale;
     LoadDbarfWeights(c.weights, &expected);
   }
-  return RunTraining(c, common);
+  return RunTraining(c, common, dist, argc, argv);
 }
 
 int RunDbarfFinetune(int argc, char** argv) {
@@ -156,7 +171,7 @@ int RunDbarfFinetune(int argc, char** argv) {
   const DbarfModel start = LoadDbarfWeights(c.run.resume ? c.run.out : c.weights);
   c.config = DbarfOptionsToJson(start.options) == DbarfOptionsToJson(DbarfOptions::Paper()) ? "paper" : "cpu";
   c.kind = "finetune";
-  return RunTraining(c, common);
+  return RunTraining(c, common, DistOptions(), argc, argv);
 }
 
 int RunDbarfRender(int argc, char** argv) {

@@ -46,7 +46,8 @@ int RunRegRegisterMany(int argc, char** argv) {
   const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
   WriteJsonFile(out, r.json);
   if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
-  if (!merged_cameras.empty()) LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras), merged_cameras);
+  if (!merged_cameras.empty())
+    LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras), merged_cameras);
   LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
            r.json["seconds"].get<double>());
   return 0;

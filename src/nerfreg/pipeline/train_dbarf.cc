@@ -2,6 +2,7 @@
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/posed_images.h"
+#include "nerfreg/dist/dist.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
@@ -55,6 +56,8 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
   }
   DbarfOptions expected = DbarfOptions::Named(c.config);
   if (c.rotation_scale > 0) expected.pose.rotation_scale = c.rotation_scale;
+  // A fresh network's initialisation draws from torch's generator: seeded, so a run repeats.
+  torch::manual_seed(c.train.seed);
   DbarfModel model = c.run.resume ? LoadDbarfWeights(c.run.out, &expected)
                                   : (c.weights.empty() ? DbarfModel(expected) : LoadDbarfWeights(c.weights));
   if (!c.run.resume && !c.weights.empty() && c.rotation_scale > 0) {
@@ -78,14 +81,16 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
   }
   model.training["data"] = c.scenes;
   DbarfTrainingResult out;
-  out.run = RunDbarfTraining(&model, scenes, c.train, c.run);
+  out.run = RunDbarfTraining(&model, scenes, c.train, c.run, c.group);
   const DbarfRunResult& r = out.run;
   out.summary = {{"steps", r.steps},
                  {"seconds", r.seconds},
                  {"psnr_train_last", r.mean_psnr_last},
                  {"sfm_loss_last", r.mean_sfm_last},
                  {"weights", c.run.out},
-                 {"scenes", c.scenes.size()}};
+                 {"scenes", c.scenes.size()},
+                 {"processes", c.group != nullptr ? c.group->world_size() : 1}};
+  if (c.group != nullptr && !c.group->is_main()) return out;
   WriteJsonFile(c.run.out + ".json", out.summary);
   if (!c.cameras_out.empty()) {
     // The input's posed images with every frame's camera replaced by the refined one.

@@ -23,6 +23,9 @@ struct DbarfTrainingJob {
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;
+  // The processes training together (dist/dist.h; every rank runs this job alike, rank 0 alone
+  // writes), or nullptr: this process alone.
+  DistGroup* group = nullptr;
 };
 
 struct DbarfTrainingResult {
