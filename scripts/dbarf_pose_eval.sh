@@ -26,6 +26,12 @@ mkdir -p "$WORK"
 mapfile -t val_textured < "$DATA/val_textured.txt"
 mapfile -t val_hard < <(grep -v -x -f "$DATA/val_textured.txt" "$DATA/val.txt")
 sets=("validation textured" "validation hard")
+# EXTRA=1: also DATA/val_extra.txt (low-texture scenes of 10 views, scripts/dbarf_data.sh), sources
+# by the true cameras as the hard sets.
+if [ "${EXTRA:-0}" = 1 ]; then
+  mapfile -t val_extra < "$DATA/val_extra.txt"
+  sets+=("validation extra")
+fi
 if [ "${TEST:-0}" = 1 ]; then
   test_textured=() test_hard=()
   for s in 201:textured:0.35 202:textured:0.35 203:textured:0.35 4101:low-texture:0.35 4102:low-texture:0.35 \
@@ -46,6 +52,7 @@ for w in "$@"; do
     case "$set" in
       "validation textured") files=("${val_textured[@]}"); flags=(--sfm-cache "$WORK/sfm_cache_val") ;;
       "validation hard") files=("${val_hard[@]}"); flags=(--scene-cameras ground-truth) ;;
+      "validation extra") files=("${val_extra[@]}"); flags=(--scene-cameras ground-truth) ;;
       "test textured") files=("${test_textured[@]}"); flags=(--sfm-cache "$WORK/sfm_cache_test") ;;
       "test hard") files=("${test_hard[@]}"); flags=(--scene-cameras ground-truth) ;;
     esac
@@ -73,7 +80,8 @@ for w in weights:
                                    for r in j["rows"]]})
 date = datetime.datetime.utcnow().strftime("%Y-%m-%d %H:%M UTC")
 machine = "%s, %d cores, load %s" % (platform.machine(), os.cpu_count(), open("/proc/loadavg").read().split()[0])
-command = ("TEST=1 " if any(s.startswith("test") for s in sets) else "") + "bash scripts/dbarf_pose_eval.sh " + " ".join(weights)
+command = ("TEST=1 " if any(s.startswith("test") for s in sets) else "") + \
+    ("EXTRA=1 " if "validation extra" in sets else "") + "bash scripts/dbarf_pose_eval.sh " + " ".join(weights)
 json.dump({"date": date, "machine": machine, "command": command, "rows": rows}, open(out_json, "w"), indent=1)
 lines = ["# The pose network from the identity (`scripts/dbarf_pose_eval.sh`)", "",
          "Date %s; machine %s; command `%s`; raw per-scene figures in `%s`." % (date, machine, command, out_json), "",
