@@ -105,11 +105,22 @@ TEST_F(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundT
   const RegistrationResult again = RegisterBlocks(*source, *target, o, net.get());
   torch::set_num_threads(test_threads);
   // Not to the last bit: in another process the reductions round differently (the same binary
-  // run twice agrees to 1e-15, checked below), and the candidates here converge within ~0.3 deg
-  // and agree with the fields within 1e-3, so that rounding can change which one is kept (seen:
-  // 0.10 and 0.24 deg apart under ctest). Their spread, not the registration error, bounds this.
-  EXPECT_LT(RotationErrorDeg(again.target_from_source.rotation, est.rotation), 0.5);
-  EXPECT_LT((again.target_from_source.translation - est.translation).norm(), 0.01 * kObjectExtent);
+  // run twice agrees to 1e-15, checked below), and the candidates here agree with the fields
+  // within ~1e-3, so that rounding can change which one is kept (seen: 0.10 and 0.24 deg apart
+  // under ctest, once 3.7 deg, when two candidates ended that far apart). So the in-process pose
+  // must be one of the binary's candidates, kept or not.
+  std::vector<Sim3d> candidates = {est};
+  for (const Json& c : t["not_chosen"]) {
+    candidates.push_back(Sim3d::FromMatrix(JsonField(c, "t.json")["target_from_source"].Matrix(4, 4), 1e-3));
+  }
+  double closest_deg = 1e9, closest_translation = 1e9;
+  for (const Sim3d& c : candidates) {
+    const double deg = RotationErrorDeg(again.target_from_source.rotation, c.rotation);
+    if (deg < closest_deg)
+      closest_deg = deg, closest_translation = (again.target_from_source.translation - c.translation).norm();
+  }
+  EXPECT_LT(closest_deg, 0.5) << t.dump();
+  EXPECT_LT(closest_translation, 0.01 * kObjectExtent) << t.dump();
   EXPECT_NEAR(again.confidence, t["confidence"].get<double>(), 0.01);
 
   // The binary run again with the same flags: the same pose up to rounding.

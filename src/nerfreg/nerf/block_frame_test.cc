@@ -92,3 +92,37 @@ TEST(BlockFrame, FrameSurvivesTheCheckpointAndTheInverseRestoresTheIdentity) {
 
 }  // namespace
 }  // namespace nerfreg
+
+namespace nerfreg {
+namespace {
+
+// The shell of a block's occupied points (what a block is matched with against splats): a ball of
+// occupied cells gives back its boundary, one cell thick, and none of its inside.
+TEST(OccupiedPoints, ShellIsTheBoundaryOfTheDenseCells) {
+  NerfBlock b = TestBlock();
+  const std::int64_t g = b.grid->resolution();
+  const torch::Tensor centres = b.grid->CellCenters();  // [G^3, 3]
+  const double cell = (b.field_options.aabb_max[0] - b.field_options.aabb_min[0]) / g;
+  const double radius = 0.3 * (b.field_options.aabb_max[0] - b.field_options.aabb_min[0]);
+  const torch::Tensor centre = torch::tensor({0.5 * (b.field_options.aabb_max[0] + b.field_options.aabb_min[0]),
+                                              0.5 * (b.field_options.aabb_max[1] + b.field_options.aabb_min[1]),
+                                              0.5 * (b.field_options.aabb_max[2] + b.field_options.aabb_min[2])},
+                                             torch::kFloat32);
+  const torch::Tensor ball = ((centres - centre).norm(2, 1) < radius).reshape({g, g, g});
+  b.grid->SetState(torch::ones({g, g, g}), ball);
+  // min_density -1: every occupied cell is dense, whatever the untrained field says.
+  const BlockPoints solid = ExtractOccupiedPoints(b, -1.0, 3), shell = ExtractOccupiedPoints(b, -1.0, 3, true);
+  EXPECT_EQ(solid.xyz.size(0), ball.sum().item<std::int64_t>());
+  ASSERT_GT(shell.xyz.size(0), 0);
+  EXPECT_LT(shell.xyz.size(0), solid.xyz.size(0) / 2);
+  // Jittered within their cells: every shell point within ~2 cells of the sphere, none deep inside.
+  const torch::Tensor r = (shell.xyz - centre).norm(2, 1);
+  EXPECT_GT(r.min().item<double>(), radius - 2.5 * cell);
+  EXPECT_LT(r.max().item<double>(), radius + cell);
+  // Every cell on the sphere is in the shell: it is closed (about the sphere's area in cells).
+  const double area_cells = 4 * M_PI * radius * radius / (cell * cell);
+  EXPECT_GT(shell.xyz.size(0), 0.8 * area_cells);
+}
+
+}  // namespace
+}  // namespace nerfreg

@@ -120,16 +120,29 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   return SurfaceFieldInFieldFrame(block, cameras, ToFieldFrame(block, points), o);
 }
 
-BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned seed) {
+BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned seed, bool shell) {
   torch::NoGradGuard no_grad;
   torch::Generator gen = at::detail::createCPUGenerator(seed);
   // Cells of the occupancy grid, in the field's frame; the points returned are in the block's.
   const auto centres = block.grid->CellCenters();
-  const auto cand = centres.index_select(0, block.grid->occupied().reshape(-1).nonzero().squeeze(1));
+  const torch::Tensor cells = block.grid->occupied().reshape(-1).nonzero().squeeze(1);  // [C] flat indices
+  const auto cand = centres.index_select(0, cells);
   const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
   const auto pts = FromFieldFrame(block, cand + (torch::rand(cand.sizes(), gen) - 0.5) * cell);
   const auto sigma = QueryDensity(block, pts);
-  const auto keep = (sigma > min_density).nonzero().squeeze(1);
+  torch::Tensor dense = (sigma > min_density).to(torch::kCPU);  // [C]
+  if (shell) {
+    const int64_t r = block.grid->resolution();
+    torch::Tensor volume = torch::zeros({r * r * r}, torch::kFloat);  // [R^3] 1 where dense
+    volume.index_put_({cells.to(torch::kCPU).index({dense})}, 1.0f);
+    namespace F = torch::nn::functional;
+    // Outside the grid is outside the solid: pad with empty cells before looking at neighbours.
+    const torch::Tensor empty =
+        F::pad(1.0f - volume.reshape({1, 1, r, r, r}), F::PadFuncOptions({1, 1, 1, 1, 1, 1}).value(1.0));
+    const torch::Tensor near_empty = F::max_pool3d(empty, F::MaxPool3dFuncOptions(3).stride(1)).reshape(-1);  // [R^3]
+    dense = dense & (near_empty.index_select(0, cells.to(torch::kCPU)) > 0);
+  }
+  const auto keep = dense.nonzero().squeeze(1).to(sigma.device());
   BlockPoints out;
   out.xyz = pts.index_select(0, keep);
   out.sigma = sigma.index_select(0, keep);

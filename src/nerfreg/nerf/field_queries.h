@@ -52,7 +52,10 @@ struct BlockPoints {
 torch::Tensor ViewAveragedColor(NerfBlock& block, const torch::Tensor& positions);
 
 // One jittered point per occupied cell of the block's grid whose density exceeds
-// `min_density` (spec: 0.7).
-BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density = 0.7, unsigned seed = 0);
+// `min_density` (spec: 0.7). shell: only the cells of that dense set with a cell outside it among
+// their 26 neighbours (the grid's outside counts as outside): the solid's boundary, one cell thick.
+// A trained block fills what its cameras saw around with density; a surface capture (splats) is a
+// shell, and points of the solid's inside have nothing to match there.
+BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density = 0.7, unsigned seed = 0, bool shell = false);
 
 }  // namespace nerfreg

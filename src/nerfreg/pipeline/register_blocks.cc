@@ -161,8 +161,11 @@ const Eigen::Matrix3Xd& OccupiedPoints::Target() {
 void OccupiedPoints::Extract() {
   if (done_) return;
   Timer timer;
-  src_ = source_->OccupiedPoints(min_density_, seed_);
-  tgt_ = target_->OccupiedPoints(min_density_, seed_);
+  // A block against splats: the block's solid as a shell, as the splats are (else ICP settles the
+  // capture's surface inside the block's solid).
+  const bool mixed = source_->Kind() != target_->Kind();
+  src_ = source_->OccupiedPoints(min_density_, seed_, mixed);
+  tgt_ = target_->OccupiedPoints(min_density_, seed_, mixed);
   seconds_ = timer.Seconds();
   done_ = true;
 }

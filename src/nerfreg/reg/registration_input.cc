@@ -8,8 +8,8 @@
 
 namespace nerfreg {
 
-Eigen::Matrix3Xd NerfBlockInput::OccupiedPoints(double min_density, unsigned seed) {
-  return PointsToEigen(ExtractOccupiedPoints(*block_, min_density, seed).xyz);
+Eigen::Matrix3Xd NerfBlockInput::OccupiedPoints(double min_density, unsigned seed, bool shell) {
+  return PointsToEigen(ExtractOccupiedPoints(*block_, min_density, seed, shell).xyz);
 }
 
 torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positions, torch::Tensor* rgb) {
@@ -50,7 +50,7 @@ RegGrid SplatInput::ExtractGrid(const GridExtractionOptions& options) {
   return ExtractRegGridFromField(q, centre, options);
 }
 
-Eigen::Matrix3Xd SplatInput::OccupiedPoints(double min_density, unsigned seed) {
+Eigen::Matrix3Xd SplatInput::OccupiedPoints(double min_density, unsigned seed, bool /*shell*/) {
   if (field_.size() == 0) return Eigen::Matrix3Xd(3, 0);
   torch::NoGradGuard no_grad;
   const Eigen::AlignedBox3d& box = field_.Bounds();

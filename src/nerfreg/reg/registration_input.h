@@ -27,7 +27,9 @@ class RegistrationInput {
   virtual DensityField Field() = 0;
   virtual RegGrid ExtractGrid(const GridExtractionOptions& options) = 0;
   // One jittered point per occupied cell whose density exceeds min_density: [3, N], input frame.
-  virtual Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) = 0;
+  // shell: only the boundary of that dense set (a block's solid as the surface a capture of
+  // splats is; splats are a surface already and ignore it).
+  virtual Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) = 0;
 };
 
 // A NeRF block, borrowed or owned.
@@ -39,7 +41,7 @@ class NerfBlockInput : public RegistrationInput {
   std::string Kind() const override { return "nerf"; }
   DensityField Field() override { return BlockDensityField(*block_); }
   RegGrid ExtractGrid(const GridExtractionOptions& options) override { return ExtractRegGrid(*block_, options); }
-  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) override;
+  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) override;
   NerfBlock& block() { return *block_; }
 
  private:
@@ -57,7 +59,7 @@ class SplatInput : public RegistrationInput {
   std::string Kind() const override { return "splats"; }
   DensityField Field() override;
   RegGrid ExtractGrid(const GridExtractionOptions& options) override;
-  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed) override;
+  Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) override;
   const SplatField& field() const { return field_; }
 
  private:
