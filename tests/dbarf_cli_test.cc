@@ -52,6 +52,13 @@ TEST(DbarfCli, TinyImagesAreReportedAsNotWellConstrained) {
   const Json j = ReadJsonFile(out + "/transforms.json");
   EXPECT_FALSE(j["dbarf_poses"]["well_constrained"].get<bool>());
   EXPECT_FALSE(j["dbarf_poses"]["problems"].empty());
+  // Posed by the network alone (as auto does where it keeps the network's cameras), the images
+  // are as small: still said.
+  r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --method network --out " +
+                 dir.File("network"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("24 px on their short side"), std::string::npos) << r.output;
+  EXPECT_FALSE(ReadJsonFile(dir.File("network") + "/transforms.json")["dbarf_poses"]["well_constrained"].get<bool>());
 }
 
 TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -241,7 +242,18 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   for (size_t k = 0; k < sfm_part.posed.size() && k < result.posed_by.size(); ++k)
     sfm_part.posed[k] = result.posed_by[k] == "sfm";
   const bool any_sfm = std::count(result.posed_by.begin(), result.posed_by.end(), "sfm") > 0;
-  const SfmQuality quality = any_sfm ? AssessSfm(sfm_part, cameras) : SfmQuality{};
+  SfmQuality quality = any_sfm ? AssessSfm(sfm_part, cameras) : SfmQuality{};
+  if (!any_sfm) {
+    // The pixels' own limit holds whatever posed them: images too small to pin cameras down by
+    // matching are too small for the network too (auto may keep its cameras on them).
+    const int needed = SfmQualityOptions{}.min_image_side_px;
+    int side = std::numeric_limits<int>::max();
+    for (const Camera& c : cameras) side = std::min({side, c.width, c.height});
+    if (side < needed) {
+      quality.problems.push_back("images of " + std::to_string(side) + " px on their short side (at least " +
+                                 std::to_string(needed) + " are needed): too few pixels to pin the cameras down");
+    }
+  }
   for (const auto& problem : quality.problems) {
     LOG_WARN("{}: the poses are not well constrained: {}; do not trust them", o.images_dir, problem);
   }
