@@ -246,12 +246,10 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   if (!any_sfm) {
     // The pixels' own limit holds whatever posed them: images too small to pin cameras down by
     // matching are too small for the network too (auto may keep its cameras on them).
-    const int needed = SfmQualityOptions{}.min_image_side_px;
     int side = std::numeric_limits<int>::max();
     for (const Camera& c : cameras) side = std::min({side, c.width, c.height});
-    if (side < needed) {
-      quality.problems.push_back("images of " + std::to_string(side) + " px on their short side (at least " +
-                                 std::to_string(needed) + " are needed): too few pixels to pin the cameras down");
+    if (const std::string small = SmallImagesProblem(side); !small.empty()) {
+      quality.problems.push_back(small + ": too few pixels to pin the cameras down");
     }
   }
   for (const auto& problem : quality.problems) {

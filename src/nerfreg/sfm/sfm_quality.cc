@@ -28,6 +28,12 @@ void SfmQualityOptions::Check() const {
   }
 }
 
+std::string SmallImagesProblem(int min_image_side_px, const SfmQualityOptions& options) {
+  if (min_image_side_px >= options.min_image_side_px) return "";
+  return "images of " + std::to_string(min_image_side_px) + " px on their short side (at least " +
+         std::to_string(options.min_image_side_px) + " are needed)";
+}
+
 SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras, const SfmQualityOptions& options) {
   options.Check();
   SfmQuality q;
@@ -68,10 +74,8 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
   q.median_track_length = UpperMedian(track_lengths);
   q.median_triangulation_angle_deg = UpperMedian(angles);
 
-  if (q.min_image_side_px < options.min_image_side_px) {
-    q.problems.push_back("images of " + std::to_string(q.min_image_side_px) + " px on their short side (at least " +
-                         std::to_string(options.min_image_side_px) +
-                         " are needed): a sub-pixel reprojection error there does not pin the cameras down");
+  if (const std::string small = SmallImagesProblem(q.min_image_side_px, options); !small.empty()) {
+    q.problems.push_back(small + ": a sub-pixel reprojection error there does not pin the cameras down");
   }
   if (q.min_points_per_image < options.min_points_per_image) {
     q.problems.push_back("an image observes only " + std::to_string(q.min_points_per_image) +

@@ -38,4 +38,10 @@ struct SfmQuality {
 SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras,
                      const SfmQualityOptions& options = {});
 
+// "images of N px on their short side (at least M are needed)" when the smallest side among
+// `min_image_side_px` is below options.min_image_side_px, else "": a limit of the pixels that holds
+// whatever poses them (AssessSfm adds why it matters to the SfM; dbarf poses uses it for images the
+// network posed).
+std::string SmallImagesProblem(int min_image_side_px, const SfmQualityOptions& options = {});
+
 }  // namespace nerfreg
