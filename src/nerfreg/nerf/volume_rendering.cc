@@ -4,6 +4,10 @@
 #include <random>
 #include <stdexcept>
 
+#ifdef NERFREG_WITH_CUDA
+#include "nerfreg/nerf/volume_rendering_cuda.h"
+#endif
+
 namespace nerfreg {
 
 void MarchOptions::Check() const {
@@ -16,9 +20,7 @@ RaySamples MarchRays(const torch::Tensor& origins, const torch::Tensor& dirs, co
   o.Check();
   TORCH_CHECK(origins.dim() == 2 && origins.size(1) == 3 && dirs.sizes() == origins.sizes(),
               "MarchRays: [R, 3] expected");
-  const auto ori = origins.to(torch::kFloat32).contiguous().cpu(), dir = dirs.to(torch::kFloat32).contiguous().cpu();
-  const auto occ = grid.occupied().contiguous();
-  const std::int64_t R = ori.size(0);
+  const std::int64_t R = origins.size(0);
   const int G = grid.resolution();
   float mn[3], mx[3], inv_cell[3];
   for (int d = 0; d < 3; ++d) {
@@ -26,10 +28,35 @@ RaySamples MarchRays(const torch::Tensor& origins, const torch::Tensor& dirs, co
     mx[d] = static_cast<float>(grid.aabb_max()[d]);
     inv_cell[d] = G / (mx[d] - mn[d]);
   }
+  // The start offsets are drawn on the CPU from `gen` whatever the rays' device: a CUDA march with
+  // perturb then takes the same samples as the CPU one for the same generator state.
+  const auto offsets_from_rand = o.perturb ? torch::rand({R}, gen) : torch::full({R}, 0.5f);  // [R] in steps
+#ifdef NERFREG_WITH_CUDA
+  if (origins.is_cuda()) {
+    MarchParams p;
+    for (int d = 0; d < 3; ++d) {
+      p.aabb_min[d] = mn[d];
+      p.aabb_max[d] = mx[d];
+      p.inv_cell[d] = inv_cell[d];
+    }
+    p.resolution = G;
+    p.near = static_cast<float>(o.near);
+    p.step = static_cast<float>(o.step_size);
+    p.half_step = 0.5f * p.step;
+    p.max_samples = o.max_samples_per_ray;
+    const torch::Device device = origins.device();
+    const auto jitter = o.perturb ? offsets_from_rand.to(device) : torch::Tensor();
+    const auto out =
+        MarchRaysCuda(origins.to(torch::kFloat32).contiguous(), dirs.to(device, torch::kFloat32).contiguous(),
+                      grid.occupied().to(device).contiguous(), jitter, p);
+    return {out[0], out[1], out[2], out[3]};
+  }
+#endif
+  const auto ori = origins.to(torch::kFloat32).contiguous().cpu(), dir = dirs.to(torch::kFloat32).contiguous().cpu();
+  const auto occ = grid.occupied().contiguous().cpu();  // [G, G, G] bool
   const float* po = ori.data_ptr<float>();
   const float* pd = dir.data_ptr<float>();
   const bool* pocc = occ.data_ptr<bool>();
-  const auto offsets_from_rand = o.perturb ? torch::rand({R}, gen) : torch::full({R}, 0.5f);
   const float* jit = offsets_from_rand.data_ptr<float>();
   const float step = static_cast<float>(o.step_size);
 
@@ -96,6 +123,14 @@ class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
   static torch::autograd::tensor_list forward(torch::autograd::AutogradContext* ctx, torch::Tensor sigmas,
                                               torch::Tensor rgbs, torch::Tensor t_starts, torch::Tensor t_ends,
                                               torch::Tensor offsets, double early_stop) {
+    ctx->saved_data["stop"] = early_stop;
+#ifdef NERFREG_WITH_CUDA
+    if (sigmas.is_cuda()) {
+      const auto out = CompositeForwardCuda(sigmas, rgbs, t_starts, t_ends, offsets, static_cast<float>(early_stop));
+      ctx->save_for_backward({sigmas, rgbs, t_starts, t_ends, offsets, out[0], out[1], out[2]});
+      return {out[0], out[1], out[2]};
+    }
+#endif
     const std::int64_t R = offsets.size(0) - 1;
     auto color = torch::zeros({R, 3}), opacity = torch::zeros({R}), depth = torch::zeros({R});
     const float* sg = sigmas.data_ptr<float>();
@@ -129,7 +164,6 @@ class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
       od[r] = dep;
     }
     ctx->save_for_backward({sigmas, rgbs, t_starts, t_ends, offsets, color, opacity, depth});
-    ctx->saved_data["stop"] = early_stop;
     return {color, opacity, depth};
   }
 
@@ -144,6 +178,13 @@ class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
     };
     const auto gc = zeros_if_undef(grads[0], color), go = zeros_if_undef(grads[1], opacity),
                gd = zeros_if_undef(grads[2], depth);
+#ifdef NERFREG_WITH_CUDA
+    if (sigmas.is_cuda()) {
+      const auto g =
+          CompositeBackwardCuda(sigmas, rgbs, t_starts, t_ends, offsets, color, opacity, depth, gc, go, gd, stop);
+      return {g[0], g[1], torch::Tensor(), torch::Tensor(), torch::Tensor(), torch::Tensor()};
+    }
+#endif
     const std::int64_t R = offsets.size(0) - 1;
     auto gsig = torch::zeros_like(sigmas), grgb = torch::zeros_like(rgbs);
     const float* sg = sigmas.data_ptr<float>();
@@ -195,10 +236,20 @@ CompositeResult Composite(const torch::Tensor& sigmas, const torch::Tensor& rgbs
               "Composite: sigmas [S], rgbs [S, 3] expected");
   TORCH_CHECK(t_starts.sizes() == sigmas.sizes() && t_ends.sizes() == sigmas.sizes() && offsets.dim() == 1,
               "Composite: t_starts, t_ends [S], offsets [R + 1] expected");
-  if (!sigmas.device().is_cpu()) return CompositeReference(sigmas, rgbs, t_starts, t_ends, offsets, early_stop);
-  const auto out = CompositeFunction::apply(sigmas.contiguous(), rgbs.contiguous(), t_starts.contiguous(),
-                                            t_ends.contiguous(), offsets.to(torch::kInt64).contiguous(), early_stop);
+  if (!CompositeHasKernel(sigmas.device()))
+    return CompositeReference(sigmas, rgbs, t_starts, t_ends, offsets, early_stop);
+  const torch::Device device = sigmas.device();
+  const auto out = CompositeFunction::apply(sigmas.contiguous(), rgbs.to(device).contiguous(),
+                                            t_starts.to(device).contiguous(), t_ends.to(device).contiguous(),
+                                            offsets.to(device, torch::kInt64).contiguous(), early_stop);
   return {out[0], out[1], out[2]};
+}
+
+bool CompositeHasKernel(const torch::Device& device) {
+#ifdef NERFREG_WITH_CUDA
+  if (device.is_cuda()) return true;
+#endif
+  return device.is_cpu();
 }
 
 CompositeResult CompositeReference(const torch::Tensor& sigmas, const torch::Tensor& rgbs,
