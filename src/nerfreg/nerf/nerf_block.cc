@@ -32,6 +32,13 @@ void CameraRays(const Camera& camera, const Rigid3d& cam_from_world, torch::Tens
 
 bool NerfBlock::Moved() const { return world_from_field.ToMatrix() != Eigen::Matrix4d::Identity(); }
 
+torch::Device NerfBlock::Device() const { return field->table.device(); }
+
+void NerfBlock::To(const torch::Device& device) {
+  field->to(device);
+  grid->To(device);
+}
+
 namespace {
 
 // world_from_field's rotation [3, 3] (row-major) and translation [3] as float32 tensors on `like`'s device.
@@ -202,6 +209,24 @@ FieldOptions FieldOptionsFromJson(const JsonField& j) {
 
 namespace {
 
+// Module::save's layout (its own parameters, then its buffers, then one nested archive per
+// serializable child) with every tensor copied to the CPU first, so a module on a GPU is written
+// as the same module on the CPU would be. Module::load reads it back into a module on any device.
+void SaveModuleOnCpu(const torch::nn::Module& module, torch::serialize::OutputArchive& archive) {
+  const auto cpu = [](const torch::Tensor& t) {
+    return t.is_cpu() ? t : t.detach().to(torch::kCPU).requires_grad_(t.requires_grad());
+  };
+  for (const auto& p : module.named_parameters(/*recurse=*/false)) archive.write(p.key(), cpu(p.value()));
+  for (const auto& b : module.named_buffers(/*recurse=*/false))
+    archive.write(b.key(), cpu(b.value()), /*is_buffer=*/true);
+  for (const auto& child : module.named_children()) {
+    if (!child.value()->is_serializable()) continue;
+    torch::serialize::OutputArchive child_archive(archive.compilation_unit());
+    SaveModuleOnCpu(*child.value(), child_archive);
+    archive.write(child.key(), child_archive);
+  }
+}
+
 // The cameras as transforms.json, with the folder their image paths start from ("root", absolute;
 // our own key, ignored by other readers) so the images can be found from the checkpoint alone
 // (reg register-many --merged-cameras).
@@ -235,10 +260,15 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
   torch::serialize::OutputArchive archive;
   archive.write("meta", StringTensor(meta.dump()));
   torch::serialize::OutputArchive field_archive;
-  block.field->save(field_archive);
+  if (block.Device().is_cpu()) {
+    block.field->save(field_archive);
+  } else {
+    SaveModuleOnCpu(*block.field, field_archive);
+  }
   archive.write("field", field_archive);
-  archive.write("grid_density", block.grid->density());
-  archive.write("grid_occupied", block.grid->occupied().to(torch::kUInt8));
+  // CPU tensors: an archive keeps each tensor's device, and a GPU-trained block must load anywhere.
+  archive.write("grid_density", block.grid->density().to(torch::kCPU));
+  archive.write("grid_occupied", block.grid->occupied().to(torch::kUInt8).to(torch::kCPU));
   if (extra) extra(archive);
   SaveArchiveAtomic(archive, path);
 }

@@ -38,6 +38,10 @@ struct NerfBlock {
 
   // Whether world_from_field is not the identity (training refuses such a block).
   bool Moved() const;
+  // The device the field lives on (its hash table's); rendering and the field queries run there.
+  torch::Device Device() const;
+  // Moves the field and the occupancy grid to `device`.
+  void To(const torch::Device& device);
 
   // Builds an untrained block (field initialised from `seed`).
   static NerfBlock Create(const FieldOptions& field_options, const OccupancyGridOptions& grid_options,
@@ -77,7 +81,9 @@ void CameraRays(const Camera& camera, const Rigid3d& cam_from_world, torch::Tens
 // moves them, their near / far bounds scale, and the cameras' aabb becomes the box around the moved one.
 void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old);
 
-// Checkpoints. `extra` archives (optimizer state, RNG) may be added by the trainer.
+// Checkpoints. `extra` archives (optimizer state, RNG) may be added by the trainer. The field and
+// the grid are written as CPU tensors whatever their device, so a block trained on a GPU loads on
+// a machine without one; `extra` must write CPU tensors too.
 void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                    const std::function<void(torch::serialize::OutputArchive&)>& extra = nullptr);
 // Throws InputError naming the file when it is missing, truncated, not a nerfreg NeRF checkpoint,
