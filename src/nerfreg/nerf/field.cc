@@ -109,9 +109,10 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::DensityAndFeatures(const 
 std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tensor& positions,
                                                                const torch::Tensor& dirs) {
   const torch::Device device = table.device();
-  if (positions.device() != device) {
-    // The caller's samples (marched on the CPU) go to the field's device and the answers come
-    // back; the copies are differentiable, so training on a GPU field needs nothing else.
+  if (positions.device() != device || dirs.device() != device) {
+    // A caller's samples on another device (e.g. CPU points of an export on a GPU field) go to
+    // the field's device and the answers come back; the copies are differentiable. The trainer
+    // and the renderer hand over samples already on the field's device: no copy.
     auto [sigma, rgb] = Forward(positions.to(device), dirs.to(device));
     return {sigma.to(positions.device()), rgb.to(positions.device())};
   }

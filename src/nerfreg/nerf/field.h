@@ -48,8 +48,9 @@ class NerfFieldImpl : public torch::nn::Module {
  public:
   explicit NerfFieldImpl(const FieldOptions& options);
 
-  // positions [N, 3] world (float32), dirs [N, 3] unit -> sigma [N], rgb [N, 3]. Inputs on
-  // another device than the field's (module->to(device)) are copied to it and the outputs back.
+  // positions [N, 3] world (float32), dirs [N, 3] unit -> sigma [N], rgb [N, 3]. Inputs on the
+  // field's device (module->to(device)) stay there; inputs on another device are copied to it and
+  // the outputs back to the positions' device.
   std::pair<torch::Tensor, torch::Tensor> Forward(const torch::Tensor& positions, const torch::Tensor& dirs);
   // Density only: positions [N, 3] -> sigma [N] (0 outside the AABB).
   torch::Tensor Density(const torch::Tensor& positions);

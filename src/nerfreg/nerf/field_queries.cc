@@ -21,27 +21,32 @@ torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) { r
 namespace {
 
 // SurfaceField in the field's frame: `points` [N, 3] and `cameras` there, lengths in its units.
+// Runs on the points' device (SurfaceField moves them to the block's); the result [N] is there.
 torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras, const torch::Tensor& points,
                                        const SurfaceFieldOptions& options) {
+  const torch::Device device = points.device();
+  const auto f32 = torch::TensorOptions(torch::kFloat32).device(device);
   const auto train = cameras.IndicesOfSplit("train");
   const std::int64_t n = points.size(0);
-  auto best = torch::zeros({n});
+  auto best = torch::zeros({n}, f32);
   if (train.empty() || n == 0) return best;
   // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
   const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
   const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
   const bool window_mode = options.mode == "window";
-  const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32);
-  const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32);
-  const auto& occupied = block.grid->occupied();  // [G, G, G] bool
+  const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32).to(device);  // [3]
+  const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32).to(device);  // [3]
+  // [G, G, G] bool; no copy where the grid lives on the block's device (LoadNerfBlock puts it there).
+  const torch::Tensor occupied = block.grid->occupied().to(device);
   const std::int64_t g = block.grid->resolution();
   for (size_t c = 0; c < train.size(); c += stride) {
     const Frame& f = cameras.frames[train[c]];
     // Which points this camera sees (in front, inside the image).
     const Eigen::Matrix3f r = f.cam_from_world.RotationMatrix().cast<float>();
     const Eigen::Vector3f t = f.cam_from_world.translation.cast<float>();
-    const auto R = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, torch::kFloat32).t().clone();  // row-major
-    const auto T = torch::tensor({t.x(), t.y(), t.z()});
+    const auto R =
+        torch::from_blob(const_cast<float*>(r.data()), {3, 3}, torch::kFloat32).t().clone().to(device);  // row-major
+    const auto T = torch::tensor({t.x(), t.y(), t.z()}).to(device);                                      // [3]
     const auto pc = points.matmul(R.t()) + T;
     const auto z = pc.select(1, 2);
     const auto u = f.camera.fx * pc.select(1, 0) / z + f.camera.cx, v = f.camera.fy * pc.select(1, 1) / z + f.camera.cy;
@@ -49,7 +54,7 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
     const auto idx = visible.nonzero().squeeze(1);
     if (idx.numel() == 0) continue;
     const Eigen::Vector3d centre = CameraCenter(f.cam_from_world);
-    const auto o = torch::tensor({float(centre.x()), float(centre.y()), float(centre.z())});
+    const auto o = torch::tensor({float(centre.x()), float(centre.y()), float(centre.z())}).to(device);  // [3]
     const auto x = points.index_select(0, idx);
     const auto dist = (x - o).norm(2, 1);          // [M]
     const auto dir = (x - o) / dist.unsqueeze(1);  // [M, 3]
@@ -63,8 +68,9 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
                  t0 = t_enter.slice(0, s, s + 4096);
       const std::int64_t m = d_s.size(0);
       const double reach = window_mode ? 0.5 * options.window : 0.0;
+      // The longest stretch sets the chunk's step count: one scalar read per chunk.
       const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>() + reach) / step)));
-      const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, torch::kFloat32) + 0.5) * step;  // [m, K]
+      const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, f32) + 0.5) * step;  // [m, K]
       // Window mode marches on to half a window past X; the others stop at X.
       const auto d_end = window_mode ? d_s + 0.5 * options.window : d_s - options.stop_before;  // [m]
       const auto valid = ts <= d_end.unsqueeze(1);                                              // [m, K]
@@ -75,7 +81,7 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
       const auto cc = cell.clamp(0, g - 1);
       const auto occ = occupied.index({cc.select(2, 0), cc.select(2, 1), cc.select(2, 2)});
       const auto query = (valid & in_box & occ).reshape(-1).nonzero().squeeze(1);
-      auto sigma = torch::zeros({m * max_steps});
+      auto sigma = torch::zeros({m * max_steps}, f32);
       if (query.numel() > 0) {
         const auto q = pos.reshape({-1, 3}).index_select(0, query);
         std::vector<torch::Tensor> parts;
@@ -85,7 +91,7 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
       }
       sigma = sigma.view({m, max_steps});
       const auto alpha = 1 - torch::exp(-sigma * step);
-      const auto trans = torch::cat({torch::ones({m, 1}), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
+      const auto trans = torch::cat({torch::ones({m, 1}, f32), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
       const auto weight = alpha * trans * valid;  // [m, K]
       torch::Tensor s_ray;
       if (window_mode) {
@@ -106,7 +112,10 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   options.Check();
   TORCH_CHECK(points.dim() == 2 && points.size(1) == 3, "SurfaceField: points must be [N, 3]");
   torch::NoGradGuard no_grad;
-  if (!block.Moved()) return SurfaceFieldInFieldFrame(block, block.cameras, points, options);
+  // Computed on the block's device (the points go there once); the result comes back to theirs.
+  const torch::Device out = points.device();
+  const torch::Tensor p = points.to(block.Device());  // [N, 3]
+  if (!block.Moved()) return SurfaceFieldInFieldFrame(block, block.cameras, p, options).to(out);
   // A moved block (reg apply): the cameras and lengths carried back into the field's frame, where
   // its occupancy grid and box are.
   const Sim3d field_from_world = block.world_from_field.Inverse();
@@ -117,18 +126,20 @@ torch::Tensor SurfaceField(NerfBlock& block, const torch::Tensor& points, const 
   o.step_size /= s;
   o.stop_before /= s;
   o.window /= s;
-  return SurfaceFieldInFieldFrame(block, cameras, ToFieldFrame(block, points), o);
+  return SurfaceFieldInFieldFrame(block, cameras, ToFieldFrame(block, p), o).to(out);
 }
 
 BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned seed, bool shell) {
   torch::NoGradGuard no_grad;
   torch::Generator gen = at::detail::createCPUGenerator(seed);
   // Cells of the occupancy grid, in the field's frame; the points returned are in the block's.
-  const auto centres = block.grid->CellCenters();
+  // Computed on the grid's device (the block's, after LoadNerfBlock); the jitter is drawn on the
+  // CPU from `gen` and copied, so every device picks the same points.
+  const auto centres = block.grid->CellCenters();                                       // [G^3, 3]
   const torch::Tensor cells = block.grid->occupied().reshape(-1).nonzero().squeeze(1);  // [C] flat indices
-  const auto cand = centres.index_select(0, cells);
+  const auto cand = centres.index_select(0, cells);                                     // [C, 3]
   const double cell = (block.field_options.aabb_max[0] - block.field_options.aabb_min[0]) / block.grid->resolution();
-  const auto pts = FromFieldFrame(block, cand + (torch::rand(cand.sizes(), gen) - 0.5) * cell);
+  const auto pts = FromFieldFrame(block, cand + (torch::rand(cand.sizes(), gen).to(cand.device()) - 0.5) * cell);
   const auto sigma = QueryDensity(block, pts);
   torch::Tensor dense = (sigma > min_density).to(torch::kCPU);  // [C]
   if (shell) {
@@ -148,21 +159,29 @@ BlockPoints ExtractOccupiedPoints(NerfBlock& block, double min_density, unsigned
   out.sigma = sigma.index_select(0, keep);
   out.alpha = (1 - torch::exp(-0.01 * out.sigma)).clamp(0, 1);
   out.rgb = ViewAveragedColor(block, out.xyz);
+  // Handed back on the CPU (point clouds, PLY files and registration read them there).
+  out.xyz = out.xyz.to(torch::kCPU);
+  out.rgb = out.rgb.to(torch::kCPU);
+  out.sigma = out.sigma.to(torch::kCPU);
+  out.alpha = out.alpha.to(torch::kCPU);
   return out;
 }
 
 torch::Tensor ViewAveragedColor(NerfBlock& block, const torch::Tensor& positions) {
   torch::NoGradGuard no_grad;
+  // Summed on the block's device (the positions go there once); the result comes back to theirs.
+  const torch::Device device = block.Device();
+  const torch::Tensor x = positions.to(device);  // [N, 3]
   const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  auto rgb = torch::zeros({positions.size(0), 3});
+  auto rgb = torch::zeros({x.size(0), 3}, torch::TensorOptions().device(device));  // [N, 3]
   for (const auto& d : dirs) {
-    for (std::int64_t s = 0; s < positions.size(0); s += 1 << 16) {
-      const auto p = positions.slice(0, s, s + (1 << 16));
-      const auto dd = torch::tensor(d).expand({p.size(0), 3}).contiguous();
-      rgb.slice(0, s, s + (1 << 16)) += BlockForward(block, p, dd).second.to(torch::kCPU) / 6.0;
+    for (std::int64_t s = 0; s < x.size(0); s += 1 << 16) {
+      const auto p = x.slice(0, s, s + (1 << 16));
+      const auto dd = torch::tensor(d).to(device).expand({p.size(0), 3}).contiguous();
+      rgb.slice(0, s, s + (1 << 16)) += BlockForward(block, p, dd).second / 6.0;
     }
   }
-  return rgb;
+  return rgb.to(positions.device());
 }
 
 }  // namespace nerfreg

@@ -77,7 +77,8 @@ torch::Tensor BlockDensity(NerfBlock& block, const torch::Tensor& positions) {
   std::vector<torch::Tensor> out;
   for (std::int64_t s = 0; s < p.size(0); s += 1 << 17)
     out.push_back(block.field->Density(p.slice(0, s, s + (1 << 17))));
-  const torch::Tensor sigma = out.empty() ? torch::zeros({0}) : torch::cat(out);
+  const torch::Tensor sigma =
+      out.empty() ? torch::zeros({0}, torch::TensorOptions().device(p.device())) : torch::cat(out);
   // A length of the block's frame is `scale` lengths of the field's: the density per unit length shrinks.
   return block.Moved() ? sigma / block.world_from_field.scale : sigma;
 }
@@ -93,8 +94,14 @@ std::pair<torch::Tensor, torch::Tensor> BlockForward(NerfBlock& block, const tor
 RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& block_origins, const torch::Tensor& block_dirs,
                         const torch::Tensor& background, std::int64_t chunk) {
   torch::NoGradGuard no_grad;
+  // The rays go to the field's device once; marching (against the grid, moved there with the block),
+  // the field and compositing then run there, and only the results come back. On the CPU the
+  // moves are no-ops.
+  const torch::Device device = block.Device();
+  const torch::Tensor bg = background.to(device);  // [3]
   // Marched in the field's frame (its occupancy grid and box live there); only depth changes units.
-  const torch::Tensor origins = ToFieldFrame(block, block_origins), dirs = DirectionsToFieldFrame(block, block_dirs);
+  const torch::Tensor origins = ToFieldFrame(block, block_origins.to(device)),
+                      dirs = DirectionsToFieldFrame(block, block_dirs.to(device));  // [R, 3] each, on `device`
   MarchOptions march = block.march;
   march.perturb = false;
   std::vector<torch::Tensor> rgbs, opacities, depths;
@@ -103,27 +110,30 @@ RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& block_origins, co
     const RaySamples samples = MarchRays(o, d, *block.grid, march);
     const std::int64_t R = o.size(0);
     if (samples.t_starts.numel() == 0) {
-      rgbs.push_back(background.expand({R, 3}).clone());
-      opacities.push_back(torch::zeros({R}));
-      depths.push_back(torch::zeros({R}));
+      rgbs.push_back(bg.expand({R, 3}).clone());
+      opacities.push_back(torch::zeros({R}, torch::TensorOptions().device(device)));
+      depths.push_back(torch::zeros({R}, torch::TensorOptions().device(device)));
       continue;
     }
     const auto t_mid = 0.5 * (samples.t_starts + samples.t_ends);
     const auto pos = o.index_select(0, samples.ray_ids) + d.index_select(0, samples.ray_ids) * t_mid.unsqueeze(1);
     auto [sigma, rgb] = block.field->Forward(pos, d.index_select(0, samples.ray_ids));
     const auto comp = Composite(sigma, rgb, samples.t_starts, samples.t_ends, samples.offsets);
-    rgbs.push_back(comp.rgb + (1 - comp.opacity).unsqueeze(1) * background);
+    rgbs.push_back(comp.rgb + (1 - comp.opacity).unsqueeze(1) * bg);
     opacities.push_back(comp.opacity);
     depths.push_back(
         torch::where(comp.opacity > 1e-4, comp.depth / comp.opacity.clamp_min(1e-4), torch::zeros_like(comp.depth)) *
         block.world_from_field.scale);
   }
-  return {torch::cat(rgbs), torch::cat(opacities), torch::cat(depths)};
+  const torch::Device out = block_origins.device();
+  return {torch::cat(rgbs).to(out), torch::cat(opacities).to(out), torch::cat(depths).to(out)};
 }
 
 Image RenderImage(NerfBlock& block, const Camera& camera, const Rigid3d& cam_from_world) {
   torch::Tensor o, d;
   CameraRays(camera, cam_from_world, &o, &d);
+  // The rays are made on the CPU (camera model, Eigen) and moved to the block's device by
+  // RenderRays; the image comes back once ([H*W, 3]).
   const auto out = RenderRays(block, o, d, torch::ones({3})).rgb.clamp(0, 1).contiguous();
   Image im(camera.width, camera.height, 3);
   std::memcpy(im.data.data(), out.data_ptr<float>(), im.data.size() * sizeof(float));
@@ -347,7 +357,7 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
     b.cameras = DatasetFromTransformsJson(cams, path + " (cameras)",
                                           has_root ? cams["root"].get<std::string>() : ParentDir(path));
   }
-  b.field->to(device);
+  b.To(device);
   return b;
 }
 

@@ -65,7 +65,9 @@ torch::Tensor DirectionsToFieldFrame(const NerfBlock& block, const torch::Tensor
 // Positions [N, 3] of the field's frame in the block's frame.
 torch::Tensor FromFieldFrame(const NerfBlock& block, const torch::Tensor& positions);
 
-// Renders rays without gradients, in chunks. origins, dirs: [R, 3]; background: [3].
+// Renders rays without gradients, in chunks. origins, dirs: [R, 3]; background: [3]. Marching,
+// the field and compositing run on the block's Device() (the rays are moved there once); the
+// results are returned on the origins' device.
 RenderedRays RenderRays(NerfBlock& block, const torch::Tensor& origins, const torch::Tensor& dirs,
                         const torch::Tensor& background, std::int64_t chunk = 1 << 14);
 
@@ -88,7 +90,8 @@ void SaveNerfBlock(const NerfBlock& block, const std::string& path,
                    const std::function<void(torch::serialize::OutputArchive&)>& extra = nullptr);
 // Throws InputError naming the file when it is missing, truncated, not a nerfreg NeRF checkpoint,
 // or of another version.
-// The file is read on the CPU (whatever device wrote it) and the field then moved to `device`.
+// The file is read on the CPU (whatever device wrote it) and the field and grid then moved to
+// `device`.
 NerfBlock LoadNerfBlock(const std::string& path,
                         const std::function<void(torch::serialize::InputArchive&)>& extra = nullptr,
                         const torch::Device& device = torch::kCPU);
