@@ -71,10 +71,12 @@ Json NerfTrainOptions::ToJson() const {
 namespace {
 
 struct TrainRays {
-  torch::Tensor origins, dirs, rgba;  // [P, 3], [P, 3], [P, 4]
+  torch::Tensor origins, dirs, rgba;  // [P, 3], [P, 3], [P, 4] float32, on the training device
 };
 
-TrainRays LoadRays(const Dataset& dataset, const std::vector<int>& indices) {
+// The training images' pixels and their rays, made on the CPU once and moved to `device` (the
+// whole set, so that each step gathers its batch there).
+TrainRays LoadRays(const Dataset& dataset, const std::vector<int>& indices, const torch::Device& device) {
   std::vector<torch::Tensor> os, ds, cs;
   for (int i : indices) {
     const Frame& f = dataset.frames[i];
@@ -92,7 +94,7 @@ TrainRays LoadRays(const Dataset& dataset, const std::vector<int>& indices) {
     cs.push_back(
         torch::from_blob(const_cast<float*>(im.data.data()), {im.width * im.height, 4}, torch::kFloat32).clone());
   }
-  return {torch::cat(os), torch::cat(ds), torch::cat(cs)};
+  return {torch::cat(os).to(device), torch::cat(ds).to(device), torch::cat(cs).to(device)};
 }
 
 // The field's box: the dataset's "aabb" (the object's box) made cubic and padded by 10 %, or
@@ -185,7 +187,12 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       ar.read("n_rays", rays_tensor);
       ar.read("seconds", seconds_tensor);
     });
-    block.field->to(options.device);
+    // A resumed run keeps its checkpoint's table optimizer; the sparse one is a CPU kernel.
+    if (options.sparse_table_adam && !options.device.is_cpu()) {
+      ThrowInputError("--device", options.device.str(),
+                      "cpu to resume " + ckpt + " (it trains its table with the sparse table Adam, a CPU kernel)");
+    }
+    block.To(options.device);
     make_optimizer();
     optimizer->load(*opt_archive);
     MoveOptimizerState(*optimizer, options.device);
@@ -198,11 +205,12 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     ChooseAabb(dataset, &options.field);
     block = NerfBlock::Create(options.field, options.grid, options.march, options.seed);
     block.cameras = dataset;
-    block.field->to(options.device);
+    block.To(options.device);
     make_optimizer();
   }
   block.train_options = options.ToJson();
-  const TrainRays rays = LoadRays(dataset, train_idx);
+  const torch::Device device = options.device;
+  const TrainRays rays = LoadRays(dataset, train_idx, device);
   const std::int64_t P = rays.origins.size(0);
   const bool has_alpha = (rays.rgba.select(1, 3) < 0.999).any().item<bool>();
   const std::string log_path = ckpt + ".log.jsonl";
@@ -213,7 +221,12 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
     const double secs = seconds_before + timer.Seconds();
     SaveNerfBlock(block, ckpt, [&](torch::serialize::OutputArchive& ar) {
       torch::serialize::OutputArchive opt_ar;
+      // The Adam moments are written from the CPU (an archive keeps each tensor's device; the
+      // checkpoint must load on a machine without a GPU), then moved back: two copies of the
+      // moments per checkpoint, none per step.
+      if (!device.is_cpu()) MoveOptimizerState(*optimizer, torch::kCPU);
       optimizer->save(opt_ar);
+      if (!device.is_cpu()) MoveOptimizerState(*optimizer, device);
       ar.write("optimizer", opt_ar);
       if (table_adam) {
         torch::serialize::OutputArchive table_ar;
@@ -243,13 +256,15 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
 
     block.grid->Update(step, step_size, density_fn, gen);
 
-    // One training step: batch -> samples -> field -> composite -> loss.
-    const auto idx = torch::randint(P, {n_rays}, gen, torch::kInt64);
-    const auto o = rays.origins.index_select(0, idx), d = rays.dirs.index_select(0, idx);
-    const auto target_rgba = rays.rgba.index_select(0, idx);
+    // One training step: batch -> samples -> field -> composite -> loss, all on `device`. The
+    // batch's pixels are drawn on the CPU from `gen` (n_rays int64 go over), as are the marching
+    // offsets (MarchRays) and the background colours: every device takes the same batch.
+    const auto idx = torch::randint(P, {n_rays}, gen, torch::kInt64).to(device);           // [n_rays]
+    const auto o = rays.origins.index_select(0, idx), d = rays.dirs.index_select(0, idx);  // [n_rays, 3]
+    const auto target_rgba = rays.rgba.index_select(0, idx);                               // [n_rays, 4]
     MarchOptions march = block.march;
     march.perturb = true;
-    const RaySamples s = MarchRays(o, d, *block.grid, march, gen);
+    const RaySamples s = MarchRays(o, d, *block.grid, march, gen);  // on `device`
     const std::int64_t S = s.t_starts.numel();
     if (S > 0) {
       const auto t_mid = 0.5 * (s.t_starts + s.t_ends);
@@ -258,12 +273,20 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       const auto comp = options.field.reference_kernels
                             ? CompositeReference(sigma, rgb, s.t_starts, s.t_ends, s.offsets)
                             : Composite(sigma, rgb, s.t_starts, s.t_ends, s.offsets);
-      const auto bg = has_alpha && options.random_background ? torch::rand({n_rays, 3}, gen) : torch::ones({n_rays, 3});
+      const auto bg = has_alpha && options.random_background
+                          ? torch::rand({n_rays, 3}, gen).to(device)
+                          : torch::ones({n_rays, 3}, torch::TensorOptions().device(device));  // [n_rays, 3]
       const auto alpha = target_rgba.slice(1, 3, 4);
       const auto target = target_rgba.slice(1, 0, 3) * alpha + bg * (1 - alpha);
       const auto pred = comp.rgb + (1 - comp.opacity).unsqueeze(1) * bg;
       const auto loss = torch::smooth_l1_loss(pred, target);
-      loss_value = loss.item<double>();
+      // What a step copies to the CPU is scalars: the sample count marching sizes its output by
+      // (MarchRays), the occupancy threshold on update steps, and here the loss (checked for NaN
+      // before the step) and the batch's MSE (the progress bar's PSNR), read together.
+      const auto scalars = torch::stack({loss.detach(), torch::mse_loss(pred.detach(), target)})
+                               .to(torch::kCPU, torch::kFloat64);  // [2]
+      loss_value = scalars[0].item<double>();
+      const double mse = scalars[1].item<double>();
       if (!std::isfinite(loss_value)) {
         throw std::runtime_error("training diverged: loss is " + std::to_string(loss_value) + " at step " +
                                  std::to_string(step) + "; the last good checkpoint " + ckpt + " was kept");
@@ -276,7 +299,6 @@ NerfTrainResult TrainNerfBlock(const Dataset& dataset, const NerfTrainOptions& o
       // Keep about target_samples samples per batch.
       const double ratio = double(options.target_samples) / double(S);
       n_rays = static_cast<int>(std::clamp<double>(n_rays * ratio, 64, options.max_rays));
-      const double mse = torch::mse_loss(pred.detach(), target).item<double>();
       bar.SetMetric("loss", loss_value);
       bar.SetMetric("psnr", -10 * std::log10(std::max(mse, 1e-10)));
     }

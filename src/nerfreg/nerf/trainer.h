@@ -33,8 +33,11 @@ struct NerfTrainOptions {
   FieldOptions field;
   OccupancyGridOptions grid;
   MarchOptions march;
-  // Where the field (hash table and MLPs) lives and runs (`--device`). Rays, the occupancy grid,
-  // marching and compositing stay on the CPU; samples go to the field's device and back.
+  // Where training runs (`--device`): the field (hash table and MLPs), the training pixels and
+  // their rays, the occupancy grid, marching, compositing and the loss all live there. Random
+  // draws (batches, background colours, marching offsets, grid cells) are made on the CPU from the
+  // run's generator and copied, so every device trains on the same batches and samples. The
+  // sparse table Adam is a CPU kernel: with it the device must be the CPU.
   torch::Device device = torch::kCPU;
 
   // Presets. "default": 16 levels x 2, 2^19 table, 128^3 grid, step 3 sqrt(3)/1024 of a 3-wide
