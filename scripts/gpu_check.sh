@@ -124,7 +124,7 @@ if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
 fi
 echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
 cuda_rc=0
-"${BUILD_DIR}/src/nerfreg/nerf/nerfreg_nerf_kernels_test" --gtest_filter='*HashEncodingDevice*cuda_*:*VolumeRenderingDevice*/cuda' >"${LOGS}/cuda_tests.log" 2>&1 || cuda_rc=$?
+"${BUILD_DIR}/src/nerfreg/nerf/nerfreg_nerf_kernels_test" --gtest_filter='*HashEncodingDevice*cuda_*:*VolumeRenderingDevice*/cuda:*NerfTrainDevice*/cuda' >"${LOGS}/cuda_tests.log" 2>&1 || cuda_rc=$?
 cuda_ran=$(grep -c '^\[       OK \]' "${LOGS}/cuda_tests.log" || true)
 cuda_skipped=$(grep -c '^\[  SKIPPED \]' "${LOGS}/cuda_tests.log" || true)
 echo "gpu_check: CUDA kernel tests: ${cuda_ran} passed, ${cuda_skipped} skipped, exit ${cuda_rc}"
