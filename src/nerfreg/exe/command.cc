@@ -38,7 +38,7 @@ int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& comm
 void AddDistOptions(CLI::App& app, DistOptions* options) {
   app.add_option("--nproc", options->nproc,
                  "Data-parallel processes on this machine, each with its share of the cores and of each batch "
-                 "(c10d Gloo; default 1)");
+                 "(c10d: Gloo on the CPU, NCCL with --device cuda, worker r on cuda:r; default 1)");
   app.add_option("--nnodes", options->nnodes, "Machines in the job (default 1); run the command on each");
   app.add_option("--node-rank", options->node_rank, "This machine's index in [0, --nnodes)");
   app.add_option("--master-addr", options->master_addr, "Address of rank 0's machine (default 127.0.0.1)");

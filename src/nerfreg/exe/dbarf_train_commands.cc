@@ -75,6 +75,9 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
 // Trains (with workers under --nproc) and prints the summary.
 int RunTraining(DbarfTrainingJob& c, const CommonOptions& common, const DistOptions& dist, int argc, char** argv) {
   c.force = common.force;
+  // Under --nproc on GPUs local worker r trains on cuda:r (NCCL); too few GPUs is refused here,
+  // before any worker starts.
+  c.run.device = ProcessDevice(c.run.device, dist);
   if (ShouldLaunch(dist) && !c.run.resume) {
     // Refused before any worker starts (each would refuse alike).
     std::vector<std::string> inputs = c.scenes;
@@ -82,7 +85,7 @@ int RunTraining(DbarfTrainingJob& c, const CommonOptions& common, const DistOpti
     CheckCanWriteOutput(c.run.out, c.force, inputs);
   }
   if (int rc = LaunchIfAsked(dist, argc, argv); rc >= 0) return rc;
-  const auto group = DistGroup::FromEnvironment(dist.timeout_s);
+  const auto group = DistGroup::FromEnvironment(dist.timeout_s, c.run.device);
   c.group = group.get();
   const DbarfTrainingResult r = TrainDbarf(c);
   if (common.json && group->is_main()) std::printf("%s\n", r.summary.dump().c_str());

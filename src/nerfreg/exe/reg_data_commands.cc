@@ -2,6 +2,7 @@
 // reg train | reg average.
 #include <thread>
 
+#include "nerfreg/dist/dist.h"
 #include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
@@ -161,10 +162,12 @@ int RunRegTrain(int argc, char** argv) {
   app.add_flag("--resume", resume, "Continue from OUT.train");
   AddDistOptions(app, &dist);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  o.device = ParseDevice(device);
+  // Under --nproc on GPUs local worker r trains on cuda:r (NCCL); too few GPUs is refused here,
+  // before any worker starts.
+  o.device = ProcessDevice(ParseDevice(device), dist);
   if (!resume) CheckCanWriteOutput(out, common.force, data);
   if (int rc = LaunchIfAsked(dist, argc, argv); rc >= 0) return rc;
-  const auto group = DistGroup::FromEnvironment(dist.timeout_s);
+  const auto group = DistGroup::FromEnvironment(dist.timeout_s, o.device);
   const DregTrainResult r = TrainDreg(data, o, out, resume, group.get());
   if (!group->is_main()) return 0;
   std::printf("%s\n", Json({{"weights", out},
