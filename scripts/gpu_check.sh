@@ -3,7 +3,8 @@
 # PyTorch with CUDA (its LibTorch is built against), nvcc, CMake >= 3.24, Ninja, and the learned
 # core's header libraries (Eigen, nlohmann-json, spdlog, fmt, GoogleTest, zlib). It
 #   1. builds the learned core with the CUDA kernels from the working tree (build-gpu/),
-#   2. runs its tests, the CUDA cases included (they must run, not skip),
+#   2. runs its tests, the CUDA cases included (they must run, not skip; the 2-process NCCL test
+#      runs where 2 GPUs are present and skips, reported, on one),
 #   3. times the learned core on the GPU and the hash encoding on the CPU too (bench/gpu_bench.cc):
 #      a NeRF block at 100x100 to 28 dB, an 800x800 block of 100 views, DReg-NeRF training steps and
 #      DBARF pretraining steps in the paper configurations,
@@ -128,6 +129,14 @@ cuda_rc=0
 cuda_ran=$(grep -c '^\[       OK \]' "${LOGS}/cuda_tests.log" || true)
 cuda_skipped=$(grep -c '^\[  SKIPPED \]' "${LOGS}/cuda_tests.log" || true)
 echo "gpu_check: CUDA kernel tests: ${cuda_ran} passed, ${cuda_skipped} skipped, exit ${cuda_rc}"
+# Data-parallel training on NCCL: two processes, one GPU each, all-reduce and broadcast on the
+# devices (docs/distributed.md). It needs 2 GPUs; on fewer it skips and the check says so.
+gpu_count=$(nvidia-smi --query-gpu=name --format=csv,noheader | wc -l)
+nccl_rc=0
+"${BUILD_DIR}/src/nerfreg/dist/nerfreg_dist_test" --gtest_filter='DistGroupNccl.*:ProcessDevice.*' >"${LOGS}/nccl_tests.log" 2>&1 || nccl_rc=$?
+nccl_ran=$(grep -c '^\[       OK \] DistGroupNccl' "${LOGS}/nccl_tests.log" || true)
+nccl_skipped=$(grep -c '^\[  SKIPPED \] DistGroupNccl' "${LOGS}/nccl_tests.log" || true)
+echo "gpu_check: NCCL test (${gpu_count} GPUs): ${nccl_ran} passed, ${nccl_skipped} skipped, exit ${nccl_rc}"
 
 # 3. Timings.
 quick=()
@@ -159,6 +168,7 @@ result = {
     "build_seconds": ${build_seconds},
     "tests": {"exit_code": ${tests_rc}, "summary": "${tests_summary}"},
     "cuda_kernel_tests": {"passed": ${cuda_ran}, "skipped": ${cuda_skipped}, "exit_code": ${cuda_rc}},
+    "nccl_test": {"gpus": ${gpu_count}, "passed": ${nccl_ran}, "skipped": ${nccl_skipped}, "exit_code": ${nccl_rc}},
     "quick": "${GPU_QUICK:-0}" == "1",
     "cuda": load("bench_cuda.json"),
     "cpu_hash_encoding": load("bench_cpu_hash.json").get("hash_encoding"),
@@ -172,4 +182,7 @@ print("gpu_check: wrote " + out)
 PY
 if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ]; then
   fail "tests failed or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
+fi
+if [ "${nccl_rc}" -ne 0 ] || { [ "${gpu_count}" -ge 2 ] && [ "${nccl_ran}" -ne 1 ]; }; then
+  fail "the NCCL test failed, or skipped on ${gpu_count} GPUs (${LOGS}/nccl_tests.log)"
 fi
