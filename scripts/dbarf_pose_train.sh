@@ -25,6 +25,7 @@ LR_DECAY_STEPS=${LR_DECAY_STEPS:-20000}
 SCENES=${SCENES:-0}                       # use the first SCENES training scenes (0: all)
 CHECKPOINT_EVERY=${CHECKPOINT_EVERY:-200}
 BLUR=${BLUR:-0.25}                        # --augment-blur: the pose network sees a blurred target this often
+AUTO_MASK=${AUTO_MASK:-true}              # --auto-mask of the SfM loss (false: stage 5; with it the depth stays at the backdrop)
 SFM_CACHE=${SFM_CACHE:-$(dirname "$OUT")/sfm_cache}   # cameras estimated per scene, reused on --resume
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 [ -f "$DATA/train.txt" ] || { echo "error: $DATA/train.txt: expected the scene list of scripts/dbarf_data.sh" >&2; exit 2; }
@@ -32,7 +33,7 @@ mkdir -p "$(dirname "$OUT")"
 mapfile -t scenes < "$DATA/train.txt"
 [ "$SCENES" -gt 0 ] && scenes=("${scenes[@]:0:$SCENES}")
 # One stage block longer than the run: the pose stage throughout.
-flags=(--pose-init network --stage-steps 1000000000 --steps "$STEPS" --supervise-poses "$SUPERVISE" --supervise-rotation-weight "${ROTATION_WEIGHT:-5}" --supervise-depth "${SUPERVISE_DEPTH:-1}" --augment-blur "$BLUR"
+flags=(--pose-init network --stage-steps 1000000000 --steps "$STEPS" --supervise-poses "$SUPERVISE" --supervise-rotation-weight "${ROTATION_WEIGHT:-5}" --supervise-depth "${SUPERVISE_DEPTH:-1}" --augment-blur "$BLUR" --auto-mask "$AUTO_MASK"
        --rotation-scale "$ROTATION_SCALE" --lr-pose "$LR_POSE" --lr-decay-steps "$LR_DECAY_STEPS"
        --checkpoint-every "$CHECKPOINT_EVERY" --sfm-cache "$SFM_CACHE" --scene-cameras "$SCENE_CAMERAS" --out "$OUT")
 if [ "${RESUME:-0}" = 1 ]; then

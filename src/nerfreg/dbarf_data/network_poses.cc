@@ -328,11 +328,12 @@ bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>
   *far = options.far;
   if (p02.empty() || p98.empty() || !(scale > 0)) return false;
   const double lo = Median(p02), hi = Median(p98);
-  // A collapsed depth (docs/poses_and_views.md): the shipped pose weights put every pixel, of any
-  // scene, at the far bound, and a range built from that (0.7 to 1.4 x far) misses the content:
+  // A depth too narrow to set a range from (docs/poses_and_views.md): the first pose weights put
+  // every pixel, of any scene, at the far bound; the shipped ones give nearly every pixel the
+  // backdrop's depth, and a range built from that misses the objects in front of it:
   // views rendered at these cameras then sample empty space.
-  const bool collapsed = !(hi >= 1.5 * lo) || lo >= 0.9 * options.far || hi <= 1.1 * options.near;
-  if (collapsed) return false;
+  const bool too_narrow = !(hi >= 1.5 * lo) || lo >= 0.9 * options.far || hi <= 1.1 * options.near;
+  if (too_narrow) return false;
   *near = 0.7 * scale * lo;
   *far = 1.4 * scale * hi;
   return true;
@@ -506,7 +507,8 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
     average = AverageNetworkEdges(n, poses, graph, options.averaging, options.graph_edge_weight);
     if (!NetworkDepthRange(p02, p98, average.scale, options, &result->near, &result->far) && pass == 0) {
       LOG_INFO(
-          "network poses: the network's depths are collapsed (median 2nd / 98th percentile {:.3g} / {:.3g}); "
+          "network poses: the network's depths span too little to set the depth range (median 2nd / 98th "
+          "percentile {:.3g} / {:.3g}); "
           "the output's depth range is --near / --far ({:.3g} / {:.3g})",
           p02.empty() ? 0.0 : Median(p02), p98.empty() ? 0.0 : Median(p98), options.near, options.far);
     }

@@ -61,6 +61,8 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
   app.add_option("--lr-decay-steps", c->train.lr_decay_steps, "Halve the learning rates every this many steps");
   app.add_option("--smoothness", c->train.sfm.smoothness_weight, "SfM loss: depth smoothness weight (original 0.01)");
   app.add_option("--auto-mask", c->train.sfm.auto_mask, "SfM loss: auto-masking, true or false (original true)");
+  app.add_option("--sfm-clip", c->train.sfm.clip_std_factor,
+                 "SfM loss: clip each error map at mean + this many standard deviations (original 0.5; < 0: no clip)");
   app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
   app.add_option("--sfm-cache", c->scene.sfm_cache_dir,
                  "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
