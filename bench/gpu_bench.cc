@@ -18,6 +18,7 @@
 #include "nerfreg/dbarf/test_scene.h"
 #include "nerfreg/nerf/hash_encoding.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/nerf/test_sphere.h"
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
@@ -55,46 +56,6 @@ Json HashEncodingTiming(const torch::Device& device, std::int64_t n, int iterati
   return {{"points", n},
           {"ms_per_forward_backward", 1e3 * seconds / iterations},
           {"points_per_second", double(n) * iterations / seconds}};
-}
-
-// The analytic scene: a sphere of radius 0.6 at the origin seen from `views` cameras on a sphere of
-// radius 3; RGBA PNGs (alpha 0 off the sphere) written to `dir`. Every 10th view is a test view.
-Dataset SphereDataset(const std::string& dir, int views, int size) {
-  std::filesystem::create_directories(dir);
-  Dataset d;
-  d.root = dir;
-  d.aabb_min = Eigen::Vector3d::Constant(-0.7);
-  d.aabb_max = Eigen::Vector3d::Constant(0.7);
-  const double golden = M_PI * (3 - std::sqrt(5.0));
-  for (int i = 0; i < views; ++i) {
-    const double z = -0.8 + 1.6 * (i + 0.5) / views, r = std::sqrt(1 - z * z);
-    const Eigen::Vector3d centre = 3.0 * Eigen::Vector3d(r * std::cos(golden * i), r * std::sin(golden * i), z);
-    // OpenCV axes: z looks at the origin, x right, y down.
-    const Eigen::Vector3d fwd = -centre.normalized();
-    const Eigen::Vector3d right = fwd.cross(Eigen::Vector3d::UnitZ()).normalized();
-    const Eigen::Vector3d down = fwd.cross(right);
-    Eigen::Matrix3d world_from_cam;
-    world_from_cam << right, down, fwd;
-    Frame f;
-    f.name = f.file_path = "r_" + std::to_string(i) + ".png";
-    f.camera = Camera::FromFovX(size, size, 0.6);
-    f.cam_from_world = Rigid3d(Eigen::Matrix3d(world_from_cam.transpose()), -world_from_cam.transpose() * centre);
-    f.split = i % 10 == 5 ? "test" : "train";
-    torch::Tensor o, dir_t;
-    CameraRays(f.camera, f.cam_from_world, &o, &dir_t);  // [P, 3] each
-    const auto b = (o * dir_t).sum(1), c = (o * o).sum(1) - 0.36;
-    const auto disc = b * b - c;
-    const auto hit = disc > 0;
-    const auto t = -b - disc.clamp_min(0).sqrt();
-    const auto normal = (o + dir_t * t.unsqueeze(1)) / 0.6;
-    const auto rgb = (0.5 + 0.35 * normal + 0.1 * torch::sin(6 * normal.roll(1, 1))).clamp(0, 1);
-    const auto rgba = torch::cat({rgb * hit.unsqueeze(1), hit.unsqueeze(1).to(torch::kFloat)}, 1).contiguous();
-    Image im(size, size, 4);
-    std::memcpy(im.data.data(), rgba.data_ptr<float>(), im.data.size() * sizeof(float));
-    WriteImage(d.ImagePath(f), im);
-    d.frames.push_back(f);
-  }
-  return d;
 }
 
 // Trains a block of the paper's preset on the sphere; returns the seconds to the first evaluation
