@@ -18,6 +18,7 @@
 #   GPU_BUILD_ONLY=1  stop after the build (to run chosen tests first; a second call rebuilds nothing)
 #   GPU_SKIP_TESTS=1  reuse the test logs of an earlier run in the same build folder (a second
 #                   call on a warm machine that only times)
+#   GPU_LOGS        the logs' folder (default GPU_BUILD_DIR/gpu_check)
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
 #   GPU_QUICK=1     a short smoke run of the timings (not for results)
 #   GPU_DEPS        a folder of Debian packages made by scripts/gpu_deps.sh (header libraries, fmt,
@@ -70,7 +71,7 @@ GPU_NAME=$(nvidia-smi --query-gpu=name --format=csv,noheader | head -n 1)
 DRIVER=$(nvidia-smi --query-gpu=driver_version --format=csv,noheader | head -n 1)
 echo "gpu_check: ${GPU_NAME} (driver ${DRIVER}), torch ${TORCH_VERSION} (CUDA ${TORCH_CUDA}), ${NVCC}"
 
-LOGS=${BUILD_DIR}/gpu_check
+LOGS=${GPU_LOGS:-${BUILD_DIR}/gpu_check}
 mkdir -p "${LOGS}"
 
 # A compiler with only a static libstdc++ (the GPU machines' /opt/gcc g++ 13: -print-file-name
@@ -101,29 +102,7 @@ build_seconds=$(( $(date +%s) - build_start ))
 echo "gpu_check: built ${BUILD_DIR} in ${build_seconds} s"
 if [ "${GPU_BUILD_ONLY:-0}" = 1 ]; then exit 0; fi
 
-# 2. Tests: all of the learned core's, then the CUDA cases alone, which must run.
-tests_rc=0
-if [ "${GPU_SKIP_TESTS:-0}" = 1 ] && [ -f "${LOGS}/ctest.log" ]; then
-  echo "gpu_check: GPU_SKIP_TESTS=1: the tests' logs of the last run in ${LOGS} are reported again"
-  grep -q "tests passed, 0 tests failed\|100% tests passed" "${LOGS}/ctest.log" || tests_rc=8
-else
-ctest --test-dir "${BUILD_DIR}" --output-on-failure -j "${GPU_CTEST_JOBS:-4}" --timeout "${GPU_CTEST_TIMEOUT:-900}" >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
-fi
-tests_summary=$(grep -E "tests passed|tests failed" "${LOGS}/ctest.log" | tail -n 1 || true)
-# A backtrace of each failed test (cuda-gdb also debugs host code; the GPU images have no gdb), so
-# one GPU session is enough to see where a crash is.
-if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
-  : >"${LOGS}/backtraces.log"
-  grep -E "^[[:space:]]+[0-9]+ - .* \((Failed|Subprocess aborted|SEGFAULT|Exception)\)" "${LOGS}/ctest.log" |
-    sed -E 's/^[[:space:]]+[0-9]+ - (.*) \(.*\)$/\1/' | head -n 8 | while read -r name; do
-    binary=$(ctest --test-dir "${BUILD_DIR}" -N -V -R "^${name}\$" 2>/dev/null | sed -n 's/.*Test command: \([^ ]*\).*/\1/p' | head -n 1)
-    [ -n "${binary}" ] || continue
-    { echo "=== ${name}"; timeout 120 cuda-gdb -batch -ex run -ex bt --args "${binary}" --gtest_filter="${name}" 2>&1 | tail -n 40; } \
-      >>"${LOGS}/backtraces.log" || true
-  done
-  echo "gpu_check: backtraces of the failed tests in ${LOGS}/backtraces.log"
-fi
-echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
+# 2. The CUDA cases alone, first: they must run, not skip, and they are what a short lease is for.
 cuda_rc=0
 "${BUILD_DIR}/src/nerfreg/nerf/nerfreg_nerf_kernels_test" --gtest_filter='*HashEncodingDevice*cuda_*:*VolumeRenderingDevice*/cuda:*NerfTrainDevice*/cuda' >"${LOGS}/cuda_tests.log" 2>&1 || cuda_rc=$?
 cuda_ran=$(grep -c '^\[       OK \]' "${LOGS}/cuda_tests.log" || true)
@@ -142,19 +121,49 @@ echo "gpu_check: NCCL test (${gpu_count} GPUs): ${nccl_ran} passed, ${nccl_skipp
 quick=()
 if [ "${GPU_QUICK:-0}" = 1 ]; then quick=(--quick); fi
 BENCH=${BUILD_DIR}/bench/nerfreg_gpu_bench
+# A timing that fails is reported in gpu.json; the tests still run.
+bench_rc=0
 "${BENCH}" --device cuda --work "${BUILD_DIR}/gpu_bench_work" --out "${LOGS}/bench_cuda.json" "${quick[@]}" \
   --only "${GPU_BENCH:-hash,nerf100,nerf800,reg,dbarf}" \
-  2>&1 | tee "${LOGS}/bench_cuda.log"
-"${BENCH}" --device cpu --only hash --out "${LOGS}/bench_cpu_hash.json" "${quick[@]}" 2>&1 | tee "${LOGS}/bench_cpu.log"
+  2>&1 | tee "${LOGS}/bench_cuda.log" || bench_rc=$?
+"${BENCH}" --device cpu --only hash --out "${LOGS}/bench_cpu_hash.json" "${quick[@]}" 2>&1 |
+  tee "${LOGS}/bench_cpu.log" || bench_rc=$?
 
-# 4. results/gpu.json.
+# 4. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
+tests_rc=0
+if [ "${GPU_SKIP_TESTS:-0}" = 1 ] && [ -f "${LOGS}/ctest.log" ]; then
+  echo "gpu_check: GPU_SKIP_TESTS=1: the tests' logs of the last run in ${LOGS} are reported again"
+  grep -q "tests passed, 0 tests failed\|100% tests passed" "${LOGS}/ctest.log" || tests_rc=8
+else
+ctest --test-dir "${BUILD_DIR}" --output-on-failure -j "${GPU_CTEST_JOBS:-4}" --timeout "${GPU_CTEST_TIMEOUT:-900}" >"${LOGS}/ctest.log" 2>&1 || tests_rc=$?
+fi
+tests_summary=$(grep -E "tests passed|tests failed" "${LOGS}/ctest.log" | tail -n 1 || true)
+# A backtrace of each failed test (cuda-gdb also debugs host code; the GPU images have no gdb), so
+# one GPU session is enough to see where a crash is. The test binary is the command's *_test
+# (the first command word was cmake itself there on 2026-11-26).
+if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
+  : >"${LOGS}/backtraces.log"
+  grep -E "^[[:space:]]+[0-9]+ - .* \((Failed|Subprocess aborted|SEGFAULT|Exception)\)" "${LOGS}/ctest.log" |
+    sed -E 's/^[[:space:]]+[0-9]+ - (.*) \(.*\)$/\1/' | head -n 8 | while read -r name; do
+    binary=$(ctest --test-dir "${BUILD_DIR}" -N -V -R "^${name}\$" 2>/dev/null | sed -n 's/.*Test command: \([^ ]*_test\).*/\1/p' | head -n 1)
+    [ -n "${binary}" ] || continue
+    { echo "=== ${name}"; timeout 120 cuda-gdb -batch -ex run -ex bt --args "${binary}" --gtest_filter="${name}" 2>&1 | tail -n 40; } \
+      >>"${LOGS}/backtraces.log" || true
+  done
+  echo "gpu_check: backtraces of the failed tests in ${LOGS}/backtraces.log"
+fi
+echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
+# 5. results/gpu.json.
 mkdir -p "$(dirname "${RESULTS}")"
 "${PYTHON}" - "${RESULTS}" "${LOGS}" <<PY
 import json, os, subprocess, sys, datetime
 out, logs = sys.argv[1], sys.argv[2]
 def load(name):
-    with open(os.path.join(logs, name)) as f:
-        return json.load(f)
+    try:
+        with open(os.path.join(logs, name)) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        return {"error": str(e)}
 commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
 result = {
     "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
@@ -171,6 +180,7 @@ result = {
     "nccl_test": {"gpus": ${gpu_count}, "passed": ${nccl_ran}, "skipped": ${nccl_skipped}, "exit_code": ${nccl_rc}},
     "quick": "${GPU_QUICK:-0}" == "1",
     "cuda": load("bench_cuda.json"),
+    "bench_exit_code": ${bench_rc},
     "cpu_hash_encoding": load("bench_cpu_hash.json").get("hash_encoding"),
 }
 tmp = out + ".tmp"
@@ -180,8 +190,8 @@ with open(tmp, "w") as f:
 os.replace(tmp, out)
 print("gpu_check: wrote " + out)
 PY
-if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ]; then
-  fail "tests failed or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
+if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ] || [ "${bench_rc}" -ne 0 ]; then
+  fail "tests or timings failed, or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
 fi
 if [ "${nccl_rc}" -ne 0 ] || { [ "${gpu_count}" -ge 2 ] && [ "${nccl_ran}" -ne 1 ]; }; then
   fail "the NCCL test failed, or skipped on ${gpu_count} GPUs (${LOGS}/nccl_tests.log)"

@@ -117,7 +117,9 @@ TEST_P(VolumeRenderingDevice, CompositeMatchesCpuKernelAndReferenceForwardAndBac
     torch::Tensor grad_sigmas, grad_rgbs;
   };
   auto run = [&](const torch::Device& d, bool reference) {
-    auto s = sigmas.to(d).requires_grad_(true), c = rgbs.to(d).requires_grad_(true);
+    // Copies: to(kCPU) of a CPU tensor is that tensor, so requires_grad_ would mark the shared input
+    // and make the next run's to(cuda) a non-leaf without a .grad().
+    auto s = sigmas.to(d, false, true).requires_grad_(true), c = rgbs.to(d, false, true).requires_grad_(true);
     const auto out = reference ? CompositeReference(s, c, t_starts.to(d), t_ends.to(d), offsets.to(d))
                                : Composite(s, c, t_starts.to(d), t_ends.to(d), offsets.to(d));
     loss(out, d).backward();
