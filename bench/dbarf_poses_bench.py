@@ -17,8 +17,13 @@ WORK = sys.argv[1] if len(sys.argv) > 1 else "/tmp/dbarf_poses_bench"
 OUT_MD = os.environ.get("OUT_MD", os.path.join(ROOT, "results", "dbarf_poses.md"))
 OUT_JSON = os.environ.get("OUT_JSON", os.path.join(ROOT, "results", "dbarf_poses.json"))
 METHODS = os.environ.get("METHODS", "network network+finetune auto classical colmap").split()
-FINETUNE_STEPS = int(os.environ.get("FINETUNE_STEPS", "200"))
-FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))
+# network+finetune: the renderer and the cameras, with the test views held out (`dbarf poses`
+# keeps --intrinsics' splits), rates halved every FINETUNE_DECAY_STEPS (chosen on validation
+# scenes, docs/poses_and_views.md "Camera refinement").
+FINETUNE_STEPS = int(os.environ.get("FINETUNE_STEPS", "400"))
+FINETUNE_SCHEDULE = os.environ.get("FINETUNE_SCHEDULE", "nerf")
+FINETUNE_DECAY_STEPS = int(os.environ.get("FINETUNE_DECAY_STEPS", "50"))
+FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))  # with FINETUNE_SCHEDULE=dbarf
 NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
@@ -187,7 +192,8 @@ def run_method(method, data, work):
         if os.path.exists(cams):
             os.remove(cams)
         rc, seconds = run([NERFREG, "dbarf", "finetune", os.path.join(net, "transforms.json"), "--nerf-poses", "cameras",
-                           "--refine-cameras", cams, "--steps", str(FINETUNE_STEPS), "--stage-steps", str(FINETUNE_STAGE_STEPS),
+                           "--refine-cameras", cams, "--steps", str(FINETUNE_STEPS), "--schedule", FINETUNE_SCHEDULE,
+                           "--stage-steps", str(FINETUNE_STAGE_STEPS), "--lr-decay-steps", str(FINETUNE_DECAY_STEPS),
                            "--out", os.path.join(work, "finetuned.pt"), "--force", "--quiet"], os.path.join(work, "finetune.log"))
         return evaluate(cams, gt, len(os.listdir(images))), seconds + seconds_net
     rc, seconds = run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", method, "--out", out, "--force",
@@ -273,7 +279,8 @@ def main():
                          "ssim_median": median([r.get("ssim") for r in rs])})
     command = "bash bench/dbarf_poses_bench.sh " + WORK
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
-                                         "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_STAGE_STEPS")
+                                         "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_SCHEDULE",
+                                         "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS")
              if k in os.environ}
     if knobs:
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command
@@ -298,12 +305,12 @@ def main():
               "(deg, after aligning rotations then centres: `dbarf eval-poses --align rotations`), the translation-direction "
               "error (deg, over image pairs, alignment-free) and the centre error (%% of the widest baseline); median wall "
               "time per set (s, the whole command; network+finetune: `dbarf poses --method network` plus `dbarf finetune "
-              "--refine-cameras`, %d steps in stages of %d). COLMAP 3.8 (CPU) with SIFT's peak threshold lowered to "
+              "--refine-cameras --schedule %s`, %d steps, rates halved every %d, the test views held out). COLMAP 3.8 (CPU) with SIFT's peak threshold lowered to "
               "0.00167 (its default finds 15-30 features on these renders). Novel views (20-view rows): every 5th view "
               "rendered at the method's camera for it from the other views at theirs (`dbarf eval --cameras`), mean PSNR / "
               "SSIM per set, median over sets; `models/dbarf_cpu.pt`, or the finetuned weights for network+finetune; "
-              "none for COLMAP (its output has no view graph or depth range to render from)." % (FINETUNE_STEPS,
-                                                                                               FINETUNE_STAGE_STEPS), "",
+              "none for COLMAP (its output has no view graph or depth range to render from)." %
+              (FINETUNE_SCHEDULE, FINETUNE_STEPS, FINETUNE_DECAY_STEPS), "",
               "| set | method | sets | posed | all posed | all posed, <= 2 deg | rotation (deg) | direction (deg) | centre (%) | wall (s) | novel PSNR (dB) | novel SSIM |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:

@@ -72,6 +72,11 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   ASSERT_EQ(est.frames.size(), 10u);
   CheckImagesMatchCameras(est);  // file_path resolves from OUT to the images
   EXPECT_EQ(est.frames[3].name, "r_003.png");
+  // Each image keeps the split --intrinsics gives it: dbarf finetune holds the test views out.
+  const Dataset truth = ReadTransformsJson(data + "/transforms.json");
+  ASSERT_EQ(truth.frames.size(), 10u);
+  ASSERT_FALSE(truth.IndicesOfSplit("test").empty());
+  for (size_t k = 0; k < est.frames.size(); ++k) EXPECT_EQ(est.frames[k].split, truth.frames[k].split) << k;
   const Json j = ReadJsonFile(out + "/transforms.json");
   EXPECT_TRUE(j["not_posed"].empty());
   EXPECT_TRUE(j["dbarf_poses"]["well_constrained"].get<bool>()) << j["dbarf_poses"].dump();
@@ -124,6 +129,7 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   EXPECT_NE(r.output.find("--force"), std::string::npos) << r.output;
   r = RunNerfreg("dbarf poses " + data + "/images --focal 140.8 --quiet --force --out " + out);
   EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(ReadTransformsJson(out + "/transforms.json").IndicesOfSplit("test").empty());  // no file, no splits
 }
 
 TEST(DbarfCli, TooFewImagesIsAOneLineErrorNamingTheFolder) {

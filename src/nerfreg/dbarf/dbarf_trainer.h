@@ -104,7 +104,7 @@ struct DbarfTrainOptions {
   // others; it does not sharpen cameras already more exact than its noise floor at these image
   // sizes (docs/notes/2026-11-23-dbarf-pose-network.md, "Camera refinement").
   bool refine_cameras = false;
-  double lr_cameras = 3e-3;
+  double lr_cameras = 3e-4;
   // Weight of the supervised pose loss (a departure from the original, which is self-supervised
   // only; 0 = off): in pose and joint stages, every prediction k of the pose network is compared
   // with the scene's supervision_cam_from_world relative poses and weighted like the SfM loss

@@ -41,9 +41,11 @@ std::vector<std::string> ListImages(const std::string& dir) {
 
 // Intrinsics of each image from a transforms.json (top-level or per-frame `fl_x fl_y cx cy w h`
 // or `camera_angle_x`); its poses are ignored. Frames are matched to images by name; images
-// without a frame take the top-level intrinsics. The data-layer reader does the parsing.
+// without a frame take the top-level intrinsics. The data-layer reader does the parsing. Each
+// image's split ("train" where the file names none) goes to `splits`: the output keeps it, so
+// `dbarf finetune` holds the file's test views out and `dbarf eval` renders them as novel views.
 std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::string& images_dir,
-                                          const std::vector<std::string>& names) {
+                                          const std::vector<std::string>& names, std::vector<std::string>* splits) {
   Json json = ReadJsonFile(path);
   if (!json.is_object()) ThrowInputError(path, "", "a JSON object with intrinsics");
   std::map<std::string, Json> by_name;
@@ -67,7 +69,8 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
   json["frames"] = frames;
   const Dataset d = DatasetFromTransformsJson(json, path, images_dir);
   std::vector<Camera> cameras;
-  for (const Frame& f : d.frames) cameras.push_back(f.camera);
+  splits->clear();
+  for (const Frame& f : d.frames) cameras.push_back(f.camera), splits->push_back(f.split);
   return cameras;
 }
 
@@ -125,7 +128,8 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
 // The posed images of OUT/transforms.json: posed frames (paths relative to OUT, so the file stays
 // usable as a dataset), how each was posed, the view graph and the run's figures.
 PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<std::string>& names,
-                            const std::vector<Camera>& cameras, const ImagePosesResult& result,
+                            const std::vector<Camera>& cameras, const std::vector<std::string>& splits,
+                            const ImagePosesResult& result,
                             const SfmQuality& quality, bool any_sfm, double seconds) {
   const SfmResult& r = result.sfm;
   PosedImages posed;
@@ -139,6 +143,7 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
     f.name = names[k];
     f.file_path = fs::relative(fs::absolute(JoinPaths(o.images_dir, names[k])), out_abs).generic_string();
     f.camera = cameras[k];
+    if (k < splits.size()) f.split = splits[k];
     f.cam_from_world = result.cam_from_world[k];
     posed.dataset.frames.push_back(std::move(f));
     posed.posed_by.push_back(result.posed_by[k]);
@@ -217,8 +222,9 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   std::vector<Image> images;
   for (const auto& name : names) images.push_back(ReadImage(JoinPaths(o.images_dir, name)));
   std::vector<Camera> cameras;
+  std::vector<std::string> splits;  // from --intrinsics; every image "train" without it
   if (!o.intrinsics.empty()) {
-    cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names);
+    cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names, &splits);
   } else {
     for (const Image& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
@@ -261,7 +267,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "sparse/0"));
   {
-    PosedImages posed = MakePosedImages(o, names, cameras, result, quality, any_sfm, timer.Seconds());
+    PosedImages posed = MakePosedImages(o, names, cameras, splits, result, quality, any_sfm, timer.Seconds());
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> cams;
     for (const Frame& f : posed.dataset.frames) cams.push_back(f.cam_from_world);
