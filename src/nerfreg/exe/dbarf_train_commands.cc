@@ -164,7 +164,9 @@ int RunDbarfFinetune(int argc, char** argv) {
       "--refine-cameras", c.cameras_out,
       "Also refine the scene's cameras (one SE(3) correction per image, by the RGB loss of the NeRF stages; "
       "needs --nerf-poses cameras and a scene written by dbarf poses) and write them to this transforms.json");
-  app.add_option("--lr-cameras", c.train.lr_cameras, "Camera-refinement learning rate (3e-4: for the sub-degree cameras of dbarf poses; 3e-3 corrects cameras degrees off faster)");
+  app.add_option("--lr-cameras", c.train.lr_cameras,
+                 "Camera-refinement learning rate (3e-4: for the sub-degree cameras of dbarf poses; 3e-3 corrects "
+                 "cameras degrees off faster)");
   std::string device = "cpu";
   AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;

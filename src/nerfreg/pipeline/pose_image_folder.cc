@@ -129,8 +129,7 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
 // usable as a dataset), how each was posed, the view graph and the run's figures.
 PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<std::string>& names,
                             const std::vector<Camera>& cameras, const std::vector<std::string>& splits,
-                            const ImagePosesResult& result,
-                            const SfmQuality& quality, bool any_sfm, double seconds) {
+                            const ImagePosesResult& result, const SfmQuality& quality, bool any_sfm, double seconds) {
   const SfmResult& r = result.sfm;
   PosedImages posed;
   posed.dataset.root = o.out;
