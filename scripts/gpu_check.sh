@@ -3,12 +3,13 @@
 # PyTorch with CUDA (its LibTorch is built against), nvcc, CMake >= 3.24, Ninja, and the learned
 # core's header libraries (Eigen, nlohmann-json, spdlog, fmt, GoogleTest, zlib). It
 #   1. builds the learned core with the CUDA kernels from the working tree (build-gpu/),
-#   2. runs its tests, the CUDA cases included (they must run, not skip; the 2-process NCCL test
-#      runs where 2 GPUs are present and skips, reported, on one),
+#   2. runs the CUDA cases (they must run, not skip) and the 2-process NCCL test (it runs where 2
+#      GPUs are present and skips, reported, on one),
 #   3. times the learned core on the GPU and the hash encoding on the CPU too (bench/gpu_bench.cc):
 #      a NeRF block at 100x100 to 28 dB, an 800x800 block of 100 views, DReg-NeRF training steps and
 #      DBARF pretraining steps in the paper configurations,
-#   4. writes results/gpu.json (machine, versions, build time, tests, timings).
+#   4. runs all of the learned core's tests (last: the longest step),
+#   5. writes results/gpu.json (machine, versions, build time, tests, timings).
 #
 #   PYTHON          the Python whose torch is used (default python3)
 #   GPU_BUILD_DIR   build folder (default build-gpu)

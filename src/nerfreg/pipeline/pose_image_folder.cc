@@ -42,8 +42,9 @@ std::vector<std::string> ListImages(const std::string& dir) {
 // Intrinsics of each image from a transforms.json (top-level or per-frame `fl_x fl_y cx cy w h`
 // or `camera_angle_x`); its poses are ignored. Frames are matched to images by name; images
 // without a frame take the top-level intrinsics. The data-layer reader does the parsing. Each
-// image's split ("train" where the file names none) goes to `splits`: the output keeps it, so
-// `dbarf finetune` holds the file's test views out and `dbarf eval` renders them as novel views.
+// image's split ("train" where the file names none) goes to `splits` (one per name): the output
+// keeps it, so `dbarf finetune` holds the file's test views out and `dbarf eval` renders them as
+// novel views.
 std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::string& images_dir,
                                           const std::vector<std::string>& names, std::vector<std::string>* splits) {
   Json json = ReadJsonFile(path);
@@ -69,8 +70,7 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
   json["frames"] = frames;
   const Dataset d = DatasetFromTransformsJson(json, path, images_dir);
   std::vector<Camera> cameras;
-  splits->clear();
-  for (const Frame& f : d.frames) cameras.push_back(f.camera), splits->push_back(f.split);
+  for (size_t k = 0; k < d.frames.size(); ++k) cameras.push_back(d.frames[k].camera), (*splits)[k] = d.frames[k].split;
   return cameras;
 }
 
@@ -142,7 +142,7 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
     f.name = names[k];
     f.file_path = fs::relative(fs::absolute(JoinPaths(o.images_dir, names[k])), out_abs).generic_string();
     f.camera = cameras[k];
-    if (k < splits.size()) f.split = splits[k];
+    f.split = splits[k];
     f.cam_from_world = result.cam_from_world[k];
     posed.dataset.frames.push_back(std::move(f));
     posed.posed_by.push_back(result.posed_by[k]);
@@ -221,7 +221,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   std::vector<Image> images;
   for (const auto& name : names) images.push_back(ReadImage(JoinPaths(o.images_dir, name)));
   std::vector<Camera> cameras;
-  std::vector<std::string> splits;  // from --intrinsics; every image "train" without it
+  std::vector<std::string> splits(names.size(), "train");  // --intrinsics' splits, if given
   if (!o.intrinsics.empty()) {
     cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names, &splits);
   } else {
