@@ -19,7 +19,9 @@ OUT_JSON = os.environ.get("OUT_JSON", os.path.join(ROOT, "results", "dbarf_poses
 METHODS = os.environ.get("METHODS", "network network+finetune auto classical colmap").split()
 # network+finetune: the renderer and the cameras, with the test views held out (`dbarf poses`
 # keeps --intrinsics' splits), rates halved every FINETUNE_DECAY_STEPS (chosen on validation
-# scenes, docs/poses_and_views.md "Camera refinement").
+# scenes, docs/poses_and_views.md "Camera refinement"), then the depth BA (the finetune's default
+# last stage). network+finetune-rgb: the same without the depth BA (--depth-ba-rounds 0); listed
+# before network+finetune, its training is reused and only the depth BA runs again.
 FINETUNE_STEPS = int(os.environ.get("FINETUNE_STEPS", "400"))
 FINETUNE_SCHEDULE = os.environ.get("FINETUNE_SCHEDULE", "nerf")
 FINETUNE_DECAY_STEPS = int(os.environ.get("FINETUNE_DECAY_STEPS", "50"))
@@ -183,19 +185,34 @@ def run_method(method, data, work):
     if method == "colmap":
         seconds = colmap(images, gt, out)
         return evaluate(os.path.join(out, "transforms.json"), gt, len(os.listdir(images))), seconds
-    if method == "network+finetune":
+    if method in ("network+finetune", "network+finetune-rgb"):
         net = os.path.join(work, "network")
         if not os.path.exists(os.path.join(net, "transforms.json")):
             run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", "network", "--out", net, "--force", "--quiet"])
         seconds_net = json.load(open(os.path.join(net, "transforms.json")))["dbarf_poses"]["seconds"]
-        cams = os.path.join(work, "finetuned_cameras.json")
+        rgb_only = method == "network+finetune-rgb"
+        tag = "_rgb" if rgb_only else ""
+        cams, weights = os.path.join(work, "finetuned%s_cameras.json" % tag), os.path.join(work, "finetuned%s.pt" % tag)
         if os.path.exists(cams):
             os.remove(cams)
-        rc, seconds = run([NERFREG, "dbarf", "finetune", os.path.join(net, "transforms.json"), "--nerf-poses", "cameras",
-                           "--refine-cameras", cams, "--steps", str(FINETUNE_STEPS), "--schedule", FINETUNE_SCHEDULE,
-                           "--stage-steps", str(FINETUNE_STAGE_STEPS), "--lr-decay-steps", str(FINETUNE_DECAY_STEPS),
-                           "--out", os.path.join(work, "finetuned.pt"), "--force", "--quiet"], os.path.join(work, "finetune.log"))
-        return evaluate(cams, gt, len(os.listdir(images))), seconds + seconds_net
+        flags = ["--nerf-poses", "cameras", "--refine-cameras", cams, "--steps", str(FINETUNE_STEPS), "--schedule",
+                 FINETUNE_SCHEDULE, "--stage-steps", str(FINETUNE_STAGE_STEPS), "--lr-decay-steps", str(FINETUNE_DECAY_STEPS),
+                 "--out", weights, "--force", "--quiet"]
+        rgb = os.path.join(work, "finetuned_rgb.pt")
+        seconds_before = 0.0
+        if rgb_only:
+            flags += ["--depth-ba-rounds", "0"]
+        elif os.path.exists(rgb + ".train") and os.path.exists(rgb + ".json"):
+            # network+finetune-rgb ran first: the same training, resumed with no more steps, adds the
+            # depth BA alone (its time is the RGB run's plus this).
+            for ext in ("", ".train", ".json", ".log.jsonl"):
+                if os.path.exists(rgb + ext):
+                    shutil.copyfile(rgb + ext, weights + ext)
+            seconds_before = json.load(open(rgb + ".json"))["seconds"]
+            flags += ["--resume"]
+        rc, seconds = run([NERFREG, "dbarf", "finetune", os.path.join(net, "transforms.json")] + flags,
+                          os.path.join(work, "finetune%s.log" % tag))
+        return evaluate(cams, gt, len(os.listdir(images))), seconds + seconds_net + seconds_before
     rc, seconds = run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", method, "--out", out, "--force",
                        "--quiet"], out + ".log")
     return evaluate(os.path.join(out, "transforms.json"), gt, len(os.listdir(images))), seconds
@@ -209,8 +226,9 @@ def novel_views(method, data, work):
     if method == "colmap":
         return {}
     gt = os.path.join(data, "transforms.json")
-    if method == "network+finetune":
-        cams, weights = os.path.join(work, "finetuned_cameras.json"), os.path.join(work, "finetuned.pt")
+    if method in ("network+finetune", "network+finetune-rgb"):
+        tag = "_rgb" if method == "network+finetune-rgb" else ""
+        cams, weights = os.path.join(work, "finetuned%s_cameras.json" % tag), os.path.join(work, "finetuned%s.pt" % tag)
     else:
         cams, weights = os.path.join(work, method, "transforms.json"), None
     if not os.path.exists(cams):

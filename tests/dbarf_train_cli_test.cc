@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -226,18 +227,32 @@ TEST(DbarfTrainCli, ShortFinetuneLowersThePoseErrorOfPerturbedCameras) {
   const double before = rotation_error(s.posed + "/perturbed.json");
   // 2 deg off, 40 steps: the rate for cameras this far off (the default, 3e-4, is for the
   // sub-degree cameras dbarf poses gives, docs/poses_and_views.md "Camera refinement").
+  // First the RGB loss's refinement alone (--depth-ba-rounds 0).
   const std::string refined = s.dir.File("refined.json");
   const CommandResult r = RunNerfreg("dbarf finetune " + s.posed +
                                      "/perturbed.json --schedule nerf --nerf-poses cameras "
                                      "--refine-cameras " +
                                      refined +
-                                     " --steps 40 --rays 300 --sources 3 --lr-cameras 3e-3 "
+                                     " --steps 40 --rays 300 --sources 3 --lr-cameras 3e-3 --depth-ba-rounds 0 "
                                      "--checkpoint-every 40 --quiet --out " +
                                      s.dir.File("ft.pt"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const double after = rotation_error(refined);
   EXPECT_GT(before, 1.5);
   EXPECT_LT(after, 0.75 * before) << "median rotation error " << before << " -> " << after << " deg";
+  // Then the same run resumed with no more steps, and the default last stage: the cameras
+  // bundle-adjusted through the finetuned renderer's depths land closer still.
+  const std::string adjusted = s.dir.File("adjusted.json");
+  const CommandResult ba = RunNerfreg("dbarf finetune " + s.posed +
+                                      "/perturbed.json --schedule nerf --nerf-poses cameras --refine-cameras " +
+                                      adjusted + " --steps 40 --resume --quiet --out " + s.dir.File("ft.pt"));
+  ASSERT_EQ(ba.exit_code, 0) << ba.output;
+  const double after_ba = rotation_error(adjusted);
+  EXPECT_LT(after_ba, 0.75 * after) << "median rotation error " << after << " -> " << after_ba
+                                    << " deg by the depth BA";
+  EXPECT_TRUE(ReadJsonFile(s.dir.File("ft.pt.json")).contains("depth_ba"));
+  std::printf("median rotation error: perturbed %.3f, RGB refinement %.3f, then depth BA %.3f deg\n", before, after,
+              after_ba);
   // The refined file is a posed-images file like dbarf poses' (view graph and depth range kept).
   const Json j = ReadJsonFile(refined);
   EXPECT_EQ(j["view_graph"], s.poses["view_graph"]);

@@ -165,6 +165,11 @@ const std::vector<BadInputCase>& Cases() {
       {"dbarf_poses_zero_features",
        [](const std::string& d) { return "dbarf poses " + d + " --focal 100 --max-features 0 --out " + d + "/p"; },
        "error: --max-features: expected > 0, got 0", "p"},
+      {"dbarf_finetune_negative_depth_ba_rounds",
+       [](const std::string& d) {
+         return "dbarf finetune " + d + "/posed.json --depth-ba-rounds -1 --out " + d + "/ft.pt";
+       },
+       "error: --depth-ba-rounds: expected >= 0, got -1", "ft.pt"},
       {"reg_register_grid_not_a_multiple_of_16",
        [](const std::string& d) {
          return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json";

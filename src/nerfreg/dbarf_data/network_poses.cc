@@ -334,8 +334,10 @@ bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>
   // views rendered at these cameras then sample empty space.
   const bool too_narrow = !(hi >= 1.5 * lo) || lo >= 0.9 * options.far || hi <= 1.1 * options.near;
   if (too_narrow) return false;
-  *near = 0.7 * scale * lo;
-  *far = 1.4 * scale * hi;
+  // It only widens --near / --far: the stage-5 weights' depths spread, but their near end can sit
+  // behind the nearest objects, and the views rendered then lose them (docs/poses_and_views.md).
+  *near = std::min(options.near, 0.7 * scale * lo);
+  *far = std::max(options.far, 1.4 * scale * hi);
   return true;
 }
 

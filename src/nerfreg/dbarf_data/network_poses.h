@@ -184,7 +184,8 @@ std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::ve
 
 // The depth range of method network's output, from the percentiles of the network's predicted
 // target depths (one p02 / p98 per target, in the network's units) brought into the output frame
-// by `scale`, widened as DepthRangeFromPoints widens triangulated depths. A depth the network has
+// by `scale`, widened as DepthRangeFromPoints widens triangulated depths, and never narrower than
+// options.near / far (the network's near end can sit behind the nearest objects). A depth the network has
 // collapsed (nearly constant: median p98 < 1.5 x median p02, or pinned to a bound of the range
 // options.near / far it was run with) says nothing of the content: then options.near / far, the
 // range typical of the scenes it was trained on. Returns whether the network's own range was used.

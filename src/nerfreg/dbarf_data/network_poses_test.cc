@@ -159,9 +159,14 @@ TEST(NetworkPoses, CoincidentCentresNameTheCollapsedImages) {
 TEST(NetworkPoses, DepthRangeFromTheNetworkUnlessItsDepthCollapsed) {
   NetworkPosesOptions o;  // near 7, far 40
   double near = 0, far = 0;
-  EXPECT_TRUE(NetworkDepthRange({9, 10, 11}, {25, 26, 27}, 2.0, o, &near, &far));
-  EXPECT_DOUBLE_EQ(near, 0.7 * 2.0 * 10);
+  EXPECT_TRUE(NetworkDepthRange({4, 5, 6}, {25, 26, 27}, 2.0, o, &near, &far));
+  EXPECT_DOUBLE_EQ(near, 0.7 * 2.0 * 5);
   EXPECT_DOUBLE_EQ(far, 1.4 * 2.0 * 26);
+  // Only ever wider than --near / --far: a network depth whose near end is behind the default's
+  // keeps the default there.
+  EXPECT_TRUE(NetworkDepthRange({11, 12, 13}, {25, 26, 27}, 1.0, o, &near, &far));
+  EXPECT_DOUBLE_EQ(near, 7);
+  EXPECT_DOUBLE_EQ(far, 40);
   EXPECT_FALSE(NetworkDepthRange({39.9, 40, 40}, {40, 40, 40}, 1.0, o, &near, &far));  // at the far bound
   EXPECT_DOUBLE_EQ(near, 7);
   EXPECT_DOUBLE_EQ(far, 40);

@@ -162,15 +162,26 @@ int RunDbarfFinetune(int argc, char** argv) {
   app.add_option("--weights", c.weights, "Weights to start from (default: the shipped ones)");
   app.add_option(
       "--refine-cameras", c.cameras_out,
-      "Also refine the scene's cameras (one SE(3) correction per image, by the RGB loss of the NeRF stages; "
-      "needs --nerf-poses cameras and a scene written by dbarf poses) and write them to this transforms.json");
+      "Also refine the scene's cameras (one SE(3) correction per image, by the RGB loss of the NeRF stages, then "
+      "a photometric bundle adjustment through the finetuned renderer's depths, --depth-ba-*; needs --nerf-poses "
+      "cameras and a scene written by dbarf poses) and write them to this transforms.json");
   app.add_option("--lr-cameras", c.train.lr_cameras,
                  "Camera-refinement learning rate (3e-4: for the sub-degree cameras of dbarf poses; 3e-3 corrects "
                  "cameras degrees off faster)");
+  app.add_option("--depth-ba-rounds", c.depth_refinement.rounds,
+                 "With --refine-cameras, after the training: rounds of a photometric bundle adjustment of the "
+                 "cameras through the finetuned renderer's depths (0: the RGB loss's cameras as they are)");
+  app.add_option("--depth-ba-sources", c.depth_refinement.num_sources,
+                 "Nearest views each view is warped from (and rendered from) in that bundle adjustment");
+  app.add_option("--depth-ba-steps", c.depth_refinement.ba.iterations_per_level,
+                 "Steps per pyramid level of that bundle adjustment");
+  app.add_option("--depth-ba-max-width", c.depth_refinement.max_width,
+                 "Render and warp at most this wide in that bundle adjustment (0: the scene's size)");
   std::string device = "cpu";
   AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.run.device = ParseDevice(device);
+  c.depth_refinement.Check();
   c.scenes = {scene};
   c.train.refine_cameras = !c.cameras_out.empty();
   if (c.train.refine_cameras) CheckCanWriteOutput(c.cameras_out, common.force, {scene, c.weights});

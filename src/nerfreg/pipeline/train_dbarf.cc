@@ -91,17 +91,27 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
                  {"scenes", c.scenes.size()},
                  {"processes", c.group != nullptr ? c.group->world_size() : 1}};
   if (c.group != nullptr && !c.group->is_main()) return out;
-  WriteJsonFile(c.run.out + ".json", out.summary);
   if (!c.cameras_out.empty()) {
     // The input's posed images with every frame's camera replaced by the refined one.
+    torch::Tensor cameras = r.cameras[0];  // [V, 4, 4]
+    if (c.depth_refinement.rounds > 0) {
+      const RenderedDepthRefinementResult d =
+          RefineCamerasWithRenderedDepths(model, scenes[0], cameras, c.depth_refinement);
+      cameras = d.cam_from_world;
+      out.summary["depth_ba"] = {{"rounds", c.depth_refinement.rounds},
+                                 {"pairs", d.pairs},
+                                 {"photometric_error_before", d.initial_loss},
+                                 {"photometric_error_after", d.final_loss},
+                                 {"seconds", d.seconds}};
+    }
     Dataset refined = loaded[0].dataset;
     for (size_t k = 0; k < refined.frames.size(); ++k) {
-      refined.frames[k].cam_from_world =
-          Rigid3d::FromMatrix(TensorToMatrix4(r.cameras[0][static_cast<int64_t>(k)]), 1e-3);
+      refined.frames[k].cam_from_world = Rigid3d::FromMatrix(TensorToMatrix4(cameras[static_cast<int64_t>(k)]), 1e-3);
     }
     WriteRefinedPosedImages(c.scenes[0], refined, c.cameras_out);
     LOG_INFO("refined cameras -> {}", c.cameras_out);
   }
+  WriteJsonFile(c.run.out + ".json", out.summary);
   LOG_INFO("{}: {} steps in {:.1f} s, training PSNR (last 10%) {:.2f} dB -> {}", c.kind, r.steps, r.seconds,
            r.mean_psnr_last, c.run.out);
   return out;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_data/rendered_depth_refinement.h"
 #include "nerfreg/dbarf/dbarf_trainer.h"
 #include "nerfreg/util/json_util.h"
 
@@ -18,8 +19,11 @@ struct DbarfTrainingJob {
   std::string config = "cpu";  // network sizes of fresh weights: cpu or paper
   std::string weights;         // weights to start from ("": a fresh network)
   std::string cameras_out;     // finetune --refine-cameras: where the refined cameras go
-  double rotation_scale = 0;   // the pose heads' rotation scale (0: the config's or the weights')
-  bool force = false;          // replace existing outputs
+  // With cameras_out: after the training, the cameras bundle-adjusted through the finetuned
+  // renderer's depths (dbarf_data/rendered_depth_refinement.h; rounds 0: the RGB loss's alone).
+  RenderedDepthRefinementOptions depth_refinement;
+  double rotation_scale = 0;  // the pose heads' rotation scale (0: the config's or the weights')
+  bool force = false;         // replace existing outputs
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;
