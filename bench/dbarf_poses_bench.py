@@ -26,6 +26,7 @@ FINETUNE_STEPS = int(os.environ.get("FINETUNE_STEPS", "400"))
 FINETUNE_SCHEDULE = os.environ.get("FINETUNE_SCHEDULE", "nerf")
 FINETUNE_DECAY_STEPS = int(os.environ.get("FINETUNE_DECAY_STEPS", "50"))
 FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))  # with FINETUNE_SCHEDULE=dbarf
+FINETUNE_DEPTH_BA_STEPS = os.environ.get("FINETUNE_DEPTH_BA_STEPS", "")  # --depth-ba-steps ("": the default)
 NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
@@ -200,6 +201,8 @@ def run_method(method, data, work):
                  "--out", weights, "--force", "--quiet"]
         rgb = os.path.join(work, "finetuned_rgb.pt")
         seconds_before = 0.0
+        if FINETUNE_DEPTH_BA_STEPS:
+            flags += ["--depth-ba-steps", FINETUNE_DEPTH_BA_STEPS]
         if rgb_only:
             flags += ["--depth-ba-rounds", "0"]
         elif os.path.exists(rgb + ".train") and os.path.exists(rgb + ".json"):
@@ -298,7 +301,7 @@ def main():
     command = "bash bench/dbarf_poses_bench.sh " + WORK
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
                                          "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_SCHEDULE",
-                                         "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS")
+                                         "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS", "FINETUNE_DEPTH_BA_STEPS")
              if k in os.environ}
     if knobs:
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command

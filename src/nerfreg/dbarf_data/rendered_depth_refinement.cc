@@ -77,9 +77,8 @@ RenderedDepthRefinementResult RefineCamerasWithRenderedDepths(DbarfModel& model,
   torch::Tensor images = full_images, intrinsics = full_intrinsics;  // [V, 3, h, w], [V, 3, 3]
   if (width != full_w || height != full_h) {
     images = torch::nn::functional::interpolate(
-        full_images, torch::nn::functional::InterpolateFuncOptions()
-                          .size(std::vector<int64_t>{height, width})
-                          .mode(torch::kArea));
+        full_images,
+        torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{height, width}).mode(torch::kArea));
     intrinsics = full_intrinsics.clone();
     intrinsics.select(1, 0).mul_(static_cast<double>(width) / static_cast<double>(full_w));
     intrinsics.select(1, 1).mul_(static_cast<double>(height) / static_cast<double>(full_h));

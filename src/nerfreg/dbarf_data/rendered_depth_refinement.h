@@ -36,7 +36,8 @@ struct RenderedDepthRefinementOptions {
   PhotometricBundleAdjustmentOptions ba = DefaultBundleAdjustment();
   void Check() const;  // throws InputError naming the option
 
-  // The cameras start within a pixel or two: two pyramid levels, more steps than the network's BA.
+  // The cameras start within a pixel or two: two pyramid levels. 100 steps a level: 300 moved
+  // validation rotations both ways (docs/poses_and_views.md, "The last stage").
   static PhotometricBundleAdjustmentOptions DefaultBundleAdjustment() {
     PhotometricBundleAdjustmentOptions o;
     o.levels = 2;
