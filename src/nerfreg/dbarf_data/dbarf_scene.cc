@@ -221,6 +221,20 @@ std::vector<int> NearestViews(const DbarfScene& scene, const torch::Tensor& cam_
   return out;
 }
 
+std::pair<torch::Tensor, torch::Tensor> ShrinkToWidth(const torch::Tensor& images, const torch::Tensor& intrinsics,
+                                                      int max_width) {
+  const int64_t w = images.size(3), h = images.size(2);
+  if (max_width <= 0 || w <= max_width) return {images, intrinsics};
+  const int64_t new_w = max_width, new_h = std::max<int64_t>(1, std::lround(double(h) * max_width / w));
+  namespace F = torch::nn::functional;
+  torch::Tensor shrunk =
+      F::interpolate(images, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
+  torch::Tensor k = intrinsics.clone();
+  k.select(1, 0) *= double(new_w) / w;  // fx, skew, cx
+  k.select(1, 1) *= double(new_h) / h;  // fy, cy
+  return {shrunk, k};
+}
+
 NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std::vector<int>& sources,
                           const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
                           int64_t width) {

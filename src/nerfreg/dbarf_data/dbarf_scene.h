@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nerfreg/dbarf/dbarf_model.h"
@@ -76,6 +77,11 @@ Json ViewGraphToJson(const ViewGraph& graph);
 // scene's median distance between neighbouring centres) plus the angle between viewing directions
 // (radians), smallest first. For novel cameras, which have no image and so no view-graph edge.
 std::vector<int> NearestViews(const DbarfScene& scene, const torch::Tensor& cam_from_world, int k);
+
+// Images [V, 3, H, W] and their intrinsics [V, 3, 3] area-averaged to max_width wide (the height
+// in proportion), the intrinsics' rows scaled alike; as given where max_width <= 0 or W <= max_width.
+std::pair<torch::Tensor, torch::Tensor> ShrinkToWidth(const torch::Tensor& images, const torch::Tensor& intrinsics,
+                                                      int max_width);
 
 struct NovelView {
   torch::Tensor rgb;    // [3, H, W] float32

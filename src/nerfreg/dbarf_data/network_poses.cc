@@ -358,17 +358,7 @@ torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
 // The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
 std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images,
                                                       const std::vector<Camera>& cameras, int max_width) {
-  torch::Tensor stacked = StackImages(images), intrinsics = StackIntrinsics(cameras);
-  const int64_t w = stacked.size(3), h = stacked.size(2);
-  if (max_width <= 0 || w <= max_width) return {stacked, intrinsics};
-  const int64_t new_w = max_width, new_h = std::max<int64_t>(1, std::lround(double(h) * max_width / w));
-  namespace F = torch::nn::functional;
-  stacked =
-      F::interpolate(stacked, F::InterpolateFuncOptions().size(std::vector<int64_t>{new_h, new_w}).mode(torch::kArea));
-  intrinsics = intrinsics.clone();
-  intrinsics.select(1, 0) *= double(new_w) / w;  // fx, skew, cx
-  intrinsics.select(1, 1) *= double(new_h) / h;  // fy, cy
-  return {stacked, intrinsics};
+  return ShrinkToWidth(StackImages(images), StackIntrinsics(cameras), max_width);
 }
 
 // The SfM's depth range when it has enough triangulated depths (DepthRangeFromPoints' rule).

@@ -1,7 +1,5 @@
 #include "nerfreg/dbarf_data/rendered_depth_refinement.h"
 
-#include <algorithm>
-#include <cmath>
 #include <string>
 #include <utility>
 
@@ -65,24 +63,11 @@ RenderedDepthRefinementResult RefineCamerasWithRenderedDepths(DbarfModel& model,
     if (scene.usable[k]) fixed = static_cast<int>(k);
   if (fixed < 0 || options.rounds == 0) return result;
   const double distance = MeanDistanceToFixed(result.cam_from_world, scene.usable, fixed);
-  // The depths are rendered, and the warps run, at max_width at most (area-averaged images,
-  // intrinsics scaled alike); the cameras do not depend on the size.
-  const int64_t full_h = scene.images.size(2), full_w = scene.images.size(3);
-  const double shrink = options.max_width > 0 && full_w > options.max_width
-                            ? static_cast<double>(options.max_width) / static_cast<double>(full_w)
-                            : 1.0;
-  const int64_t width = std::max<int64_t>(1, std::llround(static_cast<double>(full_w) * shrink));
-  const int64_t height = std::max<int64_t>(1, std::llround(static_cast<double>(full_h) * shrink));
-  const torch::Tensor full_images = scene.images.cpu(), full_intrinsics = scene.intrinsics.cpu();
-  torch::Tensor images = full_images, intrinsics = full_intrinsics;  // [V, 3, h, w], [V, 3, 3]
-  if (width != full_w || height != full_h) {
-    images = torch::nn::functional::interpolate(
-        full_images,
-        torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{height, width}).mode(torch::kArea));
-    intrinsics = full_intrinsics.clone();
-    intrinsics.select(1, 0).mul_(static_cast<double>(width) / static_cast<double>(full_w));
-    intrinsics.select(1, 1).mul_(static_cast<double>(height) / static_cast<double>(full_h));
-  }
+  // The depths are rendered, and the warps run, at max_width at most; the cameras do not depend
+  // on the size.
+  const auto [images, intrinsics] =
+      ShrinkToWidth(scene.images.cpu(), scene.intrinsics.cpu(), options.max_width);  // [V, 3, h, w], [V, 3, 3]
+  const int64_t height = images.size(2), width = images.size(3);
 
   ProgressBar bar("depth BA", v * options.rounds, "view");
   for (int round = 0; round < options.rounds; ++round) {
