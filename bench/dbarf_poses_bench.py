@@ -27,6 +27,7 @@ FINETUNE_SCHEDULE = os.environ.get("FINETUNE_SCHEDULE", "nerf")
 FINETUNE_DECAY_STEPS = int(os.environ.get("FINETUNE_DECAY_STEPS", "50"))
 FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))  # with FINETUNE_SCHEDULE=dbarf
 FINETUNE_DEPTH_BA_STEPS = os.environ.get("FINETUNE_DEPTH_BA_STEPS", "")  # --depth-ba-steps ("": the default)
+FINETUNE_DEPTH_BA_SOURCES = os.environ.get("FINETUNE_DEPTH_BA_SOURCES", "")  # --depth-ba-sources ("": the default)
 NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
@@ -203,6 +204,8 @@ def run_method(method, data, work):
         seconds_before = 0.0
         if FINETUNE_DEPTH_BA_STEPS:
             flags += ["--depth-ba-steps", FINETUNE_DEPTH_BA_STEPS]
+        if FINETUNE_DEPTH_BA_SOURCES:
+            flags += ["--depth-ba-sources", FINETUNE_DEPTH_BA_SOURCES]
         if rgb_only:
             flags += ["--depth-ba-rounds", "0"]
         elif os.path.exists(rgb + ".train") and os.path.exists(rgb + ".json"):

@@ -9,8 +9,8 @@
 # results/dbarf_poses.json (date, machine, command, every set's figures).
 # Reduced configurations by environment: SIZES20, SEEDS20, SPARSE_VIEWS, SPARSE_SETS, SPARSE_SPREAD,
 # HARD_MATERIALS, HARD_SETS, HARD_VIEWS, METHODS, FINETUNE_STEPS, FINETUNE_SCHEDULE, FINETUNE_DECAY_STEPS,
-# FINETUNE_STAGE_STEPS (REDUCED: a sentence saying so in the .md); OUT_MD / OUT_JSON elsewhere than
-# results/.
+# FINETUNE_STAGE_STEPS, FINETUNE_DEPTH_BA_STEPS, FINETUNE_DEPTH_BA_SOURCES (REDUCED: a sentence saying
+# so in the .md); OUT_MD / OUT_JSON elsewhere than results/.
 # Usage: bench/dbarf_poses_bench.sh [WORK_DIR]   (needs build/nerfreg and colmap)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)

@@ -8,10 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 
 #include "cli_test_util.h"
+#include "nerfreg/data/npy.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/json_util.h"
@@ -33,8 +35,8 @@ struct PosedScene {
   std::string data = dir.File("scene"), posed = dir.File("posed");
   Json poses;
   void Make() {
-    CommandResult r =
-        RunNerfreg("render --procedural 7 --trajectory forward --views 10 --test-every 5 --quiet --out " + data);
+    CommandResult r = RunNerfreg(
+        "render --procedural 7 --trajectory forward --views 10 --test-every 5 --depth --quiet --out " + data);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data + "/transforms.json --quiet --out " + posed);
     ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -180,6 +182,47 @@ TEST(DbarfTrainCli, FinetuneRenderAndEval) {
   EXPECT_LT(e["rotation_deg_median"].get<double>(), 0.5);
   EXPECT_GT(e["psnr_mean"].get<double>(), 15.0);
   EXPECT_TRUE(std::filesystem::exists(s.dir.File("eval/compare.png")));
+  // The dataset has depth maps (render --depth): the rendered views' depths are scored against
+  // them, per view and as a median.
+  ASSERT_TRUE(e["depth_error_median"].is_number()) << e.dump();
+  const double depth_error = e["depth_error_median"].get<double>();
+  EXPECT_GT(depth_error, 0.0);
+  EXPECT_LT(depth_error, 0.5);
+  EXPECT_TRUE(e["views"][0].contains("depth_error")) << e["views"].dump();
+
+  // The depth maps turned upside down: the same depths, at the wrong pixels, score worse (the
+  // error measures geometry, not the spread of depths). Then a truncated map is a one-line error.
+  std::vector<std::string> maps;
+  for (const auto& f : std::filesystem::directory_iterator(s.data + "/depth")) maps.push_back(f.path().string());
+  ASSERT_FALSE(maps.empty());
+  for (const std::string& m : maps) {
+    std::filesystem::copy_file(m, m + ".kept");
+    NpyArray a = ReadNpy(m);
+    const int64_t h = a.shape[0], w = a.shape[1];
+    NpyArray flipped = a;
+    for (int64_t y = 0; y < h; ++y)
+      for (int64_t x = 0; x < w; ++x) flipped.data[y * w + x] = a.data[(h - 1 - y) * w + x];
+    std::filesystem::remove(m);
+    WriteNpy(m, flipped);
+  }
+  r = RunNerfreg("dbarf eval " + s.data + "/transforms.json --weights " + ft + " --sources 2 --out " +
+                 s.dir.File("eval_flipped"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("rendered depth"), std::string::npos) << r.output;
+  EXPECT_GT(ReadJsonFile(s.dir.File("eval_flipped/eval.json"))["depth_error_median"].get<double>(), 1.5 * depth_error);
+  for (const std::string& m : maps) {
+    std::filesystem::remove(m);
+    std::ofstream(m) << "\x93NUMPY";
+  }
+  r = RunNerfreg("dbarf eval " + s.data + "/transforms.json --weights " + ft + " --sources 2 --quiet --out " +
+                 s.dir.File("eval_truncated"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error: " + s.data + "/depth/"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(s.dir.File("eval_truncated")));
+  for (const std::string& m : maps) {
+    std::filesystem::remove(m);
+    std::filesystem::rename(m + ".kept", m);
+  }
 
   // The cameras of dbarf poses given with --cameras are scored by the same protocol: here they are
   // what eval estimated itself (the same SfM), so the figures agree.

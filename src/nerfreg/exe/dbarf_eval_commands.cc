@@ -24,8 +24,9 @@ int RunDbarfEval(int argc, char** argv) {
                   "The pose-free pipeline against ground truth: every image of the dataset (train and test split) is "
                   "posed from the images alone; poses are scored after a Sim(3) alignment; each test view is rendered "
                   "at its ESTIMATED camera from its view-graph neighbours among the training views, and scored by "
-                  "PSNR / SSIM against its image. Writes DIR/eval.json, DIR/views/ (renders, inverse depth) and "
-                  "DIR/compare.png (image | render | depth per test view).",
+                  "PSNR / SSIM against its image, and, where the dataset has depth maps (render --depth), by its "
+                  "rendered depth's median relative error, scale-aligned. Writes DIR/eval.json, DIR/views/ (renders, "
+                  "inverse depth) and DIR/compare.png (image | render | depth per test view).",
                   "nerfreg dbarf eval data/fwd/scene_201/transforms.json --out runs/eval_201");
   DbarfEvaluationOptions o;
   o.weights = DefaultDbarfWeights();
@@ -60,6 +61,10 @@ int RunDbarfEval(int argc, char** argv) {
               e.relative_cameras.rotation_deg, e.relative_cameras.translation_deg, e.relative_network.rotation_deg,
               e.relative_network.translation_deg, e.relative_network.pairs);
   std::printf("novel views        %zu rendered: PSNR %.2f dB  SSIM %.4f\n", e.rendered, e.psnr_mean, e.ssim_mean);
+  if (e.depth_error_median >= 0) {
+    std::printf("rendered depth     median relative error %.2f %% (against the dataset's depth maps, scale-aligned)\n",
+                100 * e.depth_error_median);
+  }
   std::printf("time               %.1f s (poses %.1f s)\n", e.seconds, e.seconds_poses);
   return 0;
 }

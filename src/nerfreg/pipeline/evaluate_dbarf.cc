@@ -4,6 +4,9 @@
 #include <map>
 #include <set>
 
+#include <algorithm>
+
+#include "nerfreg/data/npy.h"
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -23,6 +26,37 @@ double Mean(const std::vector<double>& x) {
   double s = 0;
   for (double v : x) s += v;
   return x.empty() ? 0.0 : s / x.size();
+}
+
+double Median(std::vector<double> x) {
+  if (x.empty()) return 0.0;
+  std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+  return x[x.size() / 2];
+}
+
+// The rendered z-depth's error against the dataset's own depth map of the view, where it has one
+// (`render --depth` writes ROOT/depth/<image stem>.npy): the median over the pixels valid in both
+// of |depth / (s * true) - 1|, s the median ratio (the estimated cameras' frame has a scale of its
+// own). -1 when there is no map. It measures the renderer's geometry, which the finetune's last
+// stage bundle-adjusts the cameras through (docs/poses_and_views.md, "The last stage").
+double DepthError(const std::string& root, const std::string& name, const NovelView& nv) {
+  const std::string path = JoinPaths(root, "depth/" + fs::path(name).stem().string() + ".npy");
+  if (!fs::exists(path)) return -1;
+  const NpyArray a = ReadNpy(path);
+  if (a.shape.size() != 2 || a.shape[0] < 1 || a.shape[1] < 1) ThrowInputError(path, "shape", "a depth map [H, W]");
+  const int64_t h = nv.depth.size(0), w = nv.depth.size(1);
+  torch::Tensor truth = torch::tensor(a.data, torch::kDouble).to(torch::kFloat).view({1, 1, a.shape[0], a.shape[1]});
+  truth = torch::where(torch::isfinite(truth), truth, torch::zeros_like(truth));  // no depth: 0, never valid
+  if (a.shape[0] != h || a.shape[1] != w) {  // the scene was loaded downsampled (--max-width)
+    namespace F = torch::nn::functional;
+    truth = F::interpolate(truth, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea));
+  }
+  truth = truth.view({h, w});
+  const torch::Tensor ok = nv.valid & (truth > 0) & torch::isfinite(nv.depth) & (nv.depth > 0);  // [H, W]
+  if (ok.sum().item<int64_t>() < 10) return -1;
+  const torch::Tensor d = nv.depth.masked_select(ok), t = truth.masked_select(ok);
+  const double scale = (d / t).median().item<double>();
+  return (d / (scale * t) - 1).abs().median().item<double>();
 }
 
 Json RelativeToJson(const RelativePoseError& e) {
@@ -141,7 +175,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "views"));
   Json views = Json::array();
-  std::vector<double> psnrs, ssims;
+  std::vector<double> psnrs, ssims, depth_errors;
   std::vector<Image> sheet;
   int num_test = 0;
   for (int v = 0; v < scene.NumViews(); ++v) num_test += loaded.is_test[v];
@@ -167,7 +201,12 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
     const Image depth = InverseDepthImage(nv.depth, nv.valid, scene.near, scene.far);
     WriteImage(JoinPaths(tmp, "views/depth_" + png), depth);
     sheet.insert(sheet.end(), {truth, render, depth});
-    views.push_back({{"name", name}, {"rendered", true}, {"psnr", psnr}, {"ssim", ssim}, {"sources", sources.size()}});
+    Json entry = {{"name", name}, {"rendered", true}, {"psnr", psnr}, {"ssim", ssim}, {"sources", sources.size()}};
+    if (const double d = DepthError(loaded.dataset.root, name, nv); d >= 0) {
+      entry["depth_error"] = d;
+      depth_errors.push_back(d);
+    }
+    views.push_back(entry);
   }
   bar.Finish();
   const PoseEvaluation& pe = e.poses;
@@ -175,6 +214,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   e.rendered = psnrs.size();
   e.psnr_mean = Mean(psnrs);
   e.ssim_mean = Mean(ssims);
+  if (!depth_errors.empty()) e.depth_error_median = Median(depth_errors);
   e.seconds = timer.Seconds();
   e.json = {{"dataset", o.dataset},
             {"cameras", o.cameras.empty() ? Json("estimated") : Json(o.cameras)},
@@ -191,6 +231,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
             {"rendered", psnrs.size()},
             {"psnr_mean", e.psnr_mean},
             {"ssim_mean", e.ssim_mean},
+            {"depth_error_median", depth_errors.empty() ? Json(nullptr) : Json(e.depth_error_median)},
             {"seconds_poses", e.seconds_poses},
             {"seconds", e.seconds},
             {"views", views},

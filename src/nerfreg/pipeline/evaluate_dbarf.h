@@ -38,6 +38,9 @@ struct DbarfEvaluation {
   int64_t images = 0;
   size_t posed = 0, rendered = 0;
   double psnr_mean = 0, ssim_mean = 0;
+  // Median over the rendered test views of their depth error (DepthError in evaluate_dbarf.cc),
+  // where the dataset has depth maps (`render --depth`); -1 otherwise.
+  double depth_error_median = -1;
   double seconds = 0, seconds_poses = 0;
 };
 
