@@ -304,7 +304,8 @@ def main():
     command = "bash bench/dbarf_poses_bench.sh " + WORK
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
                                          "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_SCHEDULE",
-                                         "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS", "FINETUNE_DEPTH_BA_STEPS")
+                                         "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS", "FINETUNE_DEPTH_BA_STEPS",
+                                         "FINETUNE_DEPTH_BA_SOURCES")
              if k in os.environ}
     if knobs:
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command

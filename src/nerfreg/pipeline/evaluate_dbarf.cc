@@ -4,8 +4,6 @@
 #include <map>
 #include <set>
 
-#include <algorithm>
-
 #include "nerfreg/data/npy.h"
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/util/error.h"
@@ -14,6 +12,7 @@
 #include "nerfreg/util/image_metrics.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/progress.h"
+#include "nerfreg/util/stats.h"
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {
@@ -28,12 +27,6 @@ double Mean(const std::vector<double>& x) {
   return x.empty() ? 0.0 : s / x.size();
 }
 
-double Median(std::vector<double> x) {
-  if (x.empty()) return 0.0;
-  std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
-  return x[x.size() / 2];
-}
-
 // The rendered z-depth's error against the dataset's own depth map of the view, where it has one
 // (`render --depth` writes ROOT/depth/<image stem>.npy): the median over the pixels valid in both
 // of |depth / (s * true) - 1|, s the median ratio (the estimated cameras' frame has a scale of its
@@ -46,13 +39,19 @@ double DepthError(const std::string& root, const std::string& name, const NovelV
   if (a.shape.size() != 2 || a.shape[0] < 1 || a.shape[1] < 1) ThrowInputError(path, "shape", "a depth map [H, W]");
   const int64_t h = nv.depth.size(0), w = nv.depth.size(1);
   torch::Tensor truth = torch::tensor(a.data, torch::kDouble).to(torch::kFloat).view({1, 1, a.shape[0], a.shape[1]});
-  truth = torch::where(torch::isfinite(truth), truth, torch::zeros_like(truth));  // no depth: 0, never valid
+  torch::Tensor covered = (torch::isfinite(truth) & (truth > 0)).to(torch::kFloat);  // 0 = no surface
+  truth = torch::where(covered > 0, truth, torch::zeros_like(truth));
   if (a.shape[0] != h || a.shape[1] != w) {  // the scene was loaded downsampled (--max-width)
+    // Area-averaged over surface pixels only; a pixel counts only where its whole footprint has a
+    // surface (one that also covers the background would average the two).
     namespace F = torch::nn::functional;
-    truth = F::interpolate(truth, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea));
+    const auto area = F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea);
+    covered = F::interpolate(covered, area);
+    truth = F::interpolate(truth, area) / covered.clamp_min(1e-6);
   }
   truth = truth.view({h, w});
-  const torch::Tensor ok = nv.valid & (truth > 0) & torch::isfinite(nv.depth) & (nv.depth > 0);  // [H, W]
+  const torch::Tensor ok =
+      nv.valid & (covered.view({h, w}) > 0.999) & torch::isfinite(nv.depth) & (nv.depth > 0);  // [H, W]
   if (ok.sum().item<int64_t>() < 10) return -1;
   const torch::Tensor d = nv.depth.masked_select(ok), t = truth.masked_select(ok);
   const double scale = (d / t).median().item<double>();
