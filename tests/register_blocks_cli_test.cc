@@ -127,7 +127,9 @@ TEST_F(RegisterBlocksCli, TwoTrainedBlocksOfOneObjectRegisterAndTheOptionsRoundT
   ASSERT_EQ(RunNerfreg("reg register " + args + dir.File("again.json")).exit_code, 0);
   const Json cli_again = ReadJsonFile(dir.File("again.json"));
   const Sim3d second = Sim3d::FromMatrix(JsonField(cli_again, "again.json")["target_from_source"].Matrix(4, 4), 1e-3);
-  EXPECT_LT(RotationErrorDeg(second.rotation, est.rotation), 1e-6);
+  // Entry-wise, not by angle: RotationErrorDeg is 2 acos(|q1 . q2|), 1.7e-6 deg at one ulp below 1,
+  // so a 1e-6 deg bound held only for bit-identical quaternions (it failed once under ctest, 2.4e-6).
+  EXPECT_LT((second.rotation.toRotationMatrix() - est.rotation.toRotationMatrix()).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_LT((second.translation - est.translation).norm(), 1e-9);
 }
 
