@@ -28,6 +28,7 @@ FINETUNE_DECAY_STEPS = int(os.environ.get("FINETUNE_DECAY_STEPS", "50"))
 FINETUNE_STAGE_STEPS = int(os.environ.get("FINETUNE_STAGE_STEPS", "50"))  # with FINETUNE_SCHEDULE=dbarf
 FINETUNE_DEPTH_BA_STEPS = os.environ.get("FINETUNE_DEPTH_BA_STEPS", "")  # --depth-ba-steps ("": the default)
 FINETUNE_DEPTH_BA_SOURCES = os.environ.get("FINETUNE_DEPTH_BA_SOURCES", "")  # --depth-ba-sources ("": the default)
+FINETUNE_DEPTH_BA_VIEW_RANGE = os.environ.get("FINETUNE_DEPTH_BA_VIEW_RANGE", "")  # --depth-ba-view-range ("": the default)
 NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
@@ -206,6 +207,8 @@ def run_method(method, data, work):
             flags += ["--depth-ba-steps", FINETUNE_DEPTH_BA_STEPS]
         if FINETUNE_DEPTH_BA_SOURCES:
             flags += ["--depth-ba-sources", FINETUNE_DEPTH_BA_SOURCES]
+        if FINETUNE_DEPTH_BA_VIEW_RANGE:
+            flags += ["--depth-ba-view-range", FINETUNE_DEPTH_BA_VIEW_RANGE]
         if rgb_only:
             flags += ["--depth-ba-rounds", "0"]
         elif os.path.exists(rgb + ".train") and os.path.exists(rgb + ".json"):
@@ -305,7 +308,7 @@ def main():
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
                                          "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_SCHEDULE",
                                          "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS", "FINETUNE_DEPTH_BA_STEPS",
-                                         "FINETUNE_DEPTH_BA_SOURCES")
+                                         "FINETUNE_DEPTH_BA_SOURCES", "FINETUNE_DEPTH_BA_VIEW_RANGE")
              if k in os.environ}
     if knobs:
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command

@@ -170,6 +170,11 @@ const std::vector<BadInputCase>& Cases() {
          return "dbarf finetune " + d + "/posed.json --depth-ba-rounds -1 --out " + d + "/ft.pt";
        },
        "error: --depth-ba-rounds: expected >= 0, got -1", "ft.pt"},
+      {"dbarf_finetune_depth_ba_view_range_below_one",
+       [](const std::string& d) {
+         return "dbarf finetune " + d + "/posed.json --depth-ba-view-range 0.5 --out " + d + "/ft.pt";
+       },
+       "error: --depth-ba-view-range: expected 0 or > 1, got 0.5", "ft.pt"},
       {"reg_register_grid_not_a_multiple_of_16",
        [](const std::string& d) {
          return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json";

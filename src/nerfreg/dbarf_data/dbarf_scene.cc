@@ -258,6 +258,19 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
           out.valid.reshape({height, width}).cpu()};
 }
 
+std::pair<double, double> ViewDepthRange(const torch::Tensor& depth, const torch::Tensor& valid, double near,
+                                         double far, double margin) {
+  TORCH_CHECK(depth.dim() == 2 && valid.sizes() == depth.sizes(), "ViewDepthRange: depth and valid must be [H, W]");
+  TORCH_CHECK(margin > 1 && near > 0 && far > near, "ViewDepthRange: need margin > 1 and 0 < near < far");
+  const torch::Tensor d =
+      depth.cpu().to(torch::kDouble).masked_select(valid.cpu() & torch::isfinite(depth.cpu()));  // [N]
+  if (d.numel() < 16) return {near, far};
+  const torch::Tensor q = torch::quantile(d, torch::tensor({0.01, 0.99}, torch::kDouble));
+  const double lo = std::max(near, q[0].item<double>() / margin), hi = std::min(far, q[1].item<double>() * margin);
+  if (!(hi > lo * 1.01)) return {near, far};
+  return {lo, hi};
+}
+
 namespace {
 
 // DbarfSceneOptions::cameras == "ground-truth": the dataset's poses in the frame dbarf poses

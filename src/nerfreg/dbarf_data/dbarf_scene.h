@@ -94,6 +94,14 @@ NovelView RenderNovelView(DbarfModel& model, const DbarfScene& scene, const std:
                           const torch::Tensor& intrinsics, const torch::Tensor& cam_from_world, int64_t height,
                           int64_t width);
 
+// The depth range a render of a view spans: the 1st and 99th percentiles of its valid depths
+// (depth [H, W] float32, valid [H, W] bool), divided and multiplied by margin (> 1), within
+// [near, far]. {near, far} when fewer than 16 pixels are valid or the range would not narrow.
+// Why: the renderer's samples are uniform in inverse depth over the range it is given; over a
+// view's own range they are closer together than over the scene's.
+std::pair<double, double> ViewDepthRange(const torch::Tensor& depth, const torch::Tensor& valid, double near,
+                                         double far, double margin);
+
 // Cameras between the data layer and tensors: 4x4 matrices [4, 4] float32 and back, and a
 // camera's intrinsics [3, 3] float32.
 torch::Tensor Matrix4ToTensor(const Eigen::Matrix4d& m);

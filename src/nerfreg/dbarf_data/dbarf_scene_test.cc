@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <tuple>
+#include <utility>
 
 #include "nerfreg/data/convert.h"
 #include "nerfreg/render/procedural.h"
@@ -137,6 +139,27 @@ TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
   }
   options.cameras = "both";
   EXPECT_THROW(options.Check(), InputError);
+}
+
+TEST(DbarfScene, ViewDepthRangeSpansTheValidDepthsWidenedWithinTheScenes) {
+  // 101 x 101 depths 10..20 in rows, plus an invalid far row that must not count.
+  torch::Tensor depth = torch::linspace(10.0, 20.0, 101).unsqueeze(1).expand({101, 101}).contiguous();
+  depth = torch::cat({depth, torch::full({1, 101}, 1000.0)});  // [102, 101]
+  torch::Tensor valid = torch::ones({102, 101}, torch::kBool);
+  valid[101] = false;
+  auto [lo, hi] = ViewDepthRange(depth, valid, 1.0, 100.0, 1.2);
+  EXPECT_NEAR(lo, 10.1 / 1.2, 1e-3);  // the 1st percentile of the valid ones, widened
+  EXPECT_NEAR(hi, 19.9 * 1.2, 1e-3);
+  // Never outside the scene's range.
+  std::tie(lo, hi) = ViewDepthRange(depth, valid, 9.0, 21.0, 1.2);
+  EXPECT_DOUBLE_EQ(lo, 9.0);
+  EXPECT_DOUBLE_EQ(hi, 21.0);
+  // Too few valid pixels, or a range that would not narrow: the scene's.
+  std::tie(lo, hi) = ViewDepthRange(depth, torch::zeros({102, 101}, torch::kBool), 1.0, 100.0, 1.2);
+  EXPECT_EQ(std::make_pair(lo, hi), std::make_pair(1.0, 100.0));
+  std::tie(lo, hi) = ViewDepthRange(torch::full({8, 8}, 50.0), torch::ones({8, 8}, torch::kBool), 60.0, 100.0, 1.2);
+  EXPECT_EQ(std::make_pair(lo, hi), std::make_pair(60.0, 100.0));
+  EXPECT_ANY_THROW(ViewDepthRange(depth, valid, 1.0, 100.0, 1.0));
 }
 
 }  // namespace

@@ -1,6 +1,9 @@
 #include "nerfreg/dbarf_data/rendered_depth_refinement.h"
 
+#include <fmt/format.h>
+
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "nerfreg/dbarf_data/dbarf_scene.h"
@@ -15,6 +18,8 @@ void RenderedDepthRefinementOptions::Check() const {
   if (rounds < 0) throw InputError("--depth-ba-rounds: expected >= 0, got " + std::to_string(rounds));
   if (num_sources < 1) throw InputError("--depth-ba-sources: expected >= 1, got " + std::to_string(num_sources));
   if (max_width < 0) throw InputError("--depth-ba-max-width: expected >= 0, got " + std::to_string(max_width));
+  if (view_range_margin != 0 && !(view_range_margin > 1))
+    throw InputError(fmt::format("--depth-ba-view-range: expected 0 or > 1, got {:g}", view_range_margin));
   if (ba.iterations_per_level < 1)
     throw InputError("--depth-ba-steps: expected >= 1, got " + std::to_string(ba.iterations_per_level));
   ba.Check();
@@ -84,8 +89,13 @@ RenderedDepthRefinementResult RefineCamerasWithRenderedDepths(DbarfModel& model,
         bar.Tick();
         continue;
       }
-      const NovelView view =
-          RenderNovelView(model, placed, sources, intrinsics[t], placed.cam_from_world[t], height, width);
+      NovelView view = RenderNovelView(model, placed, sources, intrinsics[t], placed.cam_from_world[t], height, width);
+      if (options.view_range_margin > 0) {
+        DbarfScene narrowed = placed;
+        std::tie(narrowed.near, narrowed.far) =
+            ViewDepthRange(view.depth, view.valid, scene.near, scene.far, options.view_range_margin);
+        view = RenderNovelView(model, narrowed, sources, intrinsics[t], placed.cam_from_world[t], height, width);
+      }
       inv_depths.push_back(InverseDepthOf(view, scene.near, scene.far));
       for (int s : sources) pairs.push_back({static_cast<int>(t), s});
       bar.Tick();

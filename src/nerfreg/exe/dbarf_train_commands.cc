@@ -177,6 +177,9 @@ int RunDbarfFinetune(int argc, char** argv) {
                  "Steps per pyramid level of that bundle adjustment");
   app.add_option("--depth-ba-max-width", c.depth_refinement.max_width,
                  "Render and warp at most this wide in that bundle adjustment (0: the scene's size)");
+  app.add_option("--depth-ba-view-range", c.depth_refinement.view_range_margin,
+                 "Render each view's depths again over the range its first render spans, widened by this factor "
+                 "(> 1; 0: once, over the scene's depth range)");
   std::string device = "cpu";
   AddTrainOptions(app, &c, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;

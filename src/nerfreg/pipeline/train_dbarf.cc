@@ -99,6 +99,8 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
           RefineCamerasWithRenderedDepths(model, scenes[0], cameras, c.depth_refinement);
       cameras = d.cam_from_world;
       out.summary["depth_ba"] = {{"rounds", c.depth_refinement.rounds},
+                                 {"sources", c.depth_refinement.num_sources},
+                                 {"view_range_margin", c.depth_refinement.view_range_margin},
                                  {"pairs", d.pairs},
                                  {"photometric_error_before", d.initial_loss},
                                  {"photometric_error_after", d.final_loss},
