@@ -262,8 +262,8 @@ std::pair<double, double> ViewDepthRange(const torch::Tensor& depth, const torch
                                          double far, double margin) {
   TORCH_CHECK(depth.dim() == 2 && valid.sizes() == depth.sizes(), "ViewDepthRange: depth and valid must be [H, W]");
   TORCH_CHECK(margin > 1 && near > 0 && far > near, "ViewDepthRange: need margin > 1 and 0 < near < far");
-  const torch::Tensor d =
-      depth.cpu().to(torch::kDouble).masked_select(valid.cpu() & torch::isfinite(depth.cpu()));  // [N]
+  const torch::Tensor z = depth.to(torch::kCPU, torch::kDouble);              // [H, W]
+  const torch::Tensor d = z.masked_select(valid.cpu() & torch::isfinite(z));  // [N]
   if (d.numel() < 16) return {near, far};
   const torch::Tensor q = torch::quantile(d, torch::tensor({0.01, 0.99}, torch::kDouble));
   const double lo = std::max(near, q[0].item<double>() / margin), hi = std::min(far, q[1].item<double>() * margin);

@@ -29,8 +29,9 @@ namespace nerfreg {
 
 struct RenderedDepthRefinementOptions {
   int rounds = 1;  // render the depths, bundle-adjust; again from the new cameras (0: off)
-  // Nearest usable views per target: the renderer's inputs and the warps' sources. 8 against 4, on
-  // validation: centres 2-4x closer, rotations closer on 2 of 3 scenes (docs/poses_and_views.md).
+  // Nearest usable views per target: the renderer's inputs and the warps' sources. 8 (with the
+  // second render below) against 4 on validation: rotations closer on all 3 scenes, centres
+  // 2.4-4.4x closer (docs/poses_and_views.md, "The last stage").
   int num_sources = 8;
   // Render and warp at most this wide (0: the scene's size). At 320x240 the full size took over 15
   // minutes on one busy core for 20 views; 160 wide takes about 4.
@@ -38,7 +39,7 @@ struct RenderedDepthRefinementOptions {
   // Render each view twice: over the scene's depth range, then over the range that render spans
   // (ViewDepthRange, widened by this factor each way). The renderer's samples (32 in the CPU
   // configuration) are uniform in inverse depth over the range; over the scene's, as dbarf poses
-  // sets it, they sit about 5-8 % of the depth apart, the size of the depths' errors
+  // sets it, they sat 7.5-10 % of the depth apart on validation, the size of the depths' errors
   // (docs/poses_and_views.md, "The last stage"). 0: one render, over the scene's range.
   double view_range_margin = 1.2;
   PhotometricBundleAdjustmentOptions ba = DefaultBundleAdjustment();
