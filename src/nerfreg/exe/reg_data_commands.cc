@@ -6,7 +6,7 @@
 #include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
-#include "nerfreg/reg_data/dreg_trainer.h"
+#include "nerfreg/reg_train/dreg_trainer.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg_data/training_data.h"
 #include "nerfreg/util/error.h"

@@ -11,7 +11,7 @@
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg_data/register_grids.h"
-#include "nerfreg/reg_data/training_data.h"
+#include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {

@@ -179,4 +179,25 @@ RegGrid RecolourRegGrid(const RegGrid& grid, const std::array<std::int64_t, 3>& 
   return out;
 }
 
+double GridOverlap(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
+  torch::NoGradGuard no_grad;
+  const auto pts = source.MaskedXyz();  // [M, 3]
+  if (pts.size(0) == 0) return 0;
+  const Eigen::Matrix4f m = target_from_source.cast<float>();
+  const auto T =
+      torch::from_blob(const_cast<float*>(m.data()), {4, 4}, torch::kFloat32).t().to(pts.device());  // row-major
+  const auto moved = pts.matmul(T.slice(0, 0, 3).slice(1, 0, 3).t()) + T.slice(0, 0, 3).select(1, 3);
+  const std::int64_t d = target.Resolution();
+  // The target mask dilated by one cell.
+  const auto dil =
+      torch::max_pool3d(target.mask.to(torch::kFloat32).unsqueeze(0).unsqueeze(0), 3, 1, 1).squeeze(0).squeeze(0) > 0;
+  const auto mn = torch::tensor({float(target.aabb_min.x()), float(target.aabb_min.y()), float(target.aabb_min.z())})
+                      .to(pts.device());
+  const auto ijk = ((moved - mn) / float(target.CellSize())).floor().to(torch::kInt64);
+  const auto inside = ((ijk >= 0) & (ijk < d)).all(1);
+  const auto c = ijk.clamp(0, d - 1);
+  const auto hit = dil.index({c.select(1, 0), c.select(1, 1), c.select(1, 2)}) & inside;
+  return hit.to(torch::kFloat64).mean().item<double>();
+}
+
 }  // namespace nerfreg

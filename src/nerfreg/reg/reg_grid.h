@@ -80,4 +80,8 @@ void MirrorRegGridPair(RegGrid* source, RegGrid* target, Eigen::Matrix4d* target
 RegGrid RecolourRegGrid(const RegGrid& grid, const std::array<std::int64_t, 3>& permutation,
                         const std::array<double, 3>& gain);
 
+// The overlap of a pair under a transform: the fraction of source mask points that land within
+// one cell of a target mask voxel.
+double GridOverlap(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source);
+
 }  // namespace nerfreg

@@ -45,8 +45,4 @@ struct GridPair {
 // `mesh` is normalised (largest side 2.5, centred), as `nerfreg render` does.
 GridPair SyntheticGridPair(const TriangleMesh& mesh, const SyntheticPairOptions& options, unsigned seed);
 
-// The overlap of a pair under a transform: the fraction of source mask points that land within
-// one cell of a target mask voxel.
-double GridOverlap(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source);
-
 }  // namespace nerfreg

@@ -3,8 +3,6 @@
 #include <filesystem>
 #include <set>
 
-#include "nerfreg/data/ground_truth.h"
-#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/render/mesh.h"
 #include "nerfreg/render/procedural.h"
 #include "nerfreg/render/render_dataset.h"
@@ -17,50 +15,6 @@
 namespace nerfreg {
 
 namespace fs = std::filesystem;
-
-Json PairRecord::ToJson() const {
-  return {{"name", name},
-          {"object", object},
-          {"kind", kind},
-          {"split", split},
-          {"source", source},
-          {"target", target},
-          {"target_from_source", MatrixToJson(target_from_source)},
-          {"overlap", overlap},
-          {"source_block", source_block},
-          {"target_block", target_block},
-          {"blocks", blocks}};
-}
-
-PairRecord PairRecord::FromJson(const JsonField& j) {
-  PairRecord p;
-  p.name = j["name"].String();
-  p.object = j.StringOr("object", p.name);
-  p.kind = j.StringOr("kind", "mesh");
-  p.split = j.StringOr("split", "train");
-  p.source = j["source"].String();
-  p.target = j["target"].String();
-  p.target_from_source = j["target_from_source"].Matrix(4, 4);
-  p.overlap = j.DoubleOr("overlap", 0);
-  p.source_block = j.IntOr("source_block", 0);
-  p.target_block = j.IntOr("target_block", 1);
-  p.blocks = j.IntOr("blocks", 2);
-  return p;
-}
-
-std::vector<PairRecord> ReadPairs(const std::string& path) {
-  const Json j = ReadJsonFile(path);
-  const JsonField f(j, path);
-  std::vector<PairRecord> out;
-  const JsonField pairs = f["pairs"];
-  for (size_t i = 0; i < pairs.ArraySize(); ++i) {
-    PairRecord p = PairRecord::FromJson(pairs[i]);
-    p.source = JoinPaths(ParentDir(path), p.source);
-    p.target = JoinPaths(ParentDir(path), p.target);
-    out.push_back(p);
-  }
-  return out;
-}
 
 void MakeDataOptions::Check() const {
   if (meshes.empty() && procedural <= 0) ThrowInputError("reg make-data", "objects", "--meshes or --procedural N > 0");
@@ -148,12 +102,12 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
   return out;
 }
 
-// Real blocks: render, train every block, extract grids, pair the blocks that overlap.
+// Real blocks: render, then train every block, extract grids and pair the blocks that overlap
+// (TrainBlockPairs).
 std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& mesh, const MakeDataOptions& o,
                                   const std::string& out_dir, Json* cost) {
   const std::string rel = spec.name + "/nerf";
-  const std::string dir = JoinPaths(out_dir, rel);
-  const std::string data = JoinPaths(dir, "data");
+  const std::string data = JoinPaths(out_dir, rel + "/data");
   Timer timer;
   if (!FileExists(JoinPaths(data, "ground_truth.json"))) {
     RenderDatasetOptions r;
@@ -164,58 +118,14 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
     RenderDataset(mesh, r, data);
   }
   (*cost)["render_seconds"] = timer.Seconds();
-  const GroundTruthFile truth(JoinPaths(data, "ground_truth.json"));
-  std::vector<RegGrid> grids;
-  std::vector<Sim3d> from_world;
-  Json psnr = Json::array();
-  double train_seconds = 0, grid_seconds = 0;
-  for (int k = 0; k < o.blocks; ++k) {
-    const std::string block_dir = JoinPaths(data, "block_" + std::to_string(k));
-    const std::string ckpt = JoinPaths(dir, "block_" + std::to_string(k) + ".ckpt");
-    const std::string grid_path = JoinPaths(dir, "block_" + std::to_string(k) + ".grid");
-    from_world.push_back(truth.BlockFromWorld(k));
-    if (!FileExists(grid_path)) {
-      Timer t;
-      const Dataset d = ReadTransformsJson(JoinPaths(block_dir, "transforms.json"));
-      bool resume = false;
-      if (FileExists(ckpt)) resume = LoadNerfBlock(ckpt).step < o.nerf.iterations;
-      NerfTrainOptions no = o.nerf;
-      no.seed = o.seed + k;
-      const NerfTrainResult tr =
-          (FileExists(ckpt) && !resume) ? NerfTrainResult{} : TrainNerfBlock(d, no, ckpt, resume);
-      train_seconds += t.Seconds();
-      psnr.push_back(tr.psnr_test);
-      Timer te;
-      NerfBlock block = LoadNerfBlock(ckpt);
-      GridExtractionOptions go = o.grid;
-      go.seed = o.seed + k;
-      SaveRegGrid(ExtractRegGrid(block, go), grid_path);
-      grid_seconds += te.Seconds();
-    }
-    grids.push_back(LoadRegGrid(grid_path));
-  }
-  (*cost)["train_seconds"] = train_seconds;
-  (*cost)["grid_seconds"] = grid_seconds;
-  (*cost)["psnr_test"] = psnr;
-  std::vector<PairRecord> out;
-  for (int a = 0; a < o.blocks; ++a) {
-    for (int b = a + 1; b < o.blocks; ++b) {
-      PairRecord r;
-      r.name = spec.name + "/nerf_" + std::to_string(a) + "_" + std::to_string(b);
-      r.object = spec.name;
-      r.kind = "nerf";
-      r.split = o.split;
-      r.source = rel + "/block_" + std::to_string(a) + ".grid";
-      r.target = rel + "/block_" + std::to_string(b) + ".grid";
-      r.target_from_source = (from_world[b] * from_world[a].Inverse()).ToMatrix();
-      r.overlap = GridOverlap(grids[a], grids[b], r.target_from_source);
-      r.source_block = a;
-      r.target_block = b;
-      r.blocks = o.blocks;
-      if (r.overlap >= o.min_overlap) out.push_back(r);
-    }
-  }
-  return out;
+  BlockPairOptions bo;
+  bo.blocks = o.blocks;
+  bo.min_overlap = o.min_overlap;
+  bo.split = o.split;
+  bo.nerf = o.nerf;
+  bo.grid = o.grid;
+  bo.seed = o.seed;
+  return TrainBlockPairs(out_dir, rel, spec.name, bo, cost);
 }
 
 std::string UniqueName(const std::string& base, std::set<std::string>* used) {

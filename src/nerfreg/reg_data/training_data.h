@@ -6,6 +6,7 @@
 //                              "options": {...}}
 //   OUT/<object>/mesh_<k>_{source,target}.grid     synthesised pairs (reg_data/synthetic_grids.h)
 //   OUT/<object>/nerf/...                          rendered blocks, block checkpoints, their grids
+//                                                  (reg_train/pairs.h trains and pairs them)
 //
 // Objects are meshes (assimp-testmodels, openscad-testing-data; see docs/data.md for the meshes
 // reserved for independent evaluation) and procedural objects. Every pair of an object carries
@@ -16,32 +17,17 @@
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/grid_extraction.h"
 #include "nerfreg/reg_data/synthetic_grids.h"
+#include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
-
-struct PairRecord {
-  std::string name;            // unique within pairs.json
-  std::string object;          // the object it was made from
-  std::string kind;            // "mesh" (synthesised) or "nerf" (real trained blocks)
-  std::string split;           // "train" or "val"
-  std::string source, target;  // grid files, relative to the folder of pairs.json
-  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
-  double overlap = 0;  // GridOverlap under the true pose
-  int source_block = 0, target_block = 1, blocks = 2;
-  Json ToJson() const;
-  static PairRecord FromJson(const JsonField& j);
-};
-
-// Reads OUT/pairs.json; file names are made absolute. Throws InputError naming the file/field.
-std::vector<PairRecord> ReadPairs(const std::string& pairs_json);
 
 struct MakeDataOptions {
   std::vector<std::string> meshes;  // mesh files (OBJ/PLY/STL/OFF/glTF)
   int procedural = 0;               // procedural objects, seeds procedural_seed .. + n - 1
   unsigned procedural_seed = 1000;
-  int mesh_pairs = 4;           // synthesised pairs per object (different random frames)
-  int nerf_objects = 0;         // the first n objects also get real trained blocks
+  int mesh_pairs = 4;    // synthesised pairs per object (different random frames)
+  int nerf_objects = 0;  // the first n objects also get real trained blocks
   int blocks = 2;               // blocks per object (4: fewer views per block; docs/data.md)
   double min_overlap = 0.05;    // pairs of blocks overlapping less are not written
   std::string split = "train";  // the split of every pair written

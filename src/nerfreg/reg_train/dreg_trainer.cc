@@ -1,4 +1,4 @@
-#include "nerfreg/reg_data/dreg_trainer.h"
+#include "nerfreg/reg_train/dreg_trainer.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -9,7 +9,7 @@
 
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/reg/registration_success.h"
-#include "nerfreg/reg_data/training_data.h"
+#include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/torch_device.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -76,8 +76,9 @@ torch::Tensor ToTensor(const Eigen::Matrix4d& m) {
   return torch::from_blob(r.data(), {4, 4}, torch::kFloat64).to(torch::kFloat32).clone();
 }
 
-// Every rank registers every world-th pair; the errors are summed into one table all ranks read.
-DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double inlier_radius, DistGroup& group) {
+}  // namespace
+
+DregValResult EvaluateDreg(DregNet& net, const std::vector<PairRecord>& val, double inlier_radius, DistGroup& group) {
   DregValResult r;
   const std::int64_t n = static_cast<std::int64_t>(val.size());
   std::vector<torch::Tensor> errors = {torch::zeros({2, n}, torch::kFloat64)};  // [2, V] rotation deg, translation
@@ -112,6 +113,8 @@ DregValResult Validate(DregNet& net, const std::vector<PairRecord>& val, double 
   r.success_rate = double(success) / rot.size();
   return r;
 }
+
+namespace {
 
 Json ValJson(const DregValResult& v) {
   return {{"median_rotation_deg", v.median_rotation_deg},
@@ -367,7 +370,7 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     const bool last = step == options.iterations;
     if (!val.empty() && ((options.val_every > 0 && step % options.val_every == 0) || last)) {
       net->eval();
-      result.val = Validate(net, val, options.inlier_radius, group);
+      result.val = EvaluateDreg(net, val, options.inlier_radius, group);
       net->train();
       line["val"] = ValJson(result.val);
       bar.SetMetric("val_med_deg", result.val.median_rotation_deg);

@@ -20,6 +20,7 @@
 #include "nerfreg/dist/dist.h"
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
@@ -79,6 +80,11 @@ struct DregTrainResult {
 // "val" ones validate (split over the ranks). `group`: this process's place in a data-parallel
 // job (null: a single process). Throws InputError on bad data; std::runtime_error on a NaN loss (the last
 // good checkpoint is kept).
+// Registers each pair with `net` (the network alone, Register's solve) and scores it against the
+// truth: rank r of `group` registers every world-th pair and all ranks read the summed table. What
+// `reg train` validates with, and what scores a held-out set.
+DregValResult EvaluateDreg(DregNet& net, const std::vector<PairRecord>& pairs, double inlier_radius, DistGroup& group);
+
 DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const DregTrainOptions& options,
                           const std::string& out, bool resume, DistGroup* group = nullptr);
 
