@@ -8,8 +8,10 @@
 #   3. times the learned core on the GPU and the hash encoding on the CPU too (bench/gpu_bench.cc):
 #      a NeRF block at 100x100 to 28 dB, an 800x800 block of 100 views, DReg-NeRF training steps and
 #      DBARF pretraining steps in the paper configurations,
-#   4. runs all of the learned core's tests (last: the longest step),
-#   5. writes results/gpu.json (machine, versions, build time, tests, timings).
+#   4. with GPU_DREG_DATA, trains the DReg-NeRF paper network on real blocks it makes on the GPU
+#      from carried renders, and scores it on held-out pairs (bench/gpu_dreg.cc),
+#   5. runs all of the learned core's tests (last: the longest step),
+#   6. writes results/gpu.json (machine, versions, build time, tests, timings, the DReg run).
 #
 #   PYTHON          the Python whose torch is used (default python3)
 #   GPU_BUILD_DIR   build folder (default build-gpu)
@@ -19,6 +21,9 @@
 #   GPU_BUILD_ONLY=1  stop after the build (to run chosen tests first; a second call rebuilds nothing)
 #   GPU_SKIP_TESTS=1  reuse the test logs of an earlier run in the same build folder (a second
 #                   call on a warm machine that only times)
+#   GPU_TESTS=0     leave out step 5 (a short lease spent on training; recorded as not run)
+#   GPU_DREG_DATA   a folder of train/, val/, test/ made by `reg make-data --render-only`
+#                   (scripts/gpu_dreg_data.sh); GPU_DREG_ARGS: more flags for nerfreg_gpu_dreg
 #   GPU_LOGS        the logs' folder (default GPU_BUILD_DIR/gpu_check)
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
 #   GPU_QUICK=1     a short smoke run of the timings (not for results)
@@ -130,9 +135,20 @@ bench_rc=0
 "${BENCH}" --device cpu --only hash --out "${LOGS}/bench_cpu_hash.json" "${quick[@]}" 2>&1 |
   tee "${LOGS}/bench_cpu.log" || bench_rc=$?
 
-# 4. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
+# 4. The paper DReg network on blocks made here (the renders were carried; issue 24, item 6).
+dreg_rc=0
+if [ -n "${GPU_DREG_DATA:-}" ]; then
+  [ -f "${GPU_DREG_DATA}/test/pairs.json" ] || fail "GPU_DREG_DATA=${GPU_DREG_DATA}: expected train/, val/, test/ of reg make-data --render-only"
+  # shellcheck disable=SC2086  # GPU_DREG_ARGS is a list of flags
+  "${BUILD_DIR}/bench/nerfreg_gpu_dreg" --data "${GPU_DREG_DATA}" --device cuda --work "${BUILD_DIR}/gpu_dreg_work" \
+    --out "${LOGS}/gpu_dreg.json" ${GPU_DREG_ARGS:-} 2>&1 | tee "${LOGS}/gpu_dreg.log" || dreg_rc=$?
+fi
+
+# 5. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
 tests_rc=0
-if [ "${GPU_SKIP_TESTS:-0}" = 1 ] && [ -f "${LOGS}/ctest.log" ]; then
+if [ "${GPU_TESTS:-1}" = 0 ]; then
+  echo "gpu_check: GPU_TESTS=0: the learned core's tests were not run" | tee "${LOGS}/ctest.log"
+elif [ "${GPU_SKIP_TESTS:-0}" = 1 ] && [ -f "${LOGS}/ctest.log" ]; then
   echo "gpu_check: GPU_SKIP_TESTS=1: the tests' logs of the last run in ${LOGS} are reported again"
   grep -q "tests passed, 0 tests failed\|100% tests passed" "${LOGS}/ctest.log" || tests_rc=8
 else
@@ -154,7 +170,7 @@ if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
   echo "gpu_check: backtraces of the failed tests in ${LOGS}/backtraces.log"
 fi
 echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
-# 5. results/gpu.json.
+# 6. results/gpu.json.
 mkdir -p "$(dirname "${RESULTS}")"
 "${PYTHON}" - "${RESULTS}" "${LOGS}" <<PY
 import json, os, subprocess, sys, datetime
@@ -184,6 +200,10 @@ result = {
     "bench_exit_code": ${bench_rc},
     "cpu_hash_encoding": load("bench_cpu_hash.json").get("hash_encoding"),
 }
+if "${GPU_DREG_DATA:-}":
+    result["dreg_paper_on_gpu_blocks"] = dict(load("gpu_dreg.json"), exit_code=${dreg_rc}, args="${GPU_DREG_ARGS:-}")
+if "${GPU_TESTS:-1}" == "0":
+    result["tests"] = {"exit_code": None, "summary": "not run (GPU_TESTS=0)"}
 tmp = out + ".tmp"
 with open(tmp, "w") as f:
     json.dump(result, f, indent=2)
@@ -191,7 +211,8 @@ with open(tmp, "w") as f:
 os.replace(tmp, out)
 print("gpu_check: wrote " + out)
 PY
-if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ] || [ "${bench_rc}" -ne 0 ]; then
+if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ] || [ "${bench_rc}" -ne 0 ] ||
+  [ "${dreg_rc}" -ne 0 ]; then
   fail "tests or timings failed, or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
 fi
 if [ "${nccl_rc}" -ne 0 ] || { [ "${gpu_count}" -ge 2 ] && [ "${nccl_ran}" -ne 1 ]; }; then

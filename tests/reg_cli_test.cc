@@ -9,7 +9,9 @@
 
 #include "cli_test_util.h"
 #include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/data/ground_truth.h"
 #include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
@@ -288,6 +290,53 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("--field-iterations"), std::string::npos) << bad.output;
   EXPECT_FALSE(FileExists(dir.File("x.json")));
+}
+
+// The GPU run's path, here on the CPU at toy sizes: reg make-data --render-only renders blocks and
+// trains nothing; bench/gpu_dreg.cc trains them (TrainBlockPairs), pairs them under the true
+// transforms, trains the paper network in two resumed slices and scores the test pairs.
+TEST(RegCli, RenderOnlyBlocksTrainAndPairElsewhere) {
+  ScopedTempDir dir;
+  // Seeds whose 2-block pairs overlap well (0.52, 0.78) at these toy sizes; 7000 and 7002 were near
+  // 0.05. No val/: it is optional, and each split costs two blocks' training.
+  const char* splits[] = {"train", "test"};
+  const int seeds[] = {7004, 7005};
+  for (int k = 0; k < 2; ++k) {
+    const std::string out = dir.File(std::string("data/") + splits[k]);
+    const CommandResult made = RunNerfreg("reg make-data --procedural 1 --procedural-seed " + std::to_string(seeds[k]) +
+                                          " --mesh-pairs 0 --nerf-objects 1 --render-only --image-size 24 --quiet "
+                                          "--out " +
+                                          out);
+    ASSERT_EQ(made.exit_code, 0) << made.output;
+    const Json index = ReadJsonFile(out + "/pairs.json");
+    EXPECT_TRUE(index["pairs"].empty());
+    EXPECT_TRUE(index["objects"].empty());  // a later run without --render-only trains it
+    ASSERT_EQ(index["rendered"].size(), 1u);
+    const std::string object = index["rendered"].begin().key();
+    EXPECT_TRUE(FileExists(out + "/" + object + "/nerf/data/block_1/transforms.json"));
+    EXPECT_FALSE(FileExists(out + "/" + object + "/nerf/block_0.grid"));
+  }
+  const CommandResult run =
+      RunShell(std::string(NERFREG_GPU_DREG_BINARY) + " --data " + dir.File("data") +
+               " --device cpu --nerf-iters 100 --nerf-samples 4096 --grid-resolution 32 --dreg-iters 2 "
+               "--dreg-slice 1 --dreg-seconds 1000 --work " +
+               dir.File("work") + " --out " + dir.File("gpu_dreg.json") + " 2>&1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const Json j = ReadJsonFile(dir.File("gpu_dreg.json"));
+  EXPECT_EQ(j["dreg_train"]["iterations"].get<int>(), 2) << j.dump();
+  EXPECT_TRUE(FileExists(dir.File("work/dreg_paper.pt")));
+  // Every split's blocks were trained and paired under the renders' true transforms.
+  for (const char* split : splits) {
+    const std::string folder = dir.File(std::string("data/") + split);
+    const auto pairs = ReadPairs(folder + "/pairs_gpu.json");
+    ASSERT_EQ(pairs.size(), 1u) << split;
+    EXPECT_GE(pairs[0].overlap, 0.05);
+    EXPECT_TRUE(FileExists(pairs[0].source) && FileExists(pairs[0].target));
+    const GroundTruthFile truth(folder + "/" + pairs[0].object + "/nerf/data/ground_truth.json");
+    EXPECT_LT((pairs[0].target_from_source - truth.TargetFromSource(0, 1).ToMatrix()).norm(), 1e-9);
+  }
+  EXPECT_EQ(j["test"]["trained"]["pairs"].get<int>(), 1);
+  EXPECT_EQ(j["test"]["untrained"]["pairs"].get<int>(), 1);
 }
 
 }  // namespace

@@ -92,6 +92,9 @@ int RunRegMakeData(int argc, char** argv) {
   app.add_option("--procedural-seed", o.procedural_seed, "Seed of the first procedural object (default 1000)");
   app.add_option("--mesh-pairs", o.mesh_pairs, "Synthesised pairs per object (default 4)");
   app.add_option("--nerf-objects", o.nerf_objects, "The first N objects also get real trained NeRF blocks (default 0)");
+  app.add_flag("--render-only", o.render_only,
+               "Render the --nerf-objects' blocks and stop: no training, no pairs of them (for training elsewhere, "
+               "e.g. on a GPU: bench/gpu_dreg.cc)");
   app.add_option("--blocks", o.blocks, "Blocks per object: 2 (the paper) or 4 (adjacent pairs: low overlap)");
   app.add_option("--split", o.split, "Split written for every pair: train or val")
       ->check(CLI::IsMember({"train", "val"}));

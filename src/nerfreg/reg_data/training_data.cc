@@ -43,6 +43,7 @@ Json MakeDataOptions::ToJson() const {
           {"procedural_seed", procedural_seed},
           {"mesh_pairs", mesh_pairs},
           {"nerf_objects", nerf_objects},
+          {"render_only", render_only},
           {"blocks", blocks},
           {"split", split},
           {"image_size", image_size},
@@ -102,8 +103,8 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
   return out;
 }
 
-// Real blocks: render, then train every block, extract grids and pair the blocks that overlap
-// (TrainBlockPairs).
+// Real blocks: render, then (unless render_only) train every block, extract grids and pair the
+// blocks that overlap (TrainBlockPairs).
 std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& mesh, const MakeDataOptions& o,
                                   const std::string& out_dir, Json* cost) {
   const std::string rel = spec.name + "/nerf";
@@ -118,6 +119,7 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
     RenderDataset(mesh, r, data);
   }
   (*cost)["render_seconds"] = timer.Seconds();
+  if (o.render_only) return {};
   BlockPairOptions bo;
   bo.blocks = o.blocks;
   bo.min_overlap = o.min_overlap;
@@ -157,7 +159,9 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
   ProgressBar bar("reg make-data", static_cast<std::int64_t>(objects.size()), "obj");
   for (size_t i = 0; i < objects.size(); ++i) {
     const ObjectSpec& spec = objects[i];
-    if (index["objects"].contains(spec.name)) {
+    const bool rendered_only = o.render_only && static_cast<int>(i) < o.nerf_objects;
+    if (index["objects"].contains(spec.name) ||
+        (rendered_only && index.contains("rendered") && index["rendered"].contains(spec.name))) {
       ++summary.objects_skipped;
       bar.Tick();
       continue;
@@ -185,7 +189,7 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
     cost["pairs"] = pairs.size();
     cost["mesh"] = spec.mesh_path;
     cost["split"] = o.split;
-    index["objects"][spec.name] = cost;
+    index[rendered_only ? "rendered" : "objects"][spec.name] = cost;
     // After every object, so an interrupted run resumes after the last finished object.
     WriteJsonFile(index_path, index);
     summary.pairs += static_cast<int>(pairs.size());

@@ -114,15 +114,15 @@ DregValResult EvaluateDreg(DregNet& net, const std::vector<PairRecord>& val, dou
   return r;
 }
 
-namespace {
-
-Json ValJson(const DregValResult& v) {
-  return {{"median_rotation_deg", v.median_rotation_deg},
-          {"mean_rotation_deg", v.mean_rotation_deg},
-          {"median_translation", v.median_translation},
-          {"success_rate", v.success_rate},
-          {"pairs", v.pairs}};
+Json DregValResult::ToJson() const {
+  return {{"median_rotation_deg", median_rotation_deg},
+          {"mean_rotation_deg", mean_rotation_deg},
+          {"median_translation", median_translation},
+          {"success_rate", success_rate},
+          {"pairs", pairs}};
 }
+
+namespace {
 
 // One training pair's random choices, drawn by every rank for every pair of the global batch (so
 // the stream stays in step across ranks) and applied only by the rank that trains on the pair.
@@ -372,7 +372,7 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
       net->eval();
       result.val = EvaluateDreg(net, val, options.inlier_radius, group);
       net->train();
-      line["val"] = ValJson(result.val);
+      line["val"] = result.val.ToJson();
       bar.SetMetric("val_med_deg", result.val.median_rotation_deg);
       LOG_INFO("step {}: validation median rotation error {:.2f} deg, success {:.0f} % ({} pairs)", step,
                result.val.median_rotation_deg, 100 * result.val.success_rate, result.val.pairs);
@@ -390,7 +390,7 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   Json summary = {{"options", options.ToJson()},     {"processes", world},
                   {"model", model_options.ToJson()}, {"data", pairs_files},
                   {"train_pairs", train.size()},     {"train_pairs_nerf", train_nerf.size()},
-                  {"val", ValJson(result.val)},      {"iterations", step},
+                  {"val", result.val.ToJson()},      {"iterations", step},
                   {"seconds", result.seconds},       {"final_loss", result.final_loss}};
   if (group.is_main()) WriteJsonFile(out + ".json", summary);
   return result;

@@ -67,6 +67,7 @@ struct DregValResult {
   double median_rotation_deg = 0, mean_rotation_deg = 0, median_translation = 0;
   double success_rate = 0;  // <= 5 deg and <= 0.05 of the extent 2.5
   int pairs = 0;
+  Json ToJson() const;
 };
 
 struct DregTrainResult {

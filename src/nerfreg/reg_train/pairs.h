@@ -35,7 +35,7 @@ struct BlockPairOptions {
   std::string split = "train";  // the split of every pair
   NerfTrainOptions nerf;        // block training; its device is where blocks train and grids are extracted
   GridExtractionOptions grid;
-  unsigned seed = 0;  // block k trains and is sampled with seed + k
+  unsigned seed = 0;   // block k trains and is sampled with seed + k
   void Check() const;  // throws InputError naming the option
 };
 
