@@ -38,8 +38,8 @@ struct GpuDregOptions {
   std::string nerf_preset = "fast";
   int nerf_iters = 1000;
   std::int64_t nerf_samples = 0;  // > 0: the blocks' samples per batch (the preset's otherwise)
-  double blocks_seconds = 150;  // train/'s objects start while the block phase is within this
-  int grid_resolution = 64;  // the paper network's backbone takes multiples of 32
+  double blocks_seconds = 150;    // train/'s objects start while the block phase is within this
+  int grid_resolution = 64;       // the paper network's backbone takes multiples of 32
   int dreg_iters = 4000, dreg_slice = 250;
   double dreg_seconds = 200;
   unsigned seed = 0;
@@ -114,7 +114,7 @@ Json Run(const GpuDregOptions& o) {
     t.stop_after = std::min(step + o.dreg_slice, o.dreg_iters);
     r = TrainDreg(has_val ? std::vector<std::string>{train, val} : std::vector<std::string>{train}, t, weights,
                   step > 0);
-    report["dreg_train"] = {{"iterations", r.iterations}, {"of", o.dreg_iters},   {"seconds", Since(train_start)},
+    report["dreg_train"] = {{"iterations", r.iterations}, {"of", o.dreg_iters},    {"seconds", Since(train_start)},
                             {"final_loss", r.final_loss}, {"val", r.val.ToJson()}, {"options", t.ToJson()}};
     save();
   }
@@ -179,7 +179,8 @@ int main(int argc, char** argv) {
       else {
         std::fprintf(stderr,
                      "usage: nerfreg_gpu_dreg --data DIR [--work DIR] [--out FILE] [--device D] [--nerf-preset P] "
-                     "[--nerf-iters N] [--nerf-samples N] [--blocks-seconds S] [--grid-resolution D] [--dreg-iters N] [--dreg-slice N] "
+                     "[--nerf-iters N] [--nerf-samples N] [--blocks-seconds S] [--grid-resolution D] [--dreg-iters N] "
+                     "[--dreg-slice N] "
                      "[--dreg-seconds S]\n");
         return 2;
       }

@@ -175,6 +175,9 @@ const std::vector<BadInputCase>& Cases() {
          return "dbarf finetune " + d + "/posed.json --depth-ba-view-range 0.5 --out " + d + "/ft.pt";
        },
        "error: --depth-ba-view-range: expected 0 or > 1, got 0.5", "ft.pt"},
+      {"reg_make_data_render_only_without_nerf_objects",
+       [](const std::string& d) { return "reg make-data --procedural 1 --render-only --out " + d + "/out"; },
+       "--render-only: expected --nerf-objects N > 0", "out"},
       {"reg_register_grid_not_a_multiple_of_16",
        [](const std::string& d) {
          return "reg register " + d + "/a.ckpt " + d + "/b.ckpt --grid-resolution 8 --out " + d + "/t.json";

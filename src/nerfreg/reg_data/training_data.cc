@@ -22,6 +22,8 @@ void MakeDataOptions::Check() const {
     if (!FileExists(m)) ThrowInputError(m, "", "an existing mesh file");
   }
   if (mesh_pairs < 0 || nerf_objects < 0) ThrowInputError("--mesh-pairs/--nerf-objects", "", ">= 0");
+  if (render_only && nerf_objects == 0)
+    ThrowInputError("--render-only", "", "--nerf-objects N > 0 (the objects to render)");
   if (blocks < 2 || blocks > 8) ThrowInputError("--blocks", "", "2..8");
   if (split != "train" && split != "val") ThrowInputError("--split", "", "train or val");
   if (image_size < 16) ThrowInputError("--image-size", "", ">= 16");
@@ -178,7 +180,8 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
       continue;
     }
     CreateDirectories(JoinPaths(out_dir, spec.name));
-    std::vector<PairRecord> pairs = MeshPairs(spec, mesh, o, out_dir);
+    // A rendered-only object gets its pairs, synthesised and real, when a later run trains it.
+    std::vector<PairRecord> pairs = rendered_only ? std::vector<PairRecord>{} : MeshPairs(spec, mesh, o, out_dir);
     Json cost = {{"mesh_pairs_seconds", t.Seconds()}};
     if (static_cast<int>(i) < o.nerf_objects) {
       const auto np = NerfPairs(spec, mesh, o, out_dir, &cost);

@@ -28,8 +28,9 @@ struct MakeDataOptions {
   unsigned procedural_seed = 1000;
   int mesh_pairs = 4;    // synthesised pairs per object (different random frames)
   int nerf_objects = 0;  // the first n objects also get real trained blocks
-  // The nerf objects' blocks are rendered and left untrained: no pairs of them are written, and
-  // the object is listed under "rendered", not "objects", so a later run without it trains them.
+  // The nerf objects' blocks are rendered and left untrained: no pairs of them are written (not
+  // the synthesised ones either), and the object is listed under "rendered", not "objects", so a
+  // later run without it makes its pairs and trains them.
   // For training elsewhere (a GPU machine: bench/gpu_dreg.cc) from the renders alone.
   bool render_only = false;
   int blocks = 2;               // blocks per object (4: fewer views per block; docs/data.md)
