@@ -18,17 +18,20 @@ $(BUILD_DIR)/build.ninja:
 build: setup $(BUILD_DIR)/build.ninja
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
+# Also compiles and links the CUDA build (CI has the CUDA toolkit and no GPU to run it); a machine
+# without nvcc skips that step with a message.
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 300
 	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) bash scripts/fuzz.sh
+	CUDA_IF_TOOLKIT=1 CUDA_BUILD_DIR=build-cuda JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
 
 # Sanitized (ASan + UBSan) unit tests of the parser layers, then every fuzz target.
 fuzz: setup
 	FUZZ_SECONDS=$(FUZZ_SECONDS) bash scripts/fuzz.sh
 
 # The learned core with the CUDA kernels against a CUDA LibTorch, in build-cuda/ (docs/gpu.md):
-# TORCH_DIR=... for a LibTorch of your own, else the pinned PyPI wheel is fetched once. Not part
-# of build / test.
+# TORCH_DIR=... for a LibTorch of your own, else the pinned PyPI wheel is fetched once. `make test`
+# compiles it too.
 cuda:
 	CUDA_BUILD_DIR=build-cuda JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
 

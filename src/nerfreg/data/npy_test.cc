@@ -92,7 +92,7 @@ TEST(Npy, WriteReadRoundTrip) {
   EXPECT_EQ((ReadFileToString(dir.File("x.npy")).size() - 68 * 8) % 64, 0u);
 }
 
-std::string ErrorOf(const std::string& bytes) {
+std::string NpyErrorOf(const std::string& bytes) {
   try {
     ParseNpy(bytes, "bad.npy");
   } catch (const InputError& e) {
@@ -102,22 +102,22 @@ std::string ErrorOf(const std::string& bytes) {
 }
 
 TEST(Npy, BadFilesAreNamedErrorsWithoutAllocating) {
-  EXPECT_NE(ErrorOf("not numpy").find("bad.npy: magic"), std::string::npos);
+  EXPECT_NE(NpyErrorOf("not numpy").find("bad.npy: magic"), std::string::npos);
   // A header claiming 10^12 elements: refused from the header, nothing allocated.
-  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000, 1000000), }", ""))
+  EXPECT_NE(NpyErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000, 1000000), }", ""))
                 .find("bad.npy: shape"),
             std::string::npos);
   // Fewer bytes than the shape needs: truncated.
-  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (4,), }", Raw<double>({1, 2})))
+  EXPECT_NE(NpyErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (4,), }", Raw<double>({1, 2})))
                 .find("truncated"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<c16', 'fortran_order': False, 'shape': (1,), }", std::string(16, 0)))
+  EXPECT_NE(NpyErrorOf(NpyBytes(1, "{'descr': '<c16', 'fortran_order': False, 'shape': (1,), }", std::string(16, 0)))
                 .find("descr"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (-3,), }", "")).find("shape"),
+  EXPECT_NE(NpyErrorOf(NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (-3,), }", "")).find("shape"),
             std::string::npos);
   std::string truncated_header = NpyBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (1,), }", "");
-  EXPECT_NE(ErrorOf(truncated_header.substr(0, 30)).find("header"), std::string::npos);
+  EXPECT_NE(NpyErrorOf(truncated_header.substr(0, 30)).find("header"), std::string::npos);
 }
 
 }  // namespace

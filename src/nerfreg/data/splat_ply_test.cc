@@ -82,45 +82,46 @@ std::string AsciiWith(const std::string& from, const std::string& to) {
   return s;
 }
 
-std::string ErrorOf(const std::string& bytes) {
+std::string PlyErrorOf(const std::string& bytes) {
   return InputErrorOf([&] { ParseSplatPly(bytes, "bad.ply"); });
 }
 
 TEST(SplatPly, RefusesBadHeadersNamingTheFileAndField) {
-  EXPECT_EQ(ErrorOf(AsciiWith("property float opacity\n", "")),
+  EXPECT_EQ(PlyErrorOf(AsciiWith("property float opacity\n", "")),
             "bad.ply: property opacity: expected a float property of the vertex element (it is missing)");
-  EXPECT_EQ(ErrorOf(AsciiWith("property float scale_1", "property double scale_1")),
+  EXPECT_EQ(PlyErrorOf(AsciiWith("property float scale_1", "property double scale_1")),
             "bad.ply: property scale_1: expected type float (got double)");
   EXPECT_EQ(
-      ErrorOf(AsciiWith("format ascii 1.0", "format binary_big_endian 1.0")).rfind("bad.ply: format: expected", 0), 0u);
-  EXPECT_EQ(ErrorOf(AsciiWith("property float x", "property list uchar float x")),
+      PlyErrorOf(AsciiWith("format ascii 1.0", "format binary_big_endian 1.0")).rfind("bad.ply: format: expected", 0),
+      0u);
+  EXPECT_EQ(PlyErrorOf(AsciiWith("property float x", "property list uchar float x")),
             "bad.ply: property x: expected a scalar property (the vertex element has no lists)");
-  EXPECT_EQ(ErrorOf(AsciiWith("element vertex 1", "element face 1")),
+  EXPECT_EQ(PlyErrorOf(AsciiWith("element vertex 1", "element face 1")),
             "bad.ply: element face: expected the vertex element first");
-  EXPECT_EQ(ErrorOf(AsciiWith("ply\n", "plx\n")), "bad.ply: magic: expected a PLY file (first line \"ply\")");
-  EXPECT_EQ(ErrorOf(AsciiWith("end_header\n", "")).substr(0, 25), "bad.ply: header: expected");
+  EXPECT_EQ(PlyErrorOf(AsciiWith("ply\n", "plx\n")), "bad.ply: magic: expected a PLY file (first line \"ply\")");
+  EXPECT_EQ(PlyErrorOf(AsciiWith("end_header\n", "")).substr(0, 25), "bad.ply: header: expected");
   // f_rest of no SH degree.
-  EXPECT_EQ(ErrorOf(AsciiWith("property float opacity", "property float f_rest_0\nproperty float opacity")),
+  EXPECT_EQ(PlyErrorOf(AsciiWith("property float opacity", "property float f_rest_0\nproperty float opacity")),
             "bad.ply: property f_rest_0: expected 0, 9, 24 or 45 f_rest properties (SH degree 0-3), got 1");
 }
 
 TEST(SplatPly, RefusesBadValuesNamingTheVertex) {
   Splats s = RandomSplats(3, 1, 8);
   s.opacity(1) = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)),
+  EXPECT_EQ(PlyErrorOf(SerializeSplatPly(s)),
             "bad.ply: vertex[1].opacity: expected a finite number (not NaN or infinite)");
   s = RandomSplats(3, 1, 8);
   s.rotation.col(2).setZero();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)),
+  EXPECT_EQ(PlyErrorOf(SerializeSplatPly(s)),
             "bad.ply: vertex[2].rot: expected a non-zero quaternion (rot_0..3 are all zero)");
   s = RandomSplats(3, 2, 8);
   s.f_rest(5, 0) = std::numeric_limits<float>::infinity();
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s, true)),
+  EXPECT_EQ(PlyErrorOf(SerializeSplatPly(s, true)),
             "bad.ply: vertex[0].f_rest: expected finite numbers (not NaN or infinite)");
   s = RandomSplats(3, 0, 8);
   s.log_scale(0, 0) = 100;
-  EXPECT_EQ(ErrorOf(SerializeSplatPly(s)), "bad.ply: vertex[0].scale: expected log scales within [-40, 40]");
-  EXPECT_EQ(ErrorOf(AsciiWith("\n-", "\nabc")).substr(0, 31), "bad.ply: vertex[0].x: expected ");
+  EXPECT_EQ(PlyErrorOf(SerializeSplatPly(s)), "bad.ply: vertex[0].scale: expected log scales within [-40, 40]");
+  EXPECT_EQ(PlyErrorOf(AsciiWith("\n-", "\nabc")).substr(0, 31), "bad.ply: vertex[0].x: expected ");
 }
 
 // A header claiming more vertices than the body can hold is refused from the header alone, before
@@ -129,15 +130,15 @@ TEST(SplatPly, RefusesAVertexCountTheFileCannotHoldBeforeAllocating) {
   const Splats s = RandomSplats(4, 3, 9);
   std::string binary = SerializeSplatPly(s);
   binary.replace(binary.find("element vertex 4"), 16, "element vertex 999999999999");
-  const std::string e = ErrorOf(binary);
+  const std::string e = PlyErrorOf(binary);
   EXPECT_NE(e.find("bad.ply: element vertex: expected at most 4 vertices"), std::string::npos) << e;
   EXPECT_NE(e.find("the header claims 999999999999"), std::string::npos) << e;
   std::string truncated = SerializeSplatPly(s);
   truncated.resize(truncated.size() - 1);
-  EXPECT_NE(ErrorOf(truncated).find("expected at most 3 vertices"), std::string::npos);
+  EXPECT_NE(PlyErrorOf(truncated).find("expected at most 3 vertices"), std::string::npos);
   std::string ascii = SerializeSplatPly(s, true);
   ascii.replace(ascii.find("element vertex 4"), 16, "element vertex 100000000");
-  EXPECT_NE(ErrorOf(ascii).find("bad.ply: element vertex: expected at most"), std::string::npos);
+  EXPECT_NE(PlyErrorOf(ascii).find("bad.ply: element vertex: expected at most"), std::string::npos);
 }
 
 }  // namespace

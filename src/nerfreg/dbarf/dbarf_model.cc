@@ -8,7 +8,7 @@
 namespace nerfreg {
 namespace {
 
-const char* kFormatTag = "nerfreg-dbarf-weights";
+const char* kDbarfFormatTag = "nerfreg-dbarf-weights";
 
 // A lower bound on the pose network's parameters (pose_depth_net.cc): the 3x3 residual blocks of
 // its three encoders and the six 1x5 / 5x1 convolutions of each of its two GRUs. With the
@@ -97,7 +97,7 @@ void DbarfModel::To(torch::Device device) {
 }
 
 void SaveDbarfWeights(const DbarfModel& model, const std::string& path) {
-  const Json meta = {{"format", kFormatTag},
+  const Json meta = {{"format", kDbarfFormatTag},
                      {"version", kDbarfWeightsVersion},
                      {"options", DbarfOptionsToJson(model.options)},
                      {"training", model.training}};
@@ -114,7 +114,7 @@ void SaveDbarfWeights(const DbarfModel& model, const std::string& path) {
 
 DbarfModel LoadDbarfWeights(const std::string& path, const DbarfOptions* expected) {
   torch::serialize::InputArchive archive;
-  const Json meta = LoadArchiveMeta(path, "DBARF weights file", kFormatTag, kDbarfWeightsVersion, &archive);
+  const Json meta = LoadArchiveMeta(path, "DBARF weights file", kDbarfFormatTag, kDbarfWeightsVersion, &archive);
   const JsonField m(meta, path);
   const DbarfOptions options = DbarfOptionsFromJson(m["options"]);
   if (expected != nullptr && DbarfOptionsToJson(*expected) != DbarfOptionsToJson(options)) {

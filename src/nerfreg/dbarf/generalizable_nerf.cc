@@ -8,7 +8,7 @@
 namespace nerfreg {
 namespace {
 
-const char* kFormatTag = "nerfreg-generalizable-nerf";
+const char* kGeneralizableNerfFormatTag = "nerfreg-generalizable-nerf";
 
 }  // namespace
 
@@ -91,7 +91,7 @@ IbrRenderOutput GeneralizableNerf::RenderRays(const IbrSourceViews& sources, con
 }
 
 void SaveGeneralizableNerf(const GeneralizableNerf& model, const std::string& path) {
-  const Json meta = {{"format", kFormatTag},
+  const Json meta = {{"format", kGeneralizableNerfFormatTag},
                      {"version", kGeneralizableNerfCheckpointVersion},
                      {"options", GeneralizableNerfOptionsToJson(model.options)}};
   torch::serialize::OutputArchive archive, features, ibrnet;
@@ -118,8 +118,8 @@ double GeneralizableNerfParameterLowerBound(const GeneralizableNerfOptions& o) {
 
 GeneralizableNerf LoadGeneralizableNerf(const std::string& path, const GeneralizableNerfOptions* expected) {
   torch::serialize::InputArchive archive;
-  const Json meta =
-      LoadArchiveMeta(path, "generalizable NeRF checkpoint", kFormatTag, kGeneralizableNerfCheckpointVersion, &archive);
+  const Json meta = LoadArchiveMeta(path, "generalizable NeRF checkpoint", kGeneralizableNerfFormatTag,
+                                    kGeneralizableNerfCheckpointVersion, &archive);
   const JsonField m(meta, path);
   const GeneralizableNerfOptions options = GeneralizableNerfOptionsFromJson(m["options"]);
   if (expected != nullptr && GeneralizableNerfOptionsToJson(*expected) != GeneralizableNerfOptionsToJson(options)) {

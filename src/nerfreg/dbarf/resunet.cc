@@ -8,7 +8,7 @@ namespace {
 namespace nn = torch::nn;
 namespace F = torch::nn::functional;
 
-nn::Conv2d Conv(int64_t in, int64_t out, int64_t k, int64_t stride, bool bias) {
+nn::Conv2d ReflectConv(int64_t in, int64_t out, int64_t k, int64_t stride, bool bias) {
   return nn::Conv2d(
       nn::Conv2dOptions(in, out, k).stride(stride).padding(k / 2).bias(bias).padding_mode(torch::kReflect));
 }
@@ -19,18 +19,18 @@ nn::InstanceNorm2d Norm(int64_t c) {
 
 // conv (reflect) -> InstanceNorm -> ELU: the decoder's unit.
 nn::Sequential ConvNormElu(int64_t in, int64_t out, int64_t k) {
-  return nn::Sequential(Conv(in, out, k, 1, true), Norm(out), nn::ELU());
+  return nn::Sequential(ReflectConv(in, out, k, 1, true), Norm(out), nn::ELU());
 }
 
 // ResNet BasicBlock: 3x3 (stride) -> norm -> ReLU -> 3x3 -> norm, plus a 1x1 projection of the
 // input when the shape changes; ReLU after the sum.
-class BasicBlockImpl : public nn::Module {
+class ResBlockImpl : public nn::Module {
  public:
-  BasicBlockImpl(int64_t in, int64_t out, int64_t stride) {
-    body_ = register_module("body", nn::Sequential(Conv(in, out, 3, stride, false), Norm(out), nn::ReLU(),
-                                                   Conv(out, out, 3, 1, false), Norm(out)));
+  ResBlockImpl(int64_t in, int64_t out, int64_t stride) {
+    body_ = register_module("body", nn::Sequential(ReflectConv(in, out, 3, stride, false), Norm(out), nn::ReLU(),
+                                                   ReflectConv(out, out, 3, 1, false), Norm(out)));
     if (stride != 1 || in != out) {
-      shortcut_ = register_module("shortcut", nn::Sequential(Conv(in, out, 1, stride, false), Norm(out)));
+      shortcut_ = register_module("shortcut", nn::Sequential(ReflectConv(in, out, 1, stride, false), Norm(out)));
     }
   }
   torch::Tensor forward(const torch::Tensor& x) {
@@ -40,7 +40,7 @@ class BasicBlockImpl : public nn::Module {
  private:
   nn::Sequential body_{nullptr}, shortcut_{nullptr};
 };
-TORCH_MODULE(BasicBlock);
+TORCH_MODULE(ResBlock);
 
 torch::Tensor UpsampleTo(const torch::Tensor& x, const torch::Tensor& like) {
   return F::interpolate(x, F::InterpolateFuncOptions()
@@ -88,13 +88,13 @@ bool ResUNetOptions::Check() const {
 ResUNetImpl::ResUNetImpl(const ResUNetOptions& options) : options_(options) {
   TORCH_CHECK(options_.Check(), "ResUNet: invalid options");
   const auto& c = options_.layer_channels;
-  stem_ = register_module("stem", nn::Sequential(Conv(options_.in_channels, options_.stem_channels, 7, 2, false),
+  stem_ = register_module("stem", nn::Sequential(ReflectConv(options_.in_channels, options_.stem_channels, 7, 2, false),
                                                  Norm(options_.stem_channels), nn::ReLU()));
   int64_t in = options_.stem_channels;
   for (size_t l = 0; l < 3; ++l) {
     nn::Sequential layer;
     for (int64_t b = 0; b < options_.layer_blocks[l]; ++b) {
-      layer->push_back(BasicBlock(in, c[l], b == 0 ? 2 : 1));
+      layer->push_back(ResBlock(in, c[l], b == 0 ? 2 : 1));
       in = c[l];
     }
     layers_.push_back(register_module("layer" + std::to_string(l + 1), layer));

@@ -9,8 +9,6 @@
 namespace nerfreg {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 class Se3Test : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -21,8 +19,8 @@ class Se3Test : public ::testing::Test {
 
 // Twists with rotation angles from 0 to just below pi along random axes.
 torch::Tensor TestTwists(torch::Dtype dtype) {
-  const std::vector<double> angles = {0.0, 1e-9, 1e-5, 1e-3, 0.05,       0.29,      0.31,
-                                      0.5, 1.5,  2.5,  3.0,  kPi - 1e-3, kPi - 1e-6};
+  const std::vector<double> angles = {0.0, 1e-9, 1e-5, 1e-3, 0.05,        0.29,       0.31,
+                                      0.5, 1.5,  2.5,  3.0,  M_PI - 1e-3, M_PI - 1e-6};
   const int64_t n = static_cast<int64_t>(angles.size());
   torch::Tensor axis = torch::randn({n, 3}, torch::kDouble);
   axis = axis / axis.norm(2, 1, true);
@@ -79,8 +77,8 @@ TEST_F(Se3Test, ExpOfPiRotationAndItsLog) {
   // Exactly pi about z: R = diag(-1, -1, 1); the antisymmetric part is zero.
   const torch::Tensor r = torch::diag(torch::tensor({-1.0, -1.0, 1.0}, torch::kDouble));
   const torch::Tensor omega = So3Log(r);
-  EXPECT_NEAR(omega.norm().item<double>(), kPi, 1e-12);
-  EXPECT_NEAR(std::abs(omega[2].item<double>()), kPi, 1e-12);
+  EXPECT_NEAR(omega.norm().item<double>(), M_PI, 1e-12);
+  EXPECT_NEAR(std::abs(omega[2].item<double>()), M_PI, 1e-12);
   EXPECT_LT((So3Exp(omega) - r).abs().max().item<double>(), 1e-12);
 }
 

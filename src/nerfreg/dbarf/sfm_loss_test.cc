@@ -13,8 +13,6 @@ namespace {
 
 using testing_scene::PlaneScene;
 
-constexpr double kPi = 3.14159265358979323846;
-
 class SfmLossTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -154,7 +152,7 @@ PoseRecovery RecoverPoses(const PlaneScene& scene, int steps, const SfmLossOptio
       torch::tensor({{0.04, -0.03, 0.02, 0.03, -0.035, 0.02}, {-0.03, 0.04, 0.03, -0.025, 0.03, 0.035}}, torch::kFloat);
   const torch::Tensor start = Se3Update(perturb, truth);
   const auto rot_error = [&](const torch::Tensor& est) {
-    return So3GeodesicAngle(est, truth).max().item<double>() * 180.0 / kPi;
+    return So3GeodesicAngle(est, truth).max().item<double>() * 180.0 / M_PI;
   };
   const auto trans_error = [&](const torch::Tensor& est) {
     return (est.slice(1, 0, 3).select(2, 3) - truth.slice(1, 0, 3).select(2, 3)).norm(2, 1).max().item<double>();
@@ -217,7 +215,7 @@ TEST_F(SfmLossTest, JointPoseAndDepthRefinementFromAConstantDepth) {
       torch::tensor({{0.03, -0.02, 0.01, 0.025, -0.03, 0.015}, {-0.02, 0.03, 0.02, -0.02, 0.025, 0.03}}, torch::kFloat);
   const torch::Tensor start = Se3Update(perturb, src_from_tgt_);
   const auto rot_error = [&](const torch::Tensor& est) {
-    return So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / kPi;
+    return So3GeodesicAngle(est, src_from_tgt_).max().item<double>() * 180.0 / M_PI;
   };
   torch::Tensor delta = torch::zeros({2, 6}, torch::requires_grad());
   torch::Tensor log_inv = torch::full({1, 1, 12, 16}, std::log(0.5), torch::requires_grad());

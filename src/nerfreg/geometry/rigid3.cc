@@ -154,6 +154,11 @@ double RotationErrorDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
 
 double TranslationError(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).norm(); }
 
+double DirectionAngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  if (a.norm() == 0 || b.norm() == 0) return 180.0;
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI;
+}
+
 Eigen::Quaterniond RandomRotation(double u1, double u2, double u3) {
   const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
   return Eigen::Quaterniond(a * std::sin(2 * M_PI * u2), a * std::cos(2 * M_PI * u2), b * std::sin(2 * M_PI * u3),

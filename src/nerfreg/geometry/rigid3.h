@@ -70,6 +70,9 @@ double RotationErrorDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b
 double RotationErrorDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 // Full Euclidean norm of the translation difference (not |dx| alone; see dreg-nerf.md 9.5).
 double TranslationError(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+// Angle between two directions, degrees, in [0, 180]; 180 when either is zero (no direction
+// agrees with it).
+double DirectionAngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 
 // Skew-symmetric matrix of v: Skew(v) * x == v.cross(x).
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v);

@@ -91,5 +91,14 @@ TEST(Metrics, RotationAndTranslationError) {
   EXPECT_DOUBLE_EQ(TranslationError({1, 2, 2}, {0, 0, 0}), 3.0);
 }
 
+TEST(Metrics, DirectionAngleIgnoresLengthsAndCallsAZeroVectorOpposite) {
+  EXPECT_NEAR(DirectionAngleDeg({1, 0, 0}, {5, 0, 0}), 0.0, 1e-12);
+  EXPECT_NEAR(DirectionAngleDeg({1, 0, 0}, {0, 0.1, 0}), 90.0, 1e-12);
+  EXPECT_NEAR(DirectionAngleDeg({1, 1, 0}, {-2, -2, 0}), 180.0, 1e-12);
+  EXPECT_NEAR(DirectionAngleDeg({1, 0, 0}, {1, 1, 0}), 45.0, 1e-12);
+  EXPECT_EQ(DirectionAngleDeg({0, 0, 0}, {1, 0, 0}), 180.0);
+  EXPECT_EQ(DirectionAngleDeg({1, 0, 0}, {0, 0, 0}), 180.0);
+}
+
 }  // namespace
 }  // namespace nerfreg

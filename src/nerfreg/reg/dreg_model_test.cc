@@ -17,8 +17,6 @@
 namespace nerfreg {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Small enough for a unit test on 2 cores; D = 32 grids.
 DregModelOptions TinyOptions() {
   DregModelOptions o;
@@ -376,7 +374,7 @@ TEST_F(DregModelTest, ExtraPassesComposeTheCorrectionOnTheMovedSource) {
 
 TEST_F(DregModelTest, OverfitsOnePairAndRecoversTheRotation) {
   const Eigen::Matrix3d r =
-      Eigen::AngleAxisd(75.0 * kPi / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
+      Eigen::AngleAxisd(75.0 * M_PI / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
   const Eigen::Vector3d t(0.15, -0.1, 0.1);
   const RegGrid src = MakeShapeGrid(32, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1);
   const RegGrid tgt = MakeShapeGrid(32, r, t, 2);

@@ -7,8 +7,6 @@
 namespace nerfreg {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 TEST(PositionalEncodingTest, PaperShapeLayoutAndPadding) {
   PositionalEncodingOptions o;  // d 256 -> 84 per axis + 4 zero columns
   EXPECT_EQ(o.FeaturesPerAxis(), 84);
@@ -36,14 +34,14 @@ TEST(PositionalEncodingTest, ValuesAtKnownPoints) {
                                1.0,
                                0.0,
                                1.0,  // x = 0
-                               std::sin(0.5 * kPi),
-                               std::cos(0.5 * kPi),
-                               std::sin(0.5 * kPi * f1),
-                               std::cos(0.5 * kPi * f1),  // y = 0.25: arg 2 pi * 0.25
-                               std::sin(-kPi),
-                               std::cos(-kPi),
-                               std::sin(-kPi * f1),
-                               std::cos(-kPi * f1)};
+                               std::sin(0.5 * M_PI),
+                               std::cos(0.5 * M_PI),
+                               std::sin(0.5 * M_PI * f1),
+                               std::cos(0.5 * M_PI * f1),  // y = 0.25: arg 2 pi * 0.25
+                               std::sin(-M_PI),
+                               std::cos(-M_PI),
+                               std::sin(-M_PI * f1),
+                               std::cos(-M_PI * f1)};
   for (int i = 0; i < 12; ++i) EXPECT_NEAR(pe[i].item<double>(), expected[i], 1e-12) << "column " << i;
 }
 

@@ -8,8 +8,6 @@
 namespace nerfreg {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 torch::Tensor RandomRotation(torch::Dtype dtype) {
   auto q = torch::linalg::qr(torch::randn({3, 3}, torch::kDouble), "reduced");
   torch::Tensor r = std::get<0>(q);
@@ -17,9 +15,9 @@ torch::Tensor RandomRotation(torch::Dtype dtype) {
   return r.to(dtype);
 }
 
-double RotationErrorDeg(const torch::Tensor& a, const torch::Tensor& b) {
+double TensorRotationErrorDeg(const torch::Tensor& a, const torch::Tensor& b) {
   const double tr = torch::trace(torch::matmul(a.transpose(0, 1), b)).item<double>();
-  return std::acos(std::clamp((tr - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / kPi;
+  return std::acos(std::clamp((tr - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
 class WeightedProcrustesTest : public ::testing::Test {
@@ -41,7 +39,7 @@ TEST_F(WeightedProcrustesTest, RecoversKnownRigidTransformWithOutliersZeroWeight
   w.slice(0, 40) = 0.0;
   const auto res = WeightedProcrustes(src, tgt, w);
   EXPECT_TRUE(res.valid.item<bool>());
-  EXPECT_LT(RotationErrorDeg(res.rotation, r), 1e-3);
+  EXPECT_LT(TensorRotationErrorDeg(res.rotation, r), 1e-3);
   EXPECT_LT((res.translation - t).norm().item<double>(), 1e-4);
   EXPECT_FLOAT_EQ(res.scale.item<float>(), 1.0f);
 }
@@ -64,7 +62,7 @@ TEST_F(WeightedProcrustesTest, RecoversBatchedSim3) {
   ASSERT_EQ(res.translation.sizes(), (torch::IntArrayRef{b, 3}));
   for (int64_t i = 0; i < b; ++i) {
     // The default regulariser (1e-7 relative) biases the rotation by ~1e-5 deg.
-    EXPECT_LT(RotationErrorDeg(res.rotation[i], rs[i]), 1e-4);
+    EXPECT_LT(TensorRotationErrorDeg(res.rotation[i], rs[i]), 1e-4);
     EXPECT_NEAR(res.scale[i].item<double>(), scales[i].item<double>(), 1e-6);
     EXPECT_LT((res.translation[i] - ts[i]).norm().item<double>(), 1e-6);
   }

@@ -9,8 +9,6 @@
 namespace nerfreg {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 bool Is(const Image& im, int x, int y, const Eigen::Vector3f& color) {
   for (int c = 0; c < 3; ++c)
     if (std::abs(im.at(x, y, c) - color(c)) > 1e-6f) return false;
@@ -21,7 +19,7 @@ bool Is(const Image& im, int x, int y, const Eigen::Vector3f& color) {
 std::vector<Rigid3d> Ring(int n, double radius, const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
   std::vector<Rigid3d> cams;
   for (int k = 0; k < n; ++k) {
-    const double a = 2 * kPi * k / n;
+    const double a = 2 * M_PI * k / n;
     const Eigen::Vector3d eye(radius * std::cos(a), radius * std::sin(a), 0);
     cams.push_back(LookAt(eye + shift, shift, Eigen::Vector3d::UnitZ()));
   }

@@ -1,5 +1,7 @@
 #include "nerfreg/sfm/relative_pose_averaging.h"
 
+#include "nerfreg/geometry/rigid3.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -11,15 +13,6 @@ void RelativePoseAveragingOptions::Check() const {
   rotation.Check();
   translation.Check();
 }
-
-namespace {
-
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  if (a.norm() == 0 || b.norm() == 0) return 180.0;
-  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI;
-}
-
-}  // namespace
 
 RelativePoseAveragingResult GlobalPosesFromRelativePoses(int num_images, const std::vector<RelativePose>& edges,
                                                          const RelativePoseAveragingOptions& options) {
@@ -91,7 +84,7 @@ RelativePoseAveragingResult GlobalPosesFromRelativePoses(int num_images, const s
       const Eigen::Vector3d ci = result.cam_from_world[e.i].Inverse().translation;
       const Eigen::Vector3d cj = result.cam_from_world[e.j].Inverse().translation;
       result.edge_direction_error_deg[k] =
-          AngleDeg(cj - ci, -(result.cam_from_world[e.j].rotation.conjugate() * e.j_from_i.translation));
+          DirectionAngleDeg(cj - ci, -(result.cam_from_world[e.j].rotation.conjugate() * e.j_from_i.translation));
     }
     result.edge_inlier[k] = usable[k] && result.edge_rotation_error_deg[k] <= options.rotation.max_edge_error_deg &&
                             result.edge_direction_error_deg[k] <= options.translation.max_edge_error_deg;

@@ -1,4 +1,5 @@
 #include "nerfreg/sfm/translation_averaging.h"
+#include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/posegraph/ceres_solve.h"
 
 #include <ceres/ceres.h>
@@ -19,12 +20,6 @@ void TranslationAveragingOptions::Check() const {
 }
 
 namespace {
-
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const double na = a.norm(), nb = b.norm();
-  if (na == 0 || nb == 0) return 180.0;
-  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI;
-}
 
 struct DirectionCost {
   explicit DirectionCost(const Eigen::Vector3d& d) : d_(d) {}
@@ -102,7 +97,7 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
     if (agreement < 0) x = -x;
     for (size_t m = 0; m < edges.size(); ++m) {
       if (dirs[m].isZero()) continue;
-      const double a = AngleDeg(center(edges[m].j) - center(edges[m].i), dirs[m]) / options.cauchy_scale_deg;
+      const double a = DirectionAngleDeg(center(edges[m].j) - center(edges[m].i), dirs[m]) / options.cauchy_scale_deg;
       weight[m] = 1.0 / (1.0 + a * a);
     }
   }
@@ -143,7 +138,7 @@ TranslationAveragingResult AverageTranslations(const ViewGraph& graph,
       result.centers[k] = (result.centers[k] - result.centers[result.root]) / std::max(mean_distance, 1e-12);
   for (size_t m = 0; m < edges.size(); ++m) {
     if (dirs[m].isZero()) continue;
-    const double a = AngleDeg(result.centers[edges[m].j] - result.centers[edges[m].i], dirs[m]);
+    const double a = DirectionAngleDeg(result.centers[edges[m].j] - result.centers[edges[m].i], dirs[m]);
     result.edge_error_deg[edge_index[m]] = a;
     result.edge_inlier[edge_index[m]] = a <= options.max_edge_error_deg;
   }
