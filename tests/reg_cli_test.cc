@@ -337,6 +337,7 @@ TEST(RegCli, RenderOnlyBlocksTrainAndPairElsewhere) {
   }
   EXPECT_EQ(j["test"]["trained"]["pairs"].get<int>(), 1);
   EXPECT_EQ(j["test"]["untrained"]["pairs"].get<int>(), 1);
+  EXPECT_EQ(j["train"]["trained"]["pairs"].get<int>(), 1);  // the pairs it trained on, scored too
 }
 
 }  // namespace
