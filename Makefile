@@ -23,7 +23,7 @@ build: setup $(BUILD_DIR)/build.ninja
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 300
 	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) bash scripts/fuzz.sh
-	CUDA_IF_TOOLKIT=1 CUDA_BUILD_DIR=build-cuda JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
+	CUDA_IF_TOOLKIT=1 $(MAKE) cuda
 
 # Sanitized (ASan + UBSan) unit tests of the parser layers, then every fuzz target.
 fuzz: setup

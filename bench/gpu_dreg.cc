@@ -50,11 +50,10 @@ struct GpuDregOptions {
   unsigned seed = 0;
 };
 
-// Trains and pairs the blocks of DIR's rendered objects; returns the pairs file written
-// (DIR/pairs_gpu.json) and adds each object's cost to `report`.
-std::string PairSplit(const std::string& dir, const std::string& split, const GpuDregOptions& o,
+// Trains and pairs the blocks of DIR's rendered objects (the first `max_objects` if > 0); returns
+// the pairs file written (DIR/pairs_gpu.json) and adds each object's cost to `report`.
+std::string PairSplit(const std::string& dir, const std::string& split, int max_objects, const GpuDregOptions& o,
                       const torch::Device& device, Clock::time_point start, Json* report) {
-  const int max_objects = split == "test" ? o.test_objects : split == "val" ? o.val_objects : 0;
   const std::string index_path = JoinPaths(dir, "pairs.json");
   const Json index = ReadJsonFile(index_path);
   if (!index.contains("rendered") || !index["rendered"].is_object() || index["rendered"].empty()) {
@@ -95,11 +94,12 @@ Json Run(const GpuDregOptions& o) {
     if (!o.out.empty()) WriteJsonFile(o.out, report);
   };
   const auto start = Clock::now();
-  const std::string test = PairSplit(JoinPaths(o.data, "test"), "test", o, device, start, &report);
+  const std::string test = PairSplit(JoinPaths(o.data, "test"), "test", o.test_objects, o, device, start, &report);
   // val/ is optional: without it the network trains unvalidated.
   const bool has_val = FileExists(JoinPaths(o.data, "val/pairs.json"));
-  const std::string val = has_val ? PairSplit(JoinPaths(o.data, "val"), "val", o, device, start, &report) : "";
-  const std::string train = PairSplit(JoinPaths(o.data, "train"), "train", o, device, start, &report);
+  const std::string val =
+      has_val ? PairSplit(JoinPaths(o.data, "val"), "val", o.val_objects, o, device, start, &report) : "";
+  const std::string train = PairSplit(JoinPaths(o.data, "train"), "train", 0, o, device, start, &report);
   report["blocks_seconds"] = Since(start);
   save();
 

@@ -93,12 +93,7 @@ TEST(Npy, WriteReadRoundTrip) {
 }
 
 std::string NpyErrorOf(const std::string& bytes) {
-  try {
-    ParseNpy(bytes, "bad.npy");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return InputErrorOf([&] { ParseNpy(bytes, "bad.npy"); });
 }
 
 TEST(Npy, BadFilesAreNamedErrorsWithoutAllocating) {
