@@ -1,6 +1,9 @@
 // reg register end to end on two different trained blocks of one object (each in its own random
 // frame): the known transform is recovered, and T.json records the options it ran with.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -26,23 +29,55 @@ namespace nerfreg {
 namespace {
 
 // Two blocks trained once for every test here (a minute on 2 cores), with splats of the same
-// renders (render --splats) for the mixed inputs.
+// renders (render --splats) for the mixed inputs. ctest runs each test in a process of its own, so
+// they are kept beside the binary, keyed by its size and time: trained once per build of nerfreg,
+// not once per test. They are made where they stay (a checkpoint records its dataset's path) under
+// an exclusive lock, so a test started beside the one making them waits for the whole set; each
+// test's outputs go to its own folder.
 class RegisterBlocksCli : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = new ScopedTempDir();
-    ASSERT_EQ(
-        RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 --splats "
-                   "--quiet --out " +
-                   File("data"))
-            .exit_code,
-        0);
+  static void MakeSharedBlocks(const std::string& dir) {
+    namespace fs = std::filesystem;
+    if (fs::exists(dir + "/complete")) return;
+    fs::remove_all(dir);  // a set a killed test left half made
+    ASSERT_EQ(RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --test-every 12 "
+                         "--splats --quiet --out " +
+                         dir + "/data")
+                  .exit_code,
+              0);
     for (int k = 0; k < 2; ++k) {
       const std::string b = std::to_string(k);
-      ASSERT_EQ(RunNerfreg("nerf train " + File("data/block_" + b) + " --out " + File("b" + b + ".ckpt") +
-                           " --iters 400 --samples 8192 --quiet")
+      ASSERT_EQ(RunNerfreg("nerf train " + dir + "/data/block_" + b + " --out " + dir + "/b" + b +
+                           ".ckpt --iters 400 --samples 8192 --quiet")
                     .exit_code,
                 0);
+    }
+    WriteJsonFile(dir + "/complete", Json::object());
+  }
+  static std::string SharedBlocks() {
+    namespace fs = std::filesystem;
+    const fs::path binary(NERFREG_BINARY);
+    const fs::path root = binary.parent_path() / "test_cache";
+    // v2: the layout of the set; a change to how it is made must change it too.
+    const std::string key = "register_blocks_v2_" + std::to_string(fs::file_size(binary)) + "_" +
+                            std::to_string(fs::last_write_time(binary).time_since_epoch().count());
+    fs::create_directories(root);
+    const int lock = ::open((root / "register_blocks.lock").c_str(), O_CREAT | O_RDWR, 0644);
+    if (lock >= 0) ::flock(lock, LOCK_EX);  // released when the process exits, if not before
+    std::error_code ignored;
+    for (const auto& old : fs::directory_iterator(root)) {  // blocks of earlier builds
+      const std::string name = old.path().filename().string();
+      if (name.rfind("register_blocks_", 0) == 0 && name != key) fs::remove_all(old.path(), ignored);
+    }
+    MakeSharedBlocks((root / key).string());
+    if (lock >= 0) ::close(lock);
+    return (root / key).string();
+  }
+  static void SetUpTestSuite() {
+    dir_ = new ScopedTempDir();
+    const std::string shared = SharedBlocks();
+    for (const char* name : {"data", "b0.ckpt", "b1.ckpt"}) {
+      std::filesystem::create_symlink(shared + "/" + name, File(name));
     }
   }
   static void TearDownTestSuite() {
