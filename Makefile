@@ -5,7 +5,7 @@ CMAKE_FLAGS ?=
 FUZZ_SECONDS ?= 300
 FUZZ_SECONDS_CI ?= 10
 
-.PHONY: all setup build test demo fuzz bench clean cuda
+.PHONY: all setup build test demo fuzz bench clean cuda cuda-core
 
 all: build
 
@@ -29,14 +29,18 @@ test: build
 fuzz: setup
 	FUZZ_SECONDS=$(FUZZ_SECONDS) bash scripts/fuzz.sh
 
-# The learned core with the CUDA kernels against a CUDA LibTorch, in build-cuda/ (docs/gpu.md):
+# All of nerfreg with the CUDA kernels against a CUDA LibTorch, in build-cuda/ (docs/gpu.md):
 # TORCH_DIR=... for a LibTorch of your own, else the pinned PyPI wheel is fetched once. `make test`
-# compiles it too.
-cuda:
-	CUDA_BUILD_DIR=build-cuda JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
+# compiles it too. `make cuda-core`: the learned core alone, in build-cuda-core/, where Embree,
+# Open3D, Ceres or OpenCV are missing (a GPU machine's; scripts/gpu_check.sh builds the same).
+cuda: setup
+	CUDA_SCOPE=full JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
+
+cuda-core:
+	CUDA_SCOPE=core JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash scripts/build_cuda.sh
 
 demo: build
 	bash scripts/demo.sh
 
 clean:
-	rm -rf $(BUILD_DIR) build-cuda
+	rm -rf $(BUILD_DIR) build-cuda build-cuda-core

@@ -87,8 +87,24 @@ endif()
 # libblas.so.3 (the alternative setup.sh points at OpenBLAS) resolves LibTorch's sgemm_ to
 # single-threaded ATLAS: `perf` showed ATL_* kernels taking most of a `reg train` step, and
 # putting OpenBLAS first doubled its rate (0.28 -> 0.58 steps/s, 2 cores, shared machine). Every
-# executable therefore names libblas.so.3 first (nerfreg_blas_first in NerfregMacros.cmake).
+# executable therefore names libblas.so.3 first (nerfreg_runtime_first in NerfregMacros.cmake).
 find_file(NERFREG_BLAS_LIBRARY libblas.so.3 PATHS /usr/lib/x86_64-linux-gnu /usr/lib/aarch64-linux-gnu /usr/lib NO_DEFAULT_PATH)
+
+# A LibTorch from PyTorch's wheels (built on manylinux_2_28 by a newer GCC, which links the parts of
+# libstdc++ the older system lacks statically) exports some std:: functions itself,
+# std::filesystem's among them. An executable that lists libtorch.so before libstdc++.so.6 binds
+# its own calls to those copies: std::filesystem::remove_all jumped to address 0 in every test's
+# temporary-folder clean-up (the CUDA build's tests run on the CPU here, 2026-11-27). Every
+# executable then names the shared libstdc++ first (nerfreg_runtime_first). A compiler with only a
+# static libstdc++ finds none here; scripts/gpu_check.sh passes the system's for it.
+if(nerfreg_torch_lib)
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=libstdc++.so OUTPUT_VARIABLE nerfreg_stdcxx
+                  OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(IS_ABSOLUTE "${nerfreg_stdcxx}" AND EXISTS "${nerfreg_stdcxx}")
+    set(NERFREG_STDCXX_LIBRARY "${nerfreg_stdcxx}")
+    message(STATUS "nerfreg: ${NERFREG_STDCXX_LIBRARY} first in every executable (a wheel's LibTorch)")
+  endif()
+endif()
 
 # The CUDA build (NERFREG_CUDA): the .cu kernels need nvcc and a LibTorch built with CUDA (its
 # TorchConfig brings CUDA::cudart and friends). A LibTorch taken from the PyPI wheel lacks the

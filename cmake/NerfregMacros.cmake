@@ -17,12 +17,14 @@ function(nerfreg_use_torch_pch TARGET)
   target_precompile_headers(${TARGET} REUSE_FROM nerfreg_torch_pch)
 endfunction()
 
-# The BLAS alternative (OpenBLAS) as the executable's first needed library, ahead of ATLAS's
-# libf77blas that Ceres brings (see NerfregDependencies.cmake).
-function(nerfreg_blas_first TARGET)
-  if(NERFREG_BLAS_LIBRARY)
-    target_link_options(${TARGET} BEFORE PRIVATE "LINKER:--push-state,--no-as-needed" ${NERFREG_BLAS_LIBRARY} "LINKER:--pop-state")
-  endif()
+# The libraries an executable must name before any other (see NerfregDependencies.cmake): the BLAS
+# alternative (OpenBLAS), ahead of ATLAS's libf77blas that Ceres brings, and, against a LibTorch
+# from PyTorch's wheels, the shared libstdc++, ahead of the std:: copies libtorch.so exports.
+function(nerfreg_runtime_first TARGET)
+  # One SHELL: option per library: CMake drops repeats of a plain option (a second --push-state).
+  foreach(lib ${NERFREG_STDCXX_LIBRARY} ${NERFREG_BLAS_LIBRARY})
+    target_link_options(${TARGET} BEFORE PRIVATE "SHELL:-Wl,--push-state,--no-as-needed ${lib} -Wl,--pop-state")
+  endforeach()
 endfunction()
 
 function(nerfreg_add_library NAME)
@@ -43,7 +45,7 @@ function(nerfreg_add_test NAME)
   endif()
   cmake_parse_arguments(A "TORCH" "" "SRCS;LINK" ${ARGN})
   add_executable(${NAME} ${A_SRCS})
-  nerfreg_blas_first(${NAME})
+  nerfreg_runtime_first(${NAME})
   target_link_libraries(${NAME} PRIVATE ${A_LINK} nerfreg_test_main)
   if(A_TORCH)
     target_link_libraries(${NAME} PRIVATE nerfreg_torch)

@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# `make cuda`: the learned core (util, geometry, data, nerf, reg, dbarf) and its tests with the
-# CUDA kernels, against a CUDA LibTorch, in its own build folder. Compiles and links on a machine
-# without a GPU; the CUDA tests skip there.
+# `make cuda`: all of nerfreg (every library, build-cuda/nerfreg, the tests) with the CUDA kernels,
+# against a CUDA LibTorch, in its own build folder; `make cuda-core`: the learned core alone (util,
+# geometry, data, dist, nerf, reg, reg_train, dbarf, their tests and a nerfreg with their commands),
+# for a machine without Embree, Open3D, Ceres or OpenCV. Compiles and links on a machine without a
+# GPU; the CUDA tests skip there.
 #
 #   TORCH_DIR        a CUDA LibTorch's TorchConfig.cmake folder (default: the pinned PyPI wheel,
 #                    fetched once by scripts/fetch_libtorch.sh)
-#   CUDA_BUILD_DIR   build folder (default build-cuda)
+#   CUDA_SCOPE       full (default) or core
+#   CUDA_BUILD_DIR   build folder (default build-cuda, build-cuda-core for core)
 #   CUDA_ARCHS       CMAKE_CUDA_ARCHITECTURES (default 90-real;90-virtual: H100, PTX for newer)
 #   JOBS, CMAKE_FLAGS as for `make build`
 #   CUDA_IF_TOOLKIT  1: a machine without nvcc skips the build with a message instead of failing
@@ -13,7 +16,16 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-BUILD_DIR=${CUDA_BUILD_DIR:-build-cuda}
+SCOPE=${CUDA_SCOPE:-full}
+case "${SCOPE}" in
+  full) CORE_ONLY=OFF DEFAULT_DIR=build-cuda ;;
+  core) CORE_ONLY=ON DEFAULT_DIR=build-cuda-core ;;
+  *)
+    echo "error: CUDA_SCOPE: ${SCOPE}: expected full or core" >&2
+    exit 2
+    ;;
+esac
+BUILD_DIR=${CUDA_BUILD_DIR:-${DEFAULT_DIR}}
 JOBS=${JOBS:-$(nproc)}
 TORCH_DIR=${TORCH_DIR:-}
 
@@ -45,8 +57,8 @@ CUDA_ROOT=$(dirname "$(dirname "$(readlink -f "${NVCC}")")")
 start=$(date +%s)
 # shellcheck disable=SC2086  # CMAKE_FLAGS is a list of flags
 cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY=ON -DNERFREG_BUILD_BENCH=OFF \
+  -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY="${CORE_ONLY}" -DNERFREG_BUILD_BENCH=OFF \
   -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
   -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-90-real;90-virtual}" ${CMAKE_FLAGS:-}
 cmake --build "${BUILD_DIR}" -j "${JOBS}"
-echo "make cuda: built ${BUILD_DIR} in $(( $(date +%s) - start )) s (Torch_DIR=${TORCH_DIR})"
+echo "make cuda: built ${BUILD_DIR} (${SCOPE}) in $(( $(date +%s) - start )) s (Torch_DIR=${TORCH_DIR})"

@@ -10,8 +10,11 @@
 #      DBARF pretraining steps in the paper configurations,
 #   4. with GPU_DREG_DATA, trains the DReg-NeRF paper network on real blocks it makes on the GPU
 #      from carried renders, and scores it on held-out pairs (bench/gpu_dreg.cc),
-#   5. runs all of the learned core's tests (last: the longest step),
-#   6. writes results/gpu.json (machine, versions, build time, tests, timings, the DReg run).
+#   5. runs the nerfreg commands users run with --device cuda (scripts/cli_device_check.sh: nerf
+#      train / --resume / eval / render / export, reg extract, reg train) on a carried block dataset,
+#   6. runs all of the learned core's tests (last: the longest step),
+#   7. writes results/gpu.json (machine, versions, build time, tests, timings, the DReg run, the
+#      commands).
 #
 #   PYTHON          the Python whose torch is used (default python3)
 #   GPU_BUILD_DIR   build folder (default build-gpu)
@@ -24,6 +27,9 @@
 #   GPU_TESTS=0     leave out step 5 (a short lease spent on training; recorded as not run)
 #   GPU_DREG_DATA   a folder of train/, val/, test/ made by `reg make-data --render-only`
 #                   (scripts/gpu_dreg_data.sh); GPU_DREG_ARGS: more flags for nerfreg_gpu_dreg
+#   GPU_CLI_DATA    the block dataset of step 5 (default: the first test object's block_0 of
+#                   GPU_DREG_DATA; step 5 is left out without either); its reg train trains on
+#                   the pairs step 4 made
 #   GPU_LOGS        the logs' folder (default GPU_BUILD_DIR/gpu_check)
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
 #   GPU_QUICK=1     a short smoke run of the timings (not for results)
@@ -144,7 +150,23 @@ if [ -n "${GPU_DREG_DATA:-}" ]; then
     --out "${LOGS}/gpu_dreg.json" ${GPU_DREG_ARGS:-} 2>&1 | tee "${LOGS}/gpu_dreg.log" || dreg_rc=$?
 fi
 
-# 5. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
+# 5. The nerfreg binary's commands on the GPU, as users run them (the learned-core build has the
+# commands of its layers: exe/commands.h).
+cli_rc=0
+CLI_DATA=${GPU_CLI_DATA:-}
+if [ -z "${CLI_DATA}" ] && [ -n "${GPU_DREG_DATA:-}" ]; then
+  CLI_DATA=$(find "${GPU_DREG_DATA}/test" -path '*/nerf/data/block_0' -type d | sort | head -n 1)
+fi
+if [ -n "${CLI_DATA}" ]; then
+  cli_pairs=()
+  if [ -n "${GPU_DREG_DATA:-}" ] && [ -f "${GPU_DREG_DATA}/train/pairs_gpu.json" ]; then
+    cli_pairs=("${GPU_DREG_DATA}/train/pairs_gpu.json")
+  fi
+  PYTHON="${PYTHON}" bash scripts/cli_device_check.sh "${BUILD_DIR}/nerfreg" "${CLI_DATA}" "${BUILD_DIR}/cli_check" cuda \
+    "${LOGS}/cli_cuda.json" "${cli_pairs[@]}" 2>&1 | tee "${LOGS}/cli_cuda.log" || cli_rc=$?
+fi
+
+# 6. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
 tests_rc=0
 if [ "${GPU_TESTS:-1}" = 0 ]; then
   echo "gpu_check: GPU_TESTS=0: the learned core's tests were not run" | tee "${LOGS}/ctest.log"
@@ -170,7 +192,7 @@ if [ "${tests_rc}" -ne 0 ] && command -v cuda-gdb >/dev/null; then
   echo "gpu_check: backtraces of the failed tests in ${LOGS}/backtraces.log"
 fi
 echo "gpu_check: tests: ${tests_summary:-see ${LOGS}/ctest.log}"
-# 6. results/gpu.json.
+# 7. results/gpu.json.
 mkdir -p "$(dirname "${RESULTS}")"
 "${PYTHON}" - "${RESULTS}" "${LOGS}" <<PY
 import json, os, subprocess, sys, datetime
@@ -202,6 +224,8 @@ result = {
 }
 if "${GPU_DREG_DATA:-}":
     result["dreg_paper_on_gpu_blocks"] = dict(load("gpu_dreg.json"), exit_code=${dreg_rc}, args="${GPU_DREG_ARGS:-}")
+if "${CLI_DATA}":
+    result["cli"] = dict(load("cli_cuda.json"), exit_code=${cli_rc}, data="${CLI_DATA}")
 if "${GPU_TESTS:-1}" == "0":
     result["tests"] = {"exit_code": None, "summary": "not run (GPU_TESTS=0)"}
 tmp = out + ".tmp"
@@ -212,7 +236,7 @@ os.replace(tmp, out)
 print("gpu_check: wrote " + out)
 PY
 if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ] || [ "${bench_rc}" -ne 0 ] ||
-  [ "${dreg_rc}" -ne 0 ]; then
+  [ "${dreg_rc}" -ne 0 ] || [ "${cli_rc}" -ne 0 ]; then
   fail "tests or timings failed, or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
 fi
 if [ "${nccl_rc}" -ne 0 ] || { [ "${gpu_count}" -ge 2 ] && [ "${nccl_ran}" -ne 1 ]; }; then

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "cli_test_util.h"
+#include "nerfreg/util/json_util.h"
+#include "nerfreg/util/test_util.h"
 
 namespace nerfreg {
 namespace {
@@ -65,6 +67,54 @@ TEST(DeviceCli, CpuAndAutoPassTheDeviceCheck) {
     EXPECT_EQ(r.output.find("--device"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("no.ckpt"), std::string::npos) << r.output;
   }
+}
+
+// scripts/cli_device_check.sh, which the GPU check runs with --device cuda, here on the CPU at toy
+// sizes: every command it names runs, the block trained in two halves (--resume) beats an untrained
+// render, and its evaluations on the training device and the CPU agree.
+TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
+  ScopedTempDir dir;
+  ASSERT_EQ(
+      RunNerfreg("render --procedural 3 --views 12 --size 40 --test-every 6 --quiet --out " + dir.File("d")).exit_code,
+      0);
+  ASSERT_EQ(
+      RunNerfreg("reg make-data --procedural 1 --mesh-pairs 1 --grid-resolution 32 --quiet --out " + dir.File("p"))
+          .exit_code,
+      0);
+  const CommandResult r =
+      RunShell("CLI_CHECK_ITERS=120 CLI_CHECK_CONFIG=cpu bash " + std::string(NERFREG_SOURCE_DIR) +
+               "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) + " " + dir.File("d") + " " +
+               dir.File("w") + " cpu " + dir.File("check.json") + " " + dir.File("p/pairs.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json check = ReadJsonFile(dir.File("check.json"));
+  std::vector<std::string> names;
+  for (const auto& step : check["steps"]) {
+    names.push_back(step["name"].get<std::string>());
+    EXPECT_EQ(step["exit_code"].get<int>(), 0) << step.dump();
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"nerf_train_half", "nerf_train_resume", "nerf_eval", "nerf_eval_cpu",
+                                             "nerf_render", "nerf_export", "reg_extract", "reg_train"}));
+  EXPECT_TRUE(check["psnr_agree"].get<bool>());
+  // 120 steps of the fast preset on a 40-pixel object: far above the white-on-grey of an untrained block.
+  EXPECT_GT(check["psnr_device"].get<double>(), 15.0) << check.dump();
+  EXPECT_TRUE(std::filesystem::exists(dir.File("w/block.grid")));
+  EXPECT_TRUE(std::filesystem::exists(dir.File("w/dreg.pt")));
+  EXPECT_TRUE(std::filesystem::exists(dir.File("w/views")));
+}
+
+// A failing command fails the script and is named in its JSON.
+TEST(DeviceCli, DeviceCheckScriptFailsWhenACommandFails) {
+  ScopedTempDir dir;
+  ASSERT_EQ(
+      RunNerfreg("render --procedural 3 --views 12 --size 40 --test-every 6 --quiet --out " + dir.File("d")).exit_code,
+      0);
+  const CommandResult r = RunShell("CLI_CHECK_ITERS=4 bash " + std::string(NERFREG_SOURCE_DIR) +
+                                   "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) + " " + dir.File("d") +
+                                   " " + dir.File("w") + " tpu " + dir.File("check.json"));
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  const Json check = ReadJsonFile(dir.File("check.json"));
+  EXPECT_FALSE(check["all_exit_zero"].get<bool>());
+  EXPECT_EQ(check["steps"][0]["exit_code"].get<int>(), 2);
 }
 
 }  // namespace

@@ -38,6 +38,11 @@ void PrintUsage() {
       "nerfreg: register NeRF blocks and pose unposed images.\n\nUsage: nerfreg COMMAND [options]"
       " (COMMAND --help for details)\n\nCommands:\n");
   for (const auto& c : Commands()) std::printf("  %-22s %s\n", c.name, c.summary);
+#if NERFREG_LEARNED_CORE_ONLY
+  std::printf(
+      "\nThis is the learned-core build (NERFREG_LEARNED_CORE_ONLY): rendering, block registration, DBARF and\n"
+      "reports need the full build, which links Embree, Open3D, Ceres and OpenCV (docs/gpu.md).\n");
+#endif
 }
 
 }  // namespace

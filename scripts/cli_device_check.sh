@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# The nerfreg commands users run, on one device, end to end (docs/gpu.md): scripts/gpu_check.sh runs
+# it with the learned-core build's binary and --device cuda; tests/cli_device_check_test runs it on
+# the CPU with the full build's, so its flags are checked on every CI run.
+#   bash scripts/cli_device_check.sh NERFREG DATASET WORK DEVICE OUT_JSON [PAIRS_JSON]
+# On DATASET (a posed block: transforms.json with test frames) it trains a block on DEVICE in two
+# halves (--stop-after, then --resume), evaluates it there and on the CPU (the checkpoint is
+# portable: the two PSNRs must agree within 0.05 dB), renders its test cameras, exports points and
+# extracts its registration grid; with PAIRS_JSON (pairs of grids, e.g. bench/gpu_dreg.cc's
+# pairs_gpu.json) it also trains the DReg-NeRF network for a few steps. Every command's exit code,
+# seconds and printed JSON go into OUT_JSON; the script fails if any command failed.
+#   CLI_CHECK_ITERS   block training iterations (default 1000)
+#   CLI_CHECK_PRESET  block training preset (default fast)
+#   CLI_CHECK_CONFIG  reg train --config (default paper)
+set -euo pipefail
+if [ $# -lt 5 ]; then
+  echo "usage: cli_device_check.sh NERFREG DATASET WORK DEVICE OUT_JSON [PAIRS_JSON]" >&2
+  exit 2
+fi
+NERFREG=$1 DATASET=$2 WORK=$3 DEVICE=$4 OUT=$5 PAIRS=${6:-}
+ITERS=${CLI_CHECK_ITERS:-1000}
+PRESET=${CLI_CHECK_PRESET:-fast}
+PYTHON=${PYTHON:-python3}
+[ -x "${NERFREG}" ] || { echo "error: ${NERFREG}: expected the nerfreg binary" >&2; exit 2; }
+[ -f "${DATASET}/transforms.json" ] || { echo "error: ${DATASET}: expected a folder with transforms.json" >&2; exit 2; }
+rm -rf "${WORK}"
+mkdir -p "${WORK}"
+STEPS=${WORK}/steps.jsonl
+: >"${STEPS}"
+failed=0
+
+# step NAME COMMAND...: runs it with --quiet, keeps its stdout's last line (the commands print JSON)
+# and its stderr, and appends {name, exit_code, seconds, printed} to STEPS.
+step() {
+  local name=$1
+  shift
+  local start rc=0
+  start=${EPOCHREALTIME}
+  "$@" --quiet >"${WORK}/${name}.out" 2>"${WORK}/${name}.err" || rc=$?
+  "${PYTHON}" - "${name}" "${rc}" "${start}" "${EPOCHREALTIME}" "${WORK}/${name}.out" "${WORK}/${name}.err" "$*" \
+    >>"${STEPS}" <<'PY'
+import json, sys
+name, rc, start, end, out, err, command = sys.argv[1:8]
+seconds = float(end) - float(start)
+lines = [l for l in open(out).read().splitlines() if l.strip()]
+try:
+    printed = json.loads(lines[-1]) if lines else None
+except ValueError:
+    printed = lines[-1]
+error = [l for l in open(err).read().splitlines() if l.strip()][-3:]
+print(json.dumps({"name": name, "exit_code": int(rc), "seconds": round(seconds, 2), "printed": printed,
+                  "stderr_tail": error if int(rc) else [], "command": command}))
+print("cli_device_check: %s: exit %s, %.1f s" % (name, rc, seconds), file=sys.stderr)
+PY
+  if [ "${rc}" -ne 0 ]; then
+    failed=1
+    tail -n 5 "${WORK}/${name}.err" >&2
+  fi
+}
+
+HALF=$((ITERS / 2))
+step nerf_train_half "${NERFREG}" nerf train "${DATASET}" --out "${WORK}/block.ckpt" --preset "${PRESET}" \
+  --iters "${ITERS}" --stop-after "${HALF}" --device "${DEVICE}"
+step nerf_train_resume "${NERFREG}" nerf train "${DATASET}" --out "${WORK}/block.ckpt" --preset "${PRESET}" \
+  --iters "${ITERS}" --resume --device "${DEVICE}"
+step nerf_eval "${NERFREG}" nerf eval "${WORK}/block.ckpt" "${DATASET}" --device "${DEVICE}"
+step nerf_eval_cpu "${NERFREG}" nerf eval "${WORK}/block.ckpt" "${DATASET}" --device cpu
+step nerf_render "${NERFREG}" nerf render "${WORK}/block.ckpt" --transforms "${DATASET}/transforms.json" \
+  --out "${WORK}/views" --device "${DEVICE}"
+step nerf_export "${NERFREG}" nerf export "${WORK}/block.ckpt" --points "${WORK}/points.ply" --device "${DEVICE}"
+step reg_extract "${NERFREG}" reg extract "${WORK}/block.ckpt" --out "${WORK}/block.grid" --device "${DEVICE}"
+if [ -n "${PAIRS}" ]; then
+  step reg_train "${NERFREG}" reg train "${PAIRS}" --out "${WORK}/dreg.pt" --config "${CLI_CHECK_CONFIG:-paper}" \
+    --iters 20 --val-every 10 --checkpoint-every 10 --device "${DEVICE}"
+fi
+
+"${PYTHON}" - "${STEPS}" "${OUT}" "${DEVICE}" <<'PY'
+import json, os, sys
+steps_path, out, device = sys.argv[1:4]
+steps = [json.loads(l) for l in open(steps_path)]
+by = {s["name"]: s for s in steps}
+def psnr(name):
+    p = by.get(name, {}).get("printed")
+    return p.get("psnr") if isinstance(p, dict) else None
+on_device, on_cpu = psnr("nerf_eval"), psnr("nerf_eval_cpu")
+result = {"device": device, "steps": steps, "psnr_device": on_device, "psnr_cpu": on_cpu,
+          "psnr_agree": on_device is not None and on_cpu is not None and abs(on_device - on_cpu) <= 0.05,
+          "all_exit_zero": all(s["exit_code"] == 0 for s in steps)}
+tmp = out + ".tmp"
+with open(tmp, "w") as f:
+    json.dump(result, f, indent=2)
+    f.write("\n")
+os.replace(tmp, out)
+print("cli_device_check: psnr %s on %s, %s on the cpu; wrote %s" % (on_device, device, on_cpu, out))
+sys.exit(0 if result["all_exit_zero"] and result["psnr_agree"] else 1)
+PY
+exit "${failed}"
