@@ -23,6 +23,11 @@ PRESET=${CLI_CHECK_PRESET:-fast}
 PYTHON=${PYTHON:-python3}
 [ -x "${NERFREG}" ] || { echo "error: ${NERFREG}: expected the nerfreg binary" >&2; exit 2; }
 [ -f "${DATASET}/transforms.json" ] || { echo "error: ${DATASET}: expected a folder with transforms.json" >&2; exit 2; }
+# WORK is replaced, but only if this script made it (its steps.jsonl) or it is empty.
+if [ -d "${WORK}" ] && [ -n "$(ls -A "${WORK}")" ] && [ ! -f "${WORK}/steps.jsonl" ]; then
+  echo "error: ${WORK}: expected an empty folder or one this script wrote (no steps.jsonl in it)" >&2
+  exit 2
+fi
 rm -rf "${WORK}"
 mkdir -p "${WORK}"
 STEPS=${WORK}/steps.jsonl

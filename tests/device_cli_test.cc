@@ -117,5 +117,22 @@ TEST(DeviceCli, DeviceCheckScriptFailsWhenACommandFails) {
   EXPECT_EQ(check["steps"][0]["exit_code"].get<int>(), 2);
 }
 
+// Its work folder is replaced only if the script wrote it: a folder of someone else's is left as it is.
+TEST(DeviceCli, DeviceCheckScriptLeavesAFolderItDidNotWrite) {
+  ScopedTempDir dir;
+  std::filesystem::create_directories(dir.File("mine"));
+  WriteJsonFile(dir.File("mine/keep.json"), Json::object());
+  ASSERT_EQ(
+      RunNerfreg("render --procedural 3 --views 12 --size 40 --test-every 6 --quiet --out " + dir.File("d")).exit_code,
+      0);
+  const CommandResult r = RunShell("bash " + std::string(NERFREG_SOURCE_DIR) + "/scripts/cli_device_check.sh " +
+                                   std::string(NERFREG_BINARY) + " " + dir.File("d") + " " + dir.File("mine") +
+                                   " cpu " + dir.File("check.json"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("mine: expected an empty folder or one this script wrote"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("mine/keep.json")));
+  EXPECT_FALSE(std::filesystem::exists(dir.File("check.json")));
+}
+
 }  // namespace
 }  // namespace nerfreg
