@@ -90,17 +90,30 @@ endif()
 # executable therefore names libblas.so.3 first (nerfreg_runtime_first in NerfregMacros.cmake).
 find_file(NERFREG_BLAS_LIBRARY libblas.so.3 PATHS /usr/lib/x86_64-linux-gnu /usr/lib/aarch64-linux-gnu /usr/lib NO_DEFAULT_PATH)
 
-# A LibTorch from PyTorch's wheels (built on manylinux_2_28 by a newer GCC, which links the parts of
-# libstdc++ the older system lacks statically) exports some std:: functions itself,
-# std::filesystem's among them. An executable that lists libtorch.so before libstdc++.so.6 binds
-# its own calls to those copies: std::filesystem::remove_all jumped to address 0 in every test's
-# temporary-folder clean-up (the CUDA build's tests run on the CPU here, 2026-11-27). Every
-# executable then names the shared libstdc++ first (nerfreg_runtime_first). A compiler with only a
-# static libstdc++ finds none here; scripts/gpu_check.sh passes the system's for it.
-if(nerfreg_torch_lib)
+# Executables name the shared libstdc++ first (nerfreg_runtime_first) in two cases:
+# - A LibTorch from PyTorch's wheels (built on manylinux_2_28 by a newer GCC, which links the parts
+#   of libstdc++ the older system lacks statically) exports some std:: functions itself,
+#   std::filesystem's among them. An executable that lists libtorch.so before libstdc++.so.6 binds
+#   its own calls to those copies: std::filesystem::remove_all jumped to address 0 in the
+#   temporary-folder clean-up of 53 of the first 287 tests of the CUDA build run on the CPU here
+#   (2026-11-27).
+# - A compiler with only a static libstdc++ (the GPU machines' /opt/gcc g++ 13: -print-file-name
+#   finds no libstdc++.so) puts a second C++ runtime into each executable beside the libstdc++.so.6
+#   LibTorch loads. Objects that cross between the two abort: a torch::jit stringstream freed a
+#   std::locale of the other copy ("free(): invalid pointer" in every torch::serialize load, seen
+#   on an H200, 2026-11-26). The system's shared one, from ldconfig, is linked instead.
+if(NERFREG_WITH_TORCH)
   execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=libstdc++.so OUTPUT_VARIABLE nerfreg_stdcxx
                   OUTPUT_STRIP_TRAILING_WHITESPACE)
-  if(IS_ABSOLUTE "${nerfreg_stdcxx}" AND EXISTS "${nerfreg_stdcxx}")
+  if(NOT (IS_ABSOLUTE "${nerfreg_stdcxx}" AND EXISTS "${nerfreg_stdcxx}"))
+    execute_process(COMMAND ldconfig -p OUTPUT_VARIABLE nerfreg_ldconfig)
+    string(REGEX MATCH "libstdc\\+\\+\\.so\\.6 \\(libc6,x86-64\\) => ([^\n]+)" nerfreg_found "${nerfreg_ldconfig}")
+    if(NOT CMAKE_MATCH_1 OR NOT EXISTS "${CMAKE_MATCH_1}")
+      message(FATAL_ERROR "${CMAKE_CXX_COMPILER} has no libstdc++.so and ldconfig knows no libstdc++.so.6")
+    endif()
+    set(NERFREG_STDCXX_LIBRARY "${CMAKE_MATCH_1}")
+    message(STATUS "nerfreg: ${CMAKE_CXX_COMPILER} links libstdc++ statically; ${NERFREG_STDCXX_LIBRARY} first")
+  elseif(nerfreg_torch_lib)
     set(NERFREG_STDCXX_LIBRARY "${nerfreg_stdcxx}")
     message(STATUS "nerfreg: ${NERFREG_STDCXX_LIBRARY} first in every executable (a wheel's LibTorch)")
   endif()

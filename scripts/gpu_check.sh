@@ -86,23 +86,11 @@ echo "gpu_check: ${GPU_NAME} (driver ${DRIVER}), torch ${TORCH_VERSION} (CUDA ${
 LOGS=${GPU_LOGS:-${BUILD_DIR}/gpu_check}
 mkdir -p "${LOGS}"
 
-# A compiler with only a static libstdc++ (the GPU machines' /opt/gcc g++ 13: -print-file-name
-# finds no libstdc++.so) puts a second C++ runtime into each executable beside the libstdc++.so.6
-# that LibTorch loads. Objects that cross between the two abort: a torch::jit stringstream freed a
-# std::locale of the other copy ("free(): invalid pointer" in every torch::serialize load, seen on
-# an H200, 2026-11-26). Each executable then names the shared runtime LibTorch uses, first.
-LINK_FLAGS=()
-CXX_FOR_BUILD=${CXX:-c++}
-if [ ! -f "$("${CXX_FOR_BUILD}" -print-file-name=libstdc++.so)" ]; then
-  SHARED_STDCXX=$(ldconfig -p | sed -n 's/^[[:space:]]*libstdc++\.so\.6 (libc6,x86-64) => //p' | head -n 1)
-  [ -f "${SHARED_STDCXX}" ] || fail "${CXX_FOR_BUILD} has no libstdc++.so and ldconfig knows no libstdc++.so.6"
-  echo "gpu_check: ${CXX_FOR_BUILD} links libstdc++ statically; linking ${SHARED_STDCXX} instead"
-  LINK_FLAGS=("-DCMAKE_EXE_LINKER_FLAGS=-Wl,--push-state,--no-as-needed ${SHARED_STDCXX} -Wl,--pop-state")
-fi
-
 # 1. Build.
 build_start=$(date +%s)
-cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release "${LINK_FLAGS[@]}" \
+# A compiler with only a static libstdc++ (the GPU machines' /opt/gcc) gets the system's shared one
+# linked first by the build itself (cmake/NerfregDependencies.cmake).
+cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY=ON -DNERFREG_BUILD_BENCH=OFF \
   -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
   -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-native}" >"${LOGS}/configure.log" 2>&1 ||
