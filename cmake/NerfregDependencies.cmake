@@ -113,7 +113,7 @@ if(NERFREG_WITH_TORCH)
     endif()
     set(NERFREG_STDCXX_LIBRARY "${CMAKE_MATCH_1}")
     message(STATUS "nerfreg: ${CMAKE_CXX_COMPILER} links libstdc++ statically; ${NERFREG_STDCXX_LIBRARY} first")
-  elseif(nerfreg_torch_lib)
+  elseif(NOT TORCH_LIBRARY MATCHES "^/usr/lib/")  # not the system's (Debian's) LibTorch: a wheel's
     set(NERFREG_STDCXX_LIBRARY "${nerfreg_stdcxx}")
     message(STATUS "nerfreg: ${NERFREG_STDCXX_LIBRARY} first in every executable (a wheel's LibTorch)")
   endif()
