@@ -1,12 +1,15 @@
 // Scenes for DBARF from the formats people have: a transforms.json written by `nerfreg dbarf
 // poses` (estimated cameras, depth range and view graph already in it), or any dataset
 // `nerfreg convert` reads (transforms.json, LLFF poses_bounds.npy, COLMAP model), whose poses are
-// treated as ground truth: they are kept for evaluation only, and the cameras, depth range and view
-// graph used for training and rendering are estimated from the images (sfm/global_sfm.h).
+// ground truth. Those are either used as the training cameras (DbarfSceneOptions::cameras
+// "ground-truth") or kept for evaluation only while the cameras, depth range and view graph are
+// estimated from the images by a DbarfCameraEstimator: dbarf_sfm/scene_cameras.h gives the SfM's.
+// This layer has no SfM, so the learned-core build (no OpenCV, Ceres) loads and trains on scenes too.
 #pragma once
 
 #include <torch/torch.h>
 
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,9 +17,18 @@
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf/dbarf_trainer.h"
 #include "nerfreg/data/dataset.h"
-#include "nerfreg/sfm/global_sfm.h"
+#include "nerfreg/geometry/camera.h"
+#include "nerfreg/util/image.h"
 
 namespace nerfreg {
+
+// Estimates a scene's cameras from its images, for a dataset whose own poses are ground truth:
+// fills scene->cam_from_world [V, 4, 4] float32, neighbours, near and far, marks the images it
+// could not pose unusable and names them in not_posed. images: as loaded (max_width wide at most);
+// cameras: their intrinsics at that size. Throws InputError (naming path) when it cannot.
+using DbarfCameraEstimator =
+    std::function<void(const std::string& path, const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                       int max_width, DbarfScene* scene, std::vector<std::string>* not_posed)>;
 
 struct DbarfSceneOptions {
   // Images wider than this are downsampled (area) to it, intrinsics scaled on a copy (all of fx,
@@ -24,23 +36,18 @@ struct DbarfSceneOptions {
   int max_width = 0;
   // Test-split frames are loaded but not usable as sources or training targets.
   bool hold_out_test = true;
-  // Used when the cameras have to be estimated.
-  SfmOptions sfm;
-  // Folder where cameras estimated from the images are kept between runs (empty: not kept). A
-  // scene whose images, intrinsics and max_width are unchanged reuses its entry instead of running
-  // the SfM again, which is what makes resuming a training run on hundreds of scenes start in
-  // seconds rather than tens of minutes. An entry records neither the SfM options nor the code
-  // version beyond kSfmCacheVersion: clear the folder after changing either.
-  std::string sfm_cache_dir;
-  // Where a dataset's training cameras come from: "estimated" (from the images by the SfM, the
-  // dataset's poses kept for evaluation only) or "ground-truth" (the dataset's own poses, for
-  // training data only, as the original trains: its views are chosen by true camera distance).
-  // With "ground-truth" the poses are put in the frame `dbarf poses` writes (the first usable
-  // camera at the identity, the mean distance of the others to it 1), the view graph is the
-  // nearest cameras (centre distance plus viewing angle), and the depth range is the frames' own
-  // near / far in that frame, widened as the SfM's estimate is; no SfM runs, so scenes the SfM cannot pose (low
-  // texture, repetition) can be trained on too.
+  // Where a dataset's training cameras come from: "estimated" (from the images by
+  // estimate_cameras, the dataset's poses kept for evaluation only) or "ground-truth" (the
+  // dataset's own poses, for training data only, as the original trains: its views are chosen by
+  // true camera distance). With "ground-truth" the poses are put in the frame `dbarf poses` writes
+  // (the first usable camera at the identity, the mean distance of the others to it 1), the view
+  // graph is the nearest cameras (centre distance plus viewing angle), and the depth range is the
+  // frames' own near / far in that frame, widened as the SfM's estimate is; nothing is estimated,
+  // so scenes the SfM cannot pose (low texture, repetition) can be trained on too.
   std::string cameras = "estimated";
+  // "estimated" cameras come from this (dbarf_sfm/scene_cameras.h: SfmCameraEstimator). Empty:
+  // this build or caller estimates none, and such a dataset is refused with a named error.
+  DbarfCameraEstimator estimate_cameras;
   void Check() const;  // throws InputError naming the option
 };
 
@@ -51,27 +58,16 @@ struct LoadedDbarfScene {
   torch::Tensor ground_truth;
   std::vector<bool> is_test;           // per view, split == "test"
   Dataset dataset;                     // as read (cameras at the loaded size)
-  bool estimated_here = false;         // cameras estimated from the images (now, or read from
-                                       // sfm_cache_dir), not written by dbarf poses
+  bool estimated_here = false;         // cameras estimated from the images (estimate_cameras), not
+                                       // written by dbarf poses
   std::vector<std::string> not_posed;  // images the estimation could not pose (left unusable)
 };
-
-// Bumped whenever what an SfM cache entry holds, or how the SfM result it stores is computed by
-// default, changes.
-inline constexpr int kSfmCacheVersion = 1;
 
 // Throws InputError naming the file and field on bad input (see data/convert.h for formats).
 LoadedDbarfScene LoadDbarfScene(const std::string& path, const DbarfSceneOptions& options = {});
 
-// Depth range of triangulated points seen by posed cameras: the 2nd / 98th percentiles of their
-// camera depths, widened by 0.7 / 1.4. Throws InputError (source) with fewer than 10 depths.
-void DepthRangeFromPoints(const SfmResult& sfm, const std::string& source, double* near, double* far);
-
 // The transforms.json behind `path` (a file or a folder holding one), or "" for other formats.
 std::string TransformsJsonPath(const std::string& path);
-
-// The view graph as written into transforms.json by dbarf poses: [[name_i, name_j, inliers], ...].
-Json ViewGraphToJson(const ViewGraph& graph);
 
 // The k usable views nearest to a camera cam_from_world [4, 4]: centre distance (in units of the
 // scene's median distance between neighbouring centres) plus the angle between viewing directions

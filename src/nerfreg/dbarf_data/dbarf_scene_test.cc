@@ -3,13 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <tuple>
 #include <utility>
 
 #include "nerfreg/data/convert.h"
-#include "nerfreg/render/procedural.h"
-#include "nerfreg/render/render_dataset.h"
+#include "nerfreg/data/test_data.h"
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -18,69 +17,19 @@
 namespace nerfreg {
 namespace {
 
-std::string RenderForwardScene(const ScopedTempDir& dir, unsigned seed) {
-  RenderDatasetOptions opt;
-  opt.trajectory = "forward";
-  opt.views = 8;
-  opt.test_every = 100;
-  opt.render.supersample = 1;
+// 8 cameras on a ring (views 0 and 4 held out as test views), 24 x 16 images, per-frame near / far:
+// the ground-truth path needs no real pixels, and the learned-core build has no renderer.
+std::string WriteRingScene(const ScopedTempDir& dir) {
   const std::string out = dir.File("scene");
-  RenderDataset(ProceduralForwardScene(seed), opt, out);
+  WriteTransformsJson(MakeRingDataset(out, 8), JoinPaths(out, "transforms.json"));
   return out;
-}
-
-int CacheEntries(const std::string& dir) {
-  int n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) n += e.path().extension() == ".json";
-  return n;
-}
-
-TEST(DbarfScene, SfmCacheGivesTheCamerasOfTheFirstEstimateAndMissesOnOtherImages) {
-  ScopedTempDir dir;
-  const std::string scene = RenderForwardScene(dir, 7);
-  DbarfSceneOptions options;
-  options.sfm_cache_dir = dir.File("cache");
-  const LoadedDbarfScene first = LoadDbarfScene(scene, options);
-  ASSERT_TRUE(first.estimated_here);
-  ASSERT_EQ(CacheEntries(options.sfm_cache_dir), 1);
-
-  // A second load reads the entry: the same cameras, graph and range, and no new entry.
-  const LoadedDbarfScene second = LoadDbarfScene(scene, options);
-  EXPECT_TRUE(second.estimated_here);
-  EXPECT_TRUE(torch::allclose(first.scene.cam_from_world, second.scene.cam_from_world, 1e-6, 1e-6));
-  EXPECT_EQ(first.scene.neighbours, second.scene.neighbours);
-  EXPECT_EQ(first.scene.usable, second.scene.usable);
-  EXPECT_DOUBLE_EQ(first.scene.near, second.scene.near);
-  EXPECT_DOUBLE_EQ(first.scene.far, second.scene.far);
-  EXPECT_EQ(CacheEntries(options.sfm_cache_dir), 1);
-
-  // The entry really is what the second load used: a doctored entry changes its cameras.
-  std::string entry;
-  for (const auto& e : std::filesystem::directory_iterator(options.sfm_cache_dir)) entry = e.path().string();
-  Json json = ReadJsonFile(entry);
-  json["near"] = json["near"].get<double>() * 0.5;
-  WriteJsonFile(entry, json);
-  EXPECT_DOUBLE_EQ(LoadDbarfScene(scene, options).scene.near, first.scene.near * 0.5);
-
-  // Other images (another size) are another key: a new entry, estimated afresh.
-  DbarfSceneOptions smaller = options;
-  smaller.max_width = 64;
-  const LoadedDbarfScene third = LoadDbarfScene(scene, smaller);
-  EXPECT_EQ(third.scene.images.size(3), 64);
-  EXPECT_EQ(CacheEntries(options.sfm_cache_dir), 2);
-
-  // A damaged entry is ignored (one more SfM run), never a failure or a wrong camera.
-  WriteFileAtomic(entry, "{ not json");
-  const LoadedDbarfScene fourth = LoadDbarfScene(scene, options);
-  EXPECT_TRUE(torch::allclose(first.scene.cam_from_world, fourth.scene.cam_from_world, 1e-6, 1e-6));
-  EXPECT_DOUBLE_EQ(fourth.scene.near, first.scene.near);
 }
 
 // --scene-cameras ground-truth: the dataset's cameras in dbarf poses' frame, with their relative
 // poses kept up to the frame's scale, the nearest cameras as neighbours, the frames' depth range.
 TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
   ScopedTempDir dir;
-  const std::string path = RenderForwardScene(dir, 7);
+  const std::string path = WriteRingScene(dir);
   DbarfSceneOptions options;
   options.cameras = "ground-truth";
   const LoadedDbarfScene loaded = LoadDbarfScene(path, options);
@@ -139,6 +88,62 @@ TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
   }
   options.cameras = "both";
   EXPECT_THROW(options.Check(), InputError);
+}
+
+// "estimated" cameras come from the estimator the caller gives, which sees the images at the
+// loaded size; without one, such a dataset is refused by name (the learned-core build).
+TEST(DbarfScene, EstimatedCamerasComeFromTheEstimatorGivenAndWithoutOneTheDatasetIsRefused) {
+  ScopedTempDir dir;
+  const std::string path = WriteRingScene(dir);
+  DbarfSceneOptions options;
+  options.max_width = 12;
+  int calls = 0;
+  options.estimate_cameras = [&](const std::string& p, const std::vector<Image>& images,
+                                 const std::vector<Camera>& cameras, int max_width, DbarfScene* scene,
+                                 std::vector<std::string>* not_posed) {
+    ++calls;
+    EXPECT_EQ(p, path);
+    ASSERT_EQ(images.size(), 8u);
+    EXPECT_EQ(images[0].width, 12);
+    EXPECT_EQ(images[0].height, 8);
+    EXPECT_DOUBLE_EQ(cameras[0].fx, 10.0);  // 20 at 24 wide
+    EXPECT_EQ(max_width, 12);
+    // Every camera a step along x; view 7 not posed.
+    std::vector<torch::Tensor> cams;
+    for (int v = 0; v < 8; ++v) {
+      torch::Tensor c = torch::eye(4);
+      c[0][3] = -0.5 * v;
+      cams.push_back(c);
+    }
+    scene->cam_from_world = torch::stack(cams);
+    scene->neighbours.assign(8, {});
+    for (int v = 0; v < 8; ++v) scene->neighbours[v] = {(v + 1) % 8};
+    scene->near = 0.5;
+    scene->far = 9.0;
+    scene->usable[7] = false;
+    not_posed->push_back(scene->image_names[7]);
+  };
+  const LoadedDbarfScene loaded = LoadDbarfScene(path, options);
+  EXPECT_EQ(calls, 1);
+  EXPECT_TRUE(loaded.estimated_here);
+  EXPECT_FLOAT_EQ(loaded.scene.cam_from_world[3][0][3].item<float>(), -1.5f);
+  EXPECT_DOUBLE_EQ(loaded.scene.far, 9.0);
+  EXPECT_EQ(loaded.not_posed, std::vector<std::string>{"img_107.png"});
+  EXPECT_FALSE(loaded.scene.usable[7]);
+  // The dataset's own poses are kept apart, for evaluation.
+  ASSERT_TRUE(loaded.ground_truth.defined());
+  const Dataset truth = ReadCameras(path);
+  EXPECT_TRUE(torch::allclose(loaded.ground_truth[2], Matrix4ToTensor(truth.frames[2].cam_from_world.ToMatrix())));
+
+  options.estimate_cameras = nullptr;
+  try {
+    LoadDbarfScene(path, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path), std::string::npos) << what;
+    EXPECT_NE(what.find("--scene-cameras ground-truth"), std::string::npos) << what;
+  }
 }
 
 TEST(DbarfScene, ViewDepthRangeSpansTheValidDepthsWidenedWithinTheScenes) {

@@ -10,10 +10,23 @@
 #include <vector>
 
 #include "nerfreg/data/dataset.h"
-#include "nerfreg/dbarf_data/network_poses.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
+
+// How well an image's pose agrees with its own measurements (dbarf_sfm/network_poses.h computes it).
+struct ImagePoseConfidence {
+  int edges = 0;                       // pairwise measurements checked (dbarf_sfm/network_poses.h)
+  double rotation_residual_deg = 180;  // their median rotation disagreement, degrees (180: none)
+  // The same for the translation directions: the angle between the measured direction and the
+  // accepted poses' (180: none, or zero translations).
+  double direction_residual_deg = 180;
+  int observations = -1;              // sfm: triangulated points seen; -1 for network
+  double reprojection_error_px = -1;  // sfm: their mean reprojection error; -1 for network
+  // What the pixels alone say against any pose of the image (ImageInputProblems); empty: nothing.
+  std::string problem;
+  bool low = false;
+};
 
 struct PosedImages {
   Dataset dataset;  // the posed frames; dataset.root is the file's folder

@@ -5,6 +5,7 @@
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_sfm/scene_cameras.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/evaluate_dbarf.h"
@@ -91,12 +92,14 @@ int RunDbarfEvalNet(int argc, char** argv) {
   app.add_option("--json-out", json_out, "Also write the rows and means to this JSON file");
   app.add_option("--scene-cameras", scene_options.cameras, "Views chosen by: estimated cameras or ground-truth")
       ->check(CLI::IsMember({"estimated", "ground-truth"}));
-  app.add_option("--sfm-cache", scene_options.sfm_cache_dir, "Reuse the cameras estimated from each scene's images");
+  SfmSceneCamerasOptions sfm_cameras;
+  app.add_option("--sfm-cache", sfm_cameras.cache_dir, "Reuse the cameras estimated from each scene's images");
   std::string device = "cpu";
   AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   const torch::Device dev = ParseDevice(device);
   if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
+  scene_options.estimate_cameras = SfmCameraEstimator(sfm_cameras);
   DbarfModel model = LoadDbarfWeights(weights);
   model.To(dev);
   Json rows = Json::array();

@@ -1,22 +1,27 @@
 // Commands of DBARF's learned part: dbarf pretrain | finetune (training, resumable) | render (novel
-// views from posed images); dbarf eval and eval-net are in dbarf_eval_commands.cc.
+// views from posed images); dbarf eval and eval-net are in dbarf_eval_commands.cc. These are in the
+// learned-core build too, which estimates no cameras from images (no SfM): there a dataset whose
+// poses are ground truth needs --scene-cameras ground-truth, and --sfm-cache is absent.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_data/render_dbarf_views.h"
+#include "nerfreg/dbarf_data/train_dbarf.h"
 #include "nerfreg/dist/dist.h"
 #include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
-#include "nerfreg/pipeline/render_dbarf_views.h"
-#include "nerfreg/pipeline/train_dbarf.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/torch_device.h"
+#ifndef NERFREG_LEARNED_CORE_ONLY
+#include "nerfreg/dbarf_sfm/scene_cameras.h"
+#endif
 
 using namespace nerfreg;
 
@@ -32,7 +37,31 @@ std::string DefaultDbarfPoseWeights() {
 
 namespace {
 
-void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
+// How a dataset's cameras are estimated from its images: the SfM (cached with --sfm-cache) in the
+// full build; none in the learned core's.
+struct CameraEstimation {
+#ifndef NERFREG_LEARNED_CORE_ONLY
+  SfmSceneCamerasOptions sfm;
+#endif
+  void AddOptions(CLI::App& app) {
+#ifndef NERFREG_LEARNED_CORE_ONLY
+    app.add_option("--sfm-cache", sfm.cache_dir,
+                   "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
+                   "changing the SfM)");
+#else
+    (void)app;
+#endif
+  }
+  DbarfCameraEstimator Estimator() const {
+#ifndef NERFREG_LEARNED_CORE_ONLY
+    return SfmCameraEstimator(sfm);
+#else
+    return {};
+#endif
+  }
+};
+
+void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, CameraEstimation* estimation, std::string* device) {
   AddDeviceOption(app, device);
   app.add_option("--out", c->run.out, "Output weights (OUT.train: the state --resume continues; OUT.log.jsonl)")
       ->required();
@@ -64,9 +93,7 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, std::string* device) {
   app.add_option("--sfm-clip", c->train.sfm.clip_std_factor,
                  "SfM loss: clip each error map at mean + this many standard deviations (original 0.5; < 0: no clip)");
   app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
-  app.add_option("--sfm-cache", c->scene.sfm_cache_dir,
-                 "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
-                 "changing the SfM)");
+  estimation->AddOptions(app);
   app.add_option("--scene-cameras", c->scene.cameras,
                  "Training cameras: estimated (from the images) or ground-truth (the datasets' own poses; views chosen "
                  "by true camera distance, as the original trains)")
@@ -129,9 +156,11 @@ int RunDbarfPretrain(int argc, char** argv) {
   DistOptions dist;
   AddDistOptions(app, &dist);
   std::string device = "cpu";
-  AddTrainOptions(app, &c, &device);
+  CameraEstimation estimation;
+  AddTrainOptions(app, &c, &estimation, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.run.device = ParseDevice(device);
+  c.scene.estimate_cameras = estimation.Estimator();
   if (c.rotation_scale < 0 || !std::isfinite(c.rotation_scale)) {
     throw InputError("--rotation-scale: expected > 0, got " + std::to_string(c.rotation_scale));
   }
@@ -181,9 +210,11 @@ int RunDbarfFinetune(int argc, char** argv) {
                  "Render each view's depths again over the range its first render spans, widened by this factor "
                  "(> 1; 0: once, over the scene's depth range)");
   std::string device = "cpu";
-  AddTrainOptions(app, &c, &device);
+  CameraEstimation estimation;
+  AddTrainOptions(app, &c, &estimation, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.run.device = ParseDevice(device);
+  c.scene.estimate_cameras = estimation.Estimator();
   c.depth_refinement.Check();
   c.scenes = {scene};
   c.train.refine_cameras = !c.cameras_out.empty();
@@ -217,6 +248,7 @@ int RunDbarfRender(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   job.device = ParseDevice(device);
   job.force = common.force;
+  job.estimate_cameras = CameraEstimation().Estimator();
   RenderDbarfViews(job);
   return 0;
 }

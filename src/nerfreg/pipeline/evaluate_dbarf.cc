@@ -6,6 +6,7 @@
 
 #include "nerfreg/data/npy.h"
 #include "nerfreg/dbarf/dbarf_model.h"
+#include "nerfreg/dbarf_sfm/scene_cameras.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
@@ -155,6 +156,7 @@ DbarfEvaluation EvaluateDbarf(const DbarfEvaluationOptions& o) {
   model.To(o.device);
   const Timer timer;
   DbarfSceneOptions scene_options = o.scene;
+  if (!scene_options.estimate_cameras) scene_options.estimate_cameras = SfmCameraEstimator({});
   // Given cameras replace the estimate, so none is made (the dataset's own poses stand in until
   // UsePosedCameras overwrites every one of them).
   if (!o.cameras.empty()) scene_options.cameras = "ground-truth";

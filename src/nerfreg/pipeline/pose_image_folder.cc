@@ -9,6 +9,7 @@
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_sfm/scene_cameras.h"
 #include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/render/camera_plot.h"
 #include "nerfreg/sfm/global_sfm.h"

@@ -1,11 +1,11 @@
 #pragma once
 // `dbarf poses`'s job: every image of a folder posed from the images and their intrinsics alone
-// (dbarf_data/network_poses.h: the SfM, the pose network or both), written as posed images
+// (dbarf_sfm/network_poses.h: the SfM, the pose network or both), written as posed images
 // (dbarf_data/posed_images.h: OUT/transforms.json) with a COLMAP model (OUT/sparse/0) and the cameras
 // seen from above (OUT/cameras.png), all moved into place at once.
 #include <string>
 
-#include "nerfreg/dbarf_data/network_poses.h"
+#include "nerfreg/dbarf_sfm/network_poses.h"
 
 namespace nerfreg {
 

@@ -1,4 +1,4 @@
-#include "nerfreg/pipeline/render_dbarf_views.h"
+#include "nerfreg/dbarf_data/render_dbarf_views.h"
 
 #include <filesystem>
 
@@ -26,6 +26,7 @@ int RenderDbarfViews(const DbarfRenderJob& job) {
   model.To(job.device);
   DbarfSceneOptions scene_options;
   scene_options.hold_out_test = false;
+  scene_options.estimate_cameras = job.estimate_cameras;
   LoadedDbarfScene loaded = LoadDbarfScene(job.posed, scene_options);
   if (loaded.estimated_here) {
     LOG_WARN(

@@ -43,6 +43,7 @@
 
 #include "nerfreg/dbarf/photometric_bundle_adjustment.h"
 #include "nerfreg/dbarf/pose_depth_net.h"
+#include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/geometry/camera.h"
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/sfm/global_sfm.h"
@@ -105,19 +106,6 @@ struct ImagePosesOptions {
   int low_confidence_observations = 10;
   torch::Device device = torch::kCPU;  // --device: where the network runs (the images stay on the CPU)
   void Check() const;                  // throws InputError naming the option
-};
-
-struct ImagePoseConfidence {
-  int edges = 0;                       // pairwise measurements checked (see the top of this file)
-  double rotation_residual_deg = 180;  // their median rotation disagreement, degrees (180: none)
-  // The same for the translation directions: the angle between the measured direction and the
-  // accepted poses' (180: none, or zero translations).
-  double direction_residual_deg = 180;
-  int observations = -1;              // sfm: triangulated points seen; -1 for network
-  double reprojection_error_px = -1;  // sfm: their mean reprojection error; -1 for network
-  // What the pixels alone say against any pose of the image (ImageInputProblems); empty: nothing.
-  std::string problem;
-  bool low = false;
 };
 
 struct ImagePosesResult {

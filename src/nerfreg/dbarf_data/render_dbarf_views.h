@@ -6,10 +6,13 @@
 
 #include <string>
 
+#include "nerfreg/dbarf_data/dbarf_scene.h"
+
 namespace nerfreg {
 
 struct DbarfRenderJob {
-  std::string posed;               // posed images (or any posed dataset: its cameras are estimated again)
+  std::string posed;                      // posed images (or any posed dataset: its cameras are estimated again)
+  DbarfCameraEstimator estimate_cameras;  // how (empty: posed images only)
   std::string transforms;          // cameras to render (transforms.json, LLFF or COLMAP), in the posed images' frame
   std::string out;                 // output folder
   std::string weights;             // DBARF weights

@@ -1,4 +1,4 @@
-#include "nerfreg/dbarf_data/network_poses.h"
+#include "nerfreg/dbarf_sfm/network_poses.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,6 +8,7 @@
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
+#include "nerfreg/dbarf_sfm/scene_cameras.h"
 #include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"

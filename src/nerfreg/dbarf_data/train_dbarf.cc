@@ -1,4 +1,4 @@
-#include "nerfreg/pipeline/train_dbarf.h"
+#include "nerfreg/dbarf_data/train_dbarf.h"
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/posed_images.h"

@@ -1,4 +1,4 @@
-#include "nerfreg/dbarf_data/network_poses.h"
+#include "nerfreg/dbarf_sfm/network_poses.h"
 
 #include <gtest/gtest.h>
 
