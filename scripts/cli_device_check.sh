@@ -6,12 +6,16 @@
 # On DATASET (a posed block: transforms.json with test frames) it trains a block on DEVICE in two
 # halves (--stop-after, then --resume), evaluates it there and on the CPU (the checkpoint is
 # portable: the two PSNRs must agree within 0.05 dB), renders its test cameras, exports points and
-# extracts its registration grid; with PAIRS_JSON (pairs of grids, e.g. bench/gpu_dreg.cc's
-# pairs_gpu.json) it also trains the DReg-NeRF network for a few steps. Every command's exit code,
-# seconds and printed JSON go into OUT_JSON; the script fails if any command failed.
-#   CLI_CHECK_ITERS   block training iterations (default 1000)
-#   CLI_CHECK_PRESET  block training preset (default fast)
-#   CLI_CHECK_CONFIG  reg train --config (default paper)
+# extracts its registration grid; then it pretrains DBARF on DATASET's images and cameras in two
+# halves (--resume; --scene-cameras ground-truth: the learned core has no SfM) and finetunes the
+# result; with PAIRS_JSON (pairs of grids, e.g. bench/gpu_dreg.cc's pairs_gpu.json) it also trains
+# the DReg-NeRF network for a few steps. Every command's exit code, seconds and printed JSON go into
+# OUT_JSON; the script fails if any command failed.
+#   CLI_CHECK_ITERS         block training iterations (default 1000)
+#   CLI_CHECK_PRESET        block training preset (default fast)
+#   CLI_CHECK_CONFIG        reg train --config (default paper)
+#   CLI_CHECK_DBARF_STEPS   dbarf pretrain steps (default 40; finetune: a quarter)
+#   CLI_CHECK_DBARF_CONFIG  dbarf pretrain --config (default paper)
 set -euo pipefail
 if [ $# -lt 5 ]; then
   echo "usage: cli_device_check.sh NERFREG DATASET WORK DEVICE OUT_JSON [PAIRS_JSON]" >&2
@@ -74,6 +78,19 @@ step nerf_render "${NERFREG}" nerf render "${WORK}/block.ckpt" --transforms "${D
   --out "${WORK}/views" --device "${DEVICE}"
 step nerf_export "${NERFREG}" nerf export "${WORK}/block.ckpt" --points "${WORK}/points.ply" --device "${DEVICE}"
 step reg_extract "${NERFREG}" reg extract "${WORK}/block.ckpt" --out "${WORK}/block.grid" --device "${DEVICE}"
+DBARF_STEPS=${CLI_CHECK_DBARF_STEPS:-40}
+DBARF_HALF=$((DBARF_STEPS / 2))
+# Short stage blocks, so every stage (pose, NeRF, joint) runs in each half.
+DBARF_STAGE=$((DBARF_STEPS / 8 > 0 ? DBARF_STEPS / 8 : 1))
+step dbarf_pretrain_half "${NERFREG}" dbarf pretrain "${DATASET}" --scene-cameras ground-truth \
+  --config "${CLI_CHECK_DBARF_CONFIG:-paper}" --steps "${DBARF_HALF}" --checkpoint-every "${DBARF_HALF}" \
+  --stage-steps "${DBARF_STAGE}" --out "${WORK}/dbarf.pt" --device "${DEVICE}" --json
+step dbarf_pretrain_resume "${NERFREG}" dbarf pretrain "${DATASET}" --scene-cameras ground-truth \
+  --config "${CLI_CHECK_DBARF_CONFIG:-paper}" --steps "${DBARF_STEPS}" --stage-steps "${DBARF_STAGE}" --resume \
+  --out "${WORK}/dbarf.pt" --device "${DEVICE}" --json
+step dbarf_finetune "${NERFREG}" dbarf finetune "${DATASET}" --scene-cameras ground-truth \
+  --weights "${WORK}/dbarf.pt" --steps $((DBARF_STEPS / 4 > 0 ? DBARF_STEPS / 4 : 1)) --stage-steps "${DBARF_STAGE}" \
+  --out "${WORK}/dbarf_finetuned.pt" --device "${DEVICE}" --json
 if [ -n "${PAIRS}" ]; then
   step reg_train "${NERFREG}" reg train "${PAIRS}" --out "${WORK}/dreg.pt" --config "${CLI_CHECK_CONFIG:-paper}" \
     --iters 20 --val-every 10 --checkpoint-every 10 --device "${DEVICE}"

@@ -71,7 +71,8 @@ TEST(DeviceCli, CpuAndAutoPassTheDeviceCheck) {
 
 // scripts/cli_device_check.sh, which the GPU check runs with --device cuda, here on the CPU at toy
 // sizes: every command it names runs, the block trained in two halves (--resume) beats an untrained
-// render, and its evaluations on the training device and the CPU agree.
+// render, its evaluations on the training device and the CPU agree, and DBARF pretrains (resumed)
+// and finetunes on the block's own images and cameras.
 TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
   ScopedTempDir dir;
   ASSERT_EQ(
@@ -82,9 +83,9 @@ TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
           .exit_code,
       0);
   const CommandResult r =
-      RunShell("CLI_CHECK_ITERS=120 CLI_CHECK_CONFIG=cpu bash " + std::string(NERFREG_SOURCE_DIR) +
-               "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) + " " + dir.File("d") + " " +
-               dir.File("w") + " cpu " + dir.File("check.json") + " " + dir.File("p/pairs.json"));
+      RunShell("CLI_CHECK_ITERS=120 CLI_CHECK_CONFIG=cpu CLI_CHECK_DBARF_CONFIG=cpu CLI_CHECK_DBARF_STEPS=8 bash " +
+               std::string(NERFREG_SOURCE_DIR) + "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) + " " +
+               dir.File("d") + " " + dir.File("w") + " cpu " + dir.File("check.json") + " " + dir.File("p/pairs.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json check = ReadJsonFile(dir.File("check.json"));
   std::vector<std::string> names;
@@ -93,12 +94,19 @@ TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
     EXPECT_EQ(step["exit_code"].get<int>(), 0) << step.dump();
   }
   EXPECT_EQ(names, (std::vector<std::string>{"nerf_train_half", "nerf_train_resume", "nerf_eval", "nerf_eval_cpu",
-                                             "nerf_render", "nerf_export", "reg_extract", "reg_train"}));
+                                             "nerf_render", "nerf_export", "reg_extract", "dbarf_pretrain_half",
+                                             "dbarf_pretrain_resume", "dbarf_finetune", "reg_train"}));
   EXPECT_TRUE(check["psnr_agree"].get<bool>());
   // 120 steps of the fast preset on a 40-pixel object: far above the white-on-grey of an untrained block.
   EXPECT_GT(check["psnr_device"].get<double>(), 15.0) << check.dump();
   EXPECT_TRUE(std::filesystem::exists(dir.File("w/block.grid")));
   EXPECT_TRUE(std::filesystem::exists(dir.File("w/dreg.pt")));
+  // DBARF: the resumed pretraining went on from its checkpoint to the total, its renderer trained
+  // (a training PSNR exists only where the NeRF stages ran), and the result was finetuned.
+  const Json& resumed = check["steps"][8]["printed"];
+  EXPECT_EQ(resumed["steps"].get<int>(), 8) << resumed.dump();
+  EXPECT_GT(resumed["psnr_train_last"].get<double>(), 0.0) << resumed.dump();
+  EXPECT_TRUE(std::filesystem::exists(dir.File("w/dbarf_finetuned.pt")));
   EXPECT_TRUE(std::filesystem::exists(dir.File("w/views")));
 }
 

@@ -147,6 +147,25 @@ std::pair<double, double> ViewDepthRange(const torch::Tensor& depth, const torch
 
 namespace {
 
+// A frame's depth range from the dataset's scene box (object datasets, such as nerfreg render's,
+// give a box rather than per-frame bounds): the depths of its 8 corners, the near one no closer
+// than 1 % of the far one (a camera inside the box). False without a box, or with the box behind
+// the camera.
+bool DepthRangeOfBox(const Dataset& d, const Frame& f, double* near, double* far) {
+  if (!d.aabb_min || !d.aabb_max) return false;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d x((corner & 1 ? *d.aabb_max : *d.aabb_min).x(), (corner & 2 ? *d.aabb_max : *d.aabb_min).y(),
+                            (corner & 4 ? *d.aabb_max : *d.aabb_min).z());
+    const double z = (f.cam_from_world * x).z();
+    lo = std::min(lo, z), hi = std::max(hi, z);
+  }
+  if (!(hi > 0)) return false;
+  *near = std::max(lo, 0.01 * hi);
+  *far = hi;
+  return true;
+}
+
 // DbarfSceneOptions::cameras == "ground-truth": the dataset's poses in the frame dbarf poses
 // writes, the nearest cameras as the view graph, the frames' near / far as the depth range.
 void UseGroundTruthCameras(const std::string& path, const Dataset& d, DbarfScene* scene) {
@@ -172,12 +191,14 @@ void UseGroundTruthCameras(const std::string& path, const Dataset& d, DbarfScene
   std::vector<torch::Tensor> cameras;
   for (int64_t i = 0; i < v; ++i) {
     const Frame& f = d.frames[i];
-    if (!(f.near > 0 && f.far > f.near)) {
+    double frame_near = f.near, frame_far = f.far;
+    if (!(frame_near > 0 && frame_far > frame_near) && !DepthRangeOfBox(d, f, &frame_near, &frame_far)) {
       ThrowInputError(path, "frames[" + std::to_string(i) + "].near",
-                      "per-frame near and far depths (0 < near < far) with --scene-cameras ground-truth");
+                      "per-frame near and far depths (0 < near < far), or the scene's aabb in front of the camera, "
+                      "with --scene-cameras ground-truth");
     }
-    near = std::min(near, f.near * scale);
-    far = std::max(far, f.far * scale);
+    near = std::min(near, frame_near * scale);
+    far = std::max(far, frame_far * scale);
     Rigid3d c = cam_from_reference[i];
     c.translation *= scale;
     cameras.push_back(Matrix4ToTensor(c.ToMatrix()));

@@ -42,7 +42,8 @@ struct DbarfSceneOptions {
   // true camera distance). With "ground-truth" the poses are put in the frame `dbarf poses` writes
   // (the first usable camera at the identity, the mean distance of the others to it 1), the view
   // graph is the nearest cameras (centre distance plus viewing angle), and the depth range is the
-  // frames' own near / far in that frame, widened as the SfM's estimate is; nothing is estimated,
+  // frames' own near / far (without them, the depths of the dataset's aabb) in that frame,
+  // widened as the SfM's estimate is; nothing is estimated,
   // so scenes the SfM cannot pose (low texture, repetition) can be trained on too.
   std::string cameras = "estimated";
   // "estimated" cameras come from this (dbarf_sfm/scene_cameras.h: SfmCameraEstimator). Empty:

@@ -86,6 +86,21 @@ TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("near"), std::string::npos) << e.what();
   }
+  // Unless it has a scene box (object datasets): then the depths of the box's corners bound it.
+  json["aabb"] = {{-1.0, -1.0, -1.0}, {1.0, 1.0, 1.0}};
+  WriteJsonFile(path + "/transforms.json", json);
+  const DbarfScene boxed = LoadDbarfScene(path, options).scene;
+  double box_near = 1e9, box_far = 0;
+  for (const Frame& f : truth.frames) {
+    for (int corner = 0; corner < 8; ++corner) {
+      const double z =
+          (f.cam_from_world * Eigen::Vector3d(corner & 1 ? 1 : -1, corner & 2 ? 1 : -1, corner & 4 ? 1 : -1)).z();
+      box_near = std::min(box_near, z), box_far = std::max(box_far, z);
+    }
+  }
+  ASSERT_GT(box_near, 0);  // every camera outside the box
+  EXPECT_NEAR(boxed.near, box_near / true_mean * 0.7 / 0.9, 1e-3 * boxed.near);
+  EXPECT_NEAR(boxed.far, box_far / true_mean * 1.4 / 1.1, 1e-3 * boxed.far);
   options.cameras = "both";
   EXPECT_THROW(options.Check(), InputError);
 }

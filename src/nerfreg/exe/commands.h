@@ -94,10 +94,9 @@ int RunReport(int argc, char** argv);
       "Poses of unposed images with known intrinsics (transforms.json + COLMAP model)"}) \
   NERFREG_EDGE_COMMAND({"dbarf eval-poses", RunDbarfEvalPoses, \
       "Rotation / centre errors of estimated cameras after Sim(3) alignment"}) \
-  NERFREG_EDGE_COMMAND({"dbarf pretrain", RunDbarfPretrain, "Pretrain DBARF on many scenes (resumable)"}) \
-  NERFREG_EDGE_COMMAND({"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"}) \
-  NERFREG_EDGE_COMMAND({"dbarf render", RunDbarfRender, \
-      "Novel views from posed images with the generalizable NeRF"}) \
+  {"dbarf pretrain", RunDbarfPretrain, "Pretrain DBARF on many scenes (resumable)"}, \
+  {"dbarf finetune", RunDbarfFinetune, "Finetune DBARF weights on one scene (resumable)"}, \
+  {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"}, \
   NERFREG_EDGE_COMMAND({"dbarf eval", RunDbarfEval, \
       "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"}) \
   NERFREG_EDGE_COMMAND({"dbarf eval-net", RunDbarfEvalNet, \

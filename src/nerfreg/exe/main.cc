@@ -40,8 +40,9 @@ void PrintUsage() {
   for (const auto& c : Commands()) std::printf("  %-22s %s\n", c.name, c.summary);
 #if NERFREG_LEARNED_CORE_ONLY
   std::printf(
-      "\nThis is the learned-core build (NERFREG_LEARNED_CORE_ONLY): rendering, block registration, DBARF and\n"
-      "reports need the full build, which links Embree, Open3D, Ceres and OpenCV (docs/gpu.md).\n");
+      "\nThis is the learned-core build (NERFREG_LEARNED_CORE_ONLY): rendering, block registration, cameras\n"
+      "estimated from images (dbarf poses / eval; the dbarf commands here take --scene-cameras ground-truth or\n"
+      "posed images) and reports need the full build, which links Embree, Open3D, Ceres and OpenCV (docs/gpu.md).\n");
 #endif
 }
 
