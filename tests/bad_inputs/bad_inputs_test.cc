@@ -254,6 +254,20 @@ const std::vector<BadInputCase>& Cases() {
          return "reg apply " + d + "/t.json " + d + "/s.ply --out " + d + "/s.ply --force";
        },
        "s.ply: expected an output that is not an input", ""},
+      // Usage errors CLI11 finds: the same one line, naming the argument.
+      {"cli_unknown_flag", [](const std::string& d) { return "nerf eval " + d + "/a.ckpt " + d + "/data --bogus"; },
+       "error: --bogus: expected an option or argument of this command", ""},
+      {"cli_missing_required", [](const std::string& d) { return "dbarf pretrain " + d + "/scene"; },
+       "error: --out: expected a value: it is required", ""},
+      {"cli_value_not_in_set",
+       [](const std::string& d) { return "dbarf pretrain " + d + "/scene --out " + d + "/w.pt --config huge"; },
+       "error: --config: expected a valid value: huge not in {cpu,paper}", "w.pt"},
+      {"cli_not_a_number",
+       [](const std::string& d) { return "reg train " + d + "/pairs.json --out " + d + "/w.pt --iters many"; },
+       "error: --iters: expected a value of its type, got many", "w.pt"},
+      {"cli_missing_value",
+       [](const std::string& d) { return "dbarf pretrain " + d + "/scene --out " + d + "/w.pt --steps"; },
+       "error: --steps: expected 1 value(s) (INT), got none", "w.pt"},
   };
   return cases;
 }
@@ -272,6 +286,22 @@ TEST_P(BadInput, FailsCleanlyWithANamedError) {
   for (const auto& e : std::filesystem::recursive_directory_iterator(dir.path())) {
     EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
   }
+}
+
+// A usage error is one line, as every other bad input's error is (not CLI11's two).
+TEST(BadInputCommandLine, UsageErrorsAreOneLine) {
+  for (const std::string args : {"nerf eval a.ckpt data --bogus", "dbarf pretrain scene", "reg train p --iters x"}) {
+    const CommandResult r = RunNerfreg(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    std::string out = r.output;
+    while (!out.empty() && out.back() == '\n') out.pop_back();
+    EXPECT_EQ(out.rfind("error: ", 0), 0u) << args << ": " << r.output;
+    EXPECT_EQ(out.find('\n'), std::string::npos) << args << ": " << r.output;
+  }
+  // --help still prints the help, exit 0.
+  const CommandResult help = RunNerfreg("nerf eval --help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.output.find("--device"), std::string::npos);
 }
 
 INSTANTIATE_TEST_SUITE_P(Battery, BadInput, ::testing::Range<size_t>(0, Cases().size()),

@@ -1,6 +1,8 @@
 #include "nerfreg/exe/command.h"
 
+#include <cstdio>
 #include <sstream>
+#include <string>
 
 #include "nerfreg/data/dataset.h"
 #include "nerfreg/dist/launch.h"
@@ -21,11 +23,69 @@ void AddDeviceOption(CLI::App& app, std::string* device) {
                  "Where the networks run: cpu (default), cuda, cuda:N or auto (a GPU when present)");
 }
 
+namespace {
+
+// What follows `prefix` in `text`, or "" when text does not start with it.
+std::string After(const std::string& text, const std::string& prefix) {
+  return text.rfind(prefix, 0) == 0 ? text.substr(prefix.size()) : "";
+}
+
+// By type, not by get_name(): CLI11 names some errors after the app rather than their class.
+template <typename Error>
+bool Is(const CLI::ParseError& e) {
+  return dynamic_cast<const Error*>(&e) != nullptr;
+}
+
+}  // namespace
+
+std::string CommandLineError(const CLI::ParseError& e) {
+  const std::string what = e.what();
+  const std::string help = " (--help lists them)";
+  // "The following argument(s) was/were not expected: --bogus x"
+  if (Is<CLI::ExtrasError>(e)) {
+    const size_t colon = what.find(": ");
+    return (colon == std::string::npos ? what : what.substr(colon + 2)) +
+           ": expected an option or argument of this command" + help;
+  }
+  if (Is<CLI::RequiredError>(e)) {  // "--out is required", "checkpoint is required"
+    const size_t required = what.find(" is required");
+    if (required != std::string::npos) return what.substr(0, required) + ": expected a value: it is required" + help;
+  }
+  if (Is<CLI::ConversionError>(e)) {  // "Could not convert: --steps = abc"
+    const std::string rest = After(what, "Could not convert: ");
+    const size_t eq = rest.find(" = ");
+    if (eq != std::string::npos) {
+      return rest.substr(0, eq) + ": expected a value of its type, got " + rest.substr(eq + 3);
+    }
+  }
+  if (Is<CLI::ArgumentMismatch>(e)) {  // "--steps: 1 required INT missing"
+    const size_t colon = what.find(": "), required = what.find(" required "), missing = what.rfind(" missing");
+    if (colon != std::string::npos && required != std::string::npos && missing != std::string::npos &&
+        colon < required && required < missing) {
+      return what.substr(0, colon) + ": expected " + what.substr(colon + 2, required - colon - 2) + " value(s) (" +
+             what.substr(required + 10, missing - required - 10) + "), got none";
+    }
+  }
+  // "--config: foo not in {cpu,paper}"
+  const size_t colon = what.find(": ");
+  if (colon != std::string::npos && what.find(' ') > colon) {
+    return what.substr(0, colon) + ": expected a valid value: " + what.substr(colon + 2);
+  }
+  return "command line: expected valid arguments: " + what;
+}
+
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    // --help and the like: CLI11 prints them. Any other is bad input: one named line, exit 2, as
+    // every other bad input gets, instead of CLI11's two lines without "error: ".
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::string line = CommandLineError(e);
+    for (char& c : line)
+      if (c == '\n') c = ' ';
+    std::fprintf(stderr, "error: %s\n", line.c_str());
+    return 2;
   }
   LogOptions log;
   log.quiet = common.quiet;

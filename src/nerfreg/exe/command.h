@@ -25,9 +25,13 @@ void AddCommonOptions(CLI::App& app, CommonOptions* options);
 void AddDeviceOption(CLI::App& app, std::string* device);
 
 // Parses argv into app. Returns -1 when parsing succeeded and the command should run, otherwise
-// the exit code to return (0 for --help, 2 for a usage error, with the message printed).
-// Also applies the logging options.
+// the exit code to return (0 for --help; 2 for a usage error, printed as CommandLineError's one
+// line after "error: "). Also applies the logging options.
 int ParseCommand(CLI::App& app, int argc, char** argv, const CommonOptions& common);
+
+// A CLI11 usage error as the one line every bad input gets: "ARGUMENT: expected ...", e.g.
+// "--steps: expected a value of its type, got abc".
+std::string CommandLineError(const CLI::ParseError& e);
 
 struct Dataset;
 struct DistOptions;
