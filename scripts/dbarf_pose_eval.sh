@@ -59,7 +59,7 @@ for w in "$@"; do
     [ "${TABLE_ONLY:-0}" = 1 ] && continue
     echo "$label: $set (${#files[@]} scenes)" >&2
     OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} nice -n 5 "$BIN" dbarf eval-net "${files[@]}" --weights "$w" "${flags[@]}" \
-      --json-out "$WORK/${label}_${key}.json" --quiet > /dev/null
+      --json-out "$WORK/${label}_${key}.json" --force --quiet > /dev/null
   done
 done
 python3 - "$OUT_MD" "$OUT_JSON" "$WORK" "${sets[@]/#/set:}" -- "$@" <<'EOF'

@@ -11,7 +11,9 @@
 #   4. with GPU_DREG_DATA, trains the DReg-NeRF paper network on real blocks it makes on the GPU
 #      from carried renders, and scores it on held-out pairs (bench/gpu_dreg.cc),
 #   5. runs the nerfreg commands users run with --device cuda (scripts/cli_device_check.sh: nerf
-#      train / --resume / eval / render / export, reg extract, reg train) on a carried block dataset,
+#      train / --resume / eval / render / export, reg extract, dbarf pretrain / --resume / finetune,
+#      reg train) on a carried block dataset; with GPU_DBARF_DATA, then pretrains DBARF's paper
+#      configuration for GPU_DBARF_SECONDS (scripts/dbarf_device_train.sh, resumable),
 #   6. runs all of the learned core's tests (last: the longest step),
 #   7. writes results/gpu.json (machine, versions, build time, tests, timings, the DReg run, the
 #      commands).
@@ -30,6 +32,9 @@
 #   GPU_CLI_DATA    the block dataset of step 5 (default: the first test object's block_0 of
 #                   GPU_DREG_DATA; step 5 is left out without either); its reg train trains on
 #                   the pairs step 4 made
+#   GPU_DBARF_DATA  a folder of scripts/dbarf_data.sh (train.txt, val.txt) to pretrain DBARF's
+#                   paper configuration on, for GPU_DBARF_SECONDS (default 240), in
+#                   GPU_LOGS/dbarf_paper/ (its weights; a later call with the same logs resumes)
 #   GPU_LOGS        the logs' folder (default GPU_BUILD_DIR/gpu_check)
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
 #   GPU_QUICK=1     a short smoke run of the timings (not for results)
@@ -154,6 +159,14 @@ if [ -n "${CLI_DATA}" ]; then
     "${LOGS}/cli_cuda.json" "${cli_pairs[@]}" 2>&1 | tee "${LOGS}/cli_cuda.log" || cli_rc=$?
 fi
 
+# 5b. DBARF's paper configuration pretrained on carried scenes, for a fixed time (resumable).
+dbarf_rc=0
+if [ -n "${GPU_DBARF_DATA:-}" ]; then
+  PYTHON="${PYTHON}" DBARF_TRAIN_SECONDS="${GPU_DBARF_SECONDS:-240}" bash scripts/dbarf_device_train.sh \
+    "${BUILD_DIR}/nerfreg" "${GPU_DBARF_DATA}" "${LOGS}/dbarf_paper" cuda "${LOGS}/dbarf_paper.json" 2>&1 |
+    tee "${LOGS}/dbarf_paper.log" || dbarf_rc=$?
+fi
+
 # 6. All of the learned core's tests, last: the longest step, and the one a short lease can do without.
 tests_rc=0
 if [ "${GPU_TESTS:-1}" = 0 ]; then
@@ -214,6 +227,8 @@ if "${GPU_DREG_DATA:-}":
     result["dreg_paper_on_gpu_blocks"] = dict(load("gpu_dreg.json"), exit_code=${dreg_rc}, args="${GPU_DREG_ARGS:-}")
 if "${CLI_DATA}":
     result["cli"] = dict(load("cli_cuda.json"), exit_code=${cli_rc}, data="${CLI_DATA}")
+if "${GPU_DBARF_DATA:-}":
+    result["dbarf_paper"] = dict(load("dbarf_paper.json"), exit_code=${dbarf_rc}, data="${GPU_DBARF_DATA:-}")
 if "${GPU_TESTS:-1}" == "0":
     result["tests"] = {"exit_code": None, "summary": "not run (GPU_TESTS=0)"}
 tmp = out + ".tmp"
@@ -224,7 +239,7 @@ os.replace(tmp, out)
 print("gpu_check: wrote " + out)
 PY
 if [ "${tests_rc}" -ne 0 ] || [ "${cuda_rc}" -ne 0 ] || [ "${cuda_skipped}" -ne 0 ] || [ "${bench_rc}" -ne 0 ] ||
-  [ "${dreg_rc}" -ne 0 ] || [ "${cli_rc}" -ne 0 ]; then
+  [ "${dreg_rc}" -ne 0 ] || [ "${cli_rc}" -ne 0 ] || [ "${dbarf_rc}" -ne 0 ]; then
   fail "tests or timings failed, or the CUDA cases skipped (${LOGS}/ctest.log, ${LOGS}/cuda_tests.log)"
 fi
 if [ "${nccl_rc}" -ne 0 ] || { [ "${gpu_count}" -ge 2 ] && [ "${nccl_ran}" -ne 1 ]; }; then

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "cli_test_util.h"
+#include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/test_util.h"
 
@@ -123,6 +124,51 @@ TEST(DeviceCli, DeviceCheckScriptFailsWhenACommandFails) {
   const Json check = ReadJsonFile(dir.File("check.json"));
   EXPECT_FALSE(check["all_exit_zero"].get<bool>());
   EXPECT_EQ(check["steps"][0]["exit_code"].get<int>(), 2);
+}
+
+// scripts/dbarf_device_train.sh, which the GPU check runs to train DBARF's paper configuration on a
+// lease, here on the CPU at toy sizes: a run to its step total, a second call that resumes it and
+// scores the pose network on the validation list, and a third stopped by its time limit that
+// leaves a checkpoint to resume from.
+TEST(DeviceCli, DbarfDeviceTrainScriptResumesAndStopsAtItsTimeLimit) {
+  ScopedTempDir dir;
+  std::string list;
+  for (const std::string seed : {"1001", "1002"}) {
+    ASSERT_EQ(RunNerfreg("render --procedural " + seed +
+                         " --trajectory forward --views 6 --size 64x48 --test-every 8 "
+                         "--quiet --out " +
+                         dir.File("s" + seed))
+                  .exit_code,
+              0);
+    list += dir.File("s" + seed + "/transforms.json") + "\n";
+  }
+  WriteFileAtomic(dir.File("data/train.txt"), list);
+  WriteFileAtomic(dir.File("data/val.txt"), dir.File("s1002/transforms.json") + "\n");
+  const auto run = [&](const std::string& env) {
+    const CommandResult r =
+        RunShell("DBARF_TRAIN_CONFIG=cpu DBARF_TRAIN_STAGE=1 " + env + " bash " + std::string(NERFREG_SOURCE_DIR) +
+                 "/scripts/dbarf_device_train.sh " + std::string(NERFREG_BINARY) + " " + dir.File("data") + " " +
+                 dir.File("w") + " cpu " + dir.File("train.json"));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return ReadJsonFile(dir.File("train.json"));
+  };
+  const Json first = run("DBARF_TRAIN_STEPS=4 DBARF_TRAIN_CHECKPOINT=2");
+  EXPECT_FALSE(first["resumed"].get<bool>()) << first.dump();
+  EXPECT_EQ(first["step_reached"].get<int>(), 4) << first.dump();
+  const Json second = run("DBARF_TRAIN_STEPS=8 DBARF_TRAIN_CHECKPOINT=2");
+  EXPECT_TRUE(second["resumed"].get<bool>()) << second.dump();
+  EXPECT_EQ(second["step_before"].get<int>(), 4) << second.dump();
+  EXPECT_EQ(second["step_reached"].get<int>(), 8) << second.dump();
+  // The pose network scored on the validation list, against the identity it starts from.
+  EXPECT_EQ(second["eval_net"]["exit_code"].get<int>(), 0) << second.dump();
+  EXPECT_GT(second["eval_net"]["start_rotation_deg"].get<double>(), 0.0) << second.dump();
+  EXPECT_TRUE(second["eval_net"].contains("rotation_deg")) << second.dump();
+  // A schedule far longer than the limit: stopped, with its checkpoint, and reported so.
+  const Json third = run("DBARF_TRAIN_STEPS=100000 DBARF_TRAIN_CHECKPOINT=1 DBARF_TRAIN_SECONDS=15");
+  EXPECT_TRUE(third["stopped_by_time_limit"].get<bool>()) << third.dump();
+  EXPECT_TRUE(third["checkpoint"].get<bool>()) << third.dump();
+  EXPECT_GT(third["step_reached"].get<int>(), 8) << third.dump();
+  EXPECT_TRUE(std::filesystem::exists(dir.File("w/dbarf.pt")));
 }
 
 // Its work folder is replaced only if the script wrote it: a folder of someone else's is left as it is.

@@ -46,7 +46,8 @@ std::string DefaultRegistrationMethod();
 // DBARF (exe/dbarf_commands.cc)
 int RunDbarfPoses(int argc, char** argv);
 int RunDbarfEvalPoses(int argc, char** argv);
-// DBARF training, novel views and evaluation (exe/dbarf_train_commands.cc)
+// DBARF training and novel views (exe/dbarf_train_commands.cc), evaluation (exe/dbarf_eval_commands.cc,
+// exe/dbarf_eval_net_command.cc)
 int RunDbarfPretrain(int argc, char** argv);
 int RunDbarfFinetune(int argc, char** argv);
 int RunDbarfRender(int argc, char** argv);
@@ -99,7 +100,6 @@ int RunReport(int argc, char** argv);
   {"dbarf render", RunDbarfRender, "Novel views from posed images with the generalizable NeRF"}, \
   NERFREG_EDGE_COMMAND({"dbarf eval", RunDbarfEval, \
       "Pose-free pipeline against ground truth: pose errors, novel-view PSNR / SSIM"}) \
-  NERFREG_EDGE_COMMAND({"dbarf eval-net", RunDbarfEvalNet, \
-      "The pose network's relative poses (from the identity) against ground truth"}) \
+  {"dbarf eval-net", RunDbarfEvalNet, "The pose network's relative poses (from the identity) against ground truth"}, \
   NERFREG_EDGE_COMMAND({"report", RunReport, "Write one self-contained HTML page for a run directory"})
 // clang-format on

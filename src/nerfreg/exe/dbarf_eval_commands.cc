@@ -1,11 +1,7 @@
-// Commands that score DBARF against ground truth: dbarf eval (the whole pose-free pipeline) and
-// dbarf eval-net (the pose network's relative poses).
-#include <cmath>
+// dbarf eval: the whole pose-free pipeline against ground truth (dbarf eval-net, the pose network
+// alone, is in dbarf_eval_net_command.cc, in the learned core too).
 #include <cstdio>
 
-#include "nerfreg/dbarf/dbarf_model.h"
-#include "nerfreg/dbarf_data/dbarf_scene.h"
-#include "nerfreg/dbarf_sfm/scene_cameras.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/evaluate_dbarf.h"
@@ -67,86 +63,5 @@ int RunDbarfEval(int argc, char** argv) {
                 100 * e.depth_error_median);
   }
   std::printf("time               %.1f s (poses %.1f s)\n", e.seconds, e.seconds_poses);
-  return 0;
-}
-
-int RunDbarfEvalNet(int argc, char** argv) {
-  CLI::App app;
-  CommonOptions common;
-  AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "The pose network's relative poses against ground truth, per dataset: each usable view as target, "
-                  "its view-graph neighbours as sources, the network starting from the identity (--pose-init network, "
-                  "the original) or from the estimated cameras; rotation error and translation-direction error (scale-"
-                  "free) averaged over the pairs, next to the error of the start (identity: the true rotation angle).",
-                  "nerfreg dbarf eval-net data/dbarf/val_*/transforms.json --weights runs/dbarf/net.pt");
-  std::vector<std::string> datasets;
-  std::string weights = DefaultDbarfWeights(), pose_init = "network", json_out;
-  int num_sources = 5;
-  DbarfSceneOptions scene_options;
-  app.add_option("datasets", datasets, "Datasets with ground-truth poses")->required();
-  app.add_option("--weights", weights, "DBARF weights (default: the shipped ones)");
-  app.add_option("--pose-init", pose_init, "network (from the identity) or cameras")
-      ->check(CLI::IsMember({"network", "cameras"}));
-  app.add_option("--sources", num_sources, "Sources per target (view-graph neighbours, best first)");
-  app.add_option("--json-out", json_out, "Also write the rows and means to this JSON file");
-  app.add_option("--scene-cameras", scene_options.cameras, "Views chosen by: estimated cameras or ground-truth")
-      ->check(CLI::IsMember({"estimated", "ground-truth"}));
-  SfmSceneCamerasOptions sfm_cameras;
-  app.add_option("--sfm-cache", sfm_cameras.cache_dir, "Reuse the cameras estimated from each scene's images");
-  std::string device = "cpu";
-  AddDeviceOption(app, &device);
-  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  const torch::Device dev = ParseDevice(device);
-  if (num_sources < 1) throw InputError("--sources: expected >= 1, got " + std::to_string(num_sources));
-  scene_options.estimate_cameras = SfmCameraEstimator(sfm_cameras);
-  DbarfModel model = LoadDbarfWeights(weights);
-  model.To(dev);
-  Json rows = Json::array();
-  double sum_rot = 0, sum_dir = 0, sum_start_rot = 0, sum_start_dir = 0;
-  int n = 0;
-  if (!common.json)
-    std::printf("%-40s %7s %12s %12s %12s %12s\n", "dataset", "pairs", "start rot", "net rot", "start dir", "net dir");
-  for (const std::string& dataset : datasets) {
-    const LoadedDbarfScene loaded = LoadDbarfScene(dataset, scene_options);
-    if (!loaded.ground_truth.defined())
-      ThrowInputError(dataset, "", "a dataset with ground-truth poses (not the output of dbarf poses)");
-    const RelativePoseError net =
-        EvaluateRelativePoses(model, loaded.scene, loaded.ground_truth, num_sources, pose_init);
-    // The start: the identity (rotation error = the true angle; direction undefined, 90 deg) or the cameras.
-    const RelativePoseError start = pose_init == "cameras"
-                                        ? EvaluateCameraRelativePoses(loaded.scene, loaded.ground_truth, num_sources)
-                                        : EvaluateIdentityRelativePoses(loaded.scene, loaded.ground_truth, num_sources);
-    rows.push_back({{"dataset", dataset},
-                    {"pairs", net.pairs},
-                    {"start_rotation_deg", start.rotation_deg},
-                    {"rotation_deg", net.rotation_deg},
-                    {"start_translation_direction_deg", start.translation_deg},
-                    {"translation_direction_deg", net.translation_deg}});
-    if (!common.json) {
-      std::printf("%-40s %7d %12.3f %12.3f %12.2f %12.2f\n", dataset.c_str(), net.pairs, start.rotation_deg,
-                  net.rotation_deg, start.translation_deg, net.translation_deg);
-      std::fflush(stdout);
-    }
-    sum_rot += net.rotation_deg, sum_dir += net.translation_deg;
-    sum_start_rot += start.rotation_deg, sum_start_dir += start.translation_deg;
-    ++n;
-  }
-  const Json result = {{"weights", weights},
-                       {"pose_init", pose_init},
-                       {"sources", num_sources},
-                       {"datasets", n},
-                       {"start_rotation_deg", sum_start_rot / n},
-                       {"rotation_deg", sum_rot / n},
-                       {"start_translation_direction_deg", sum_start_dir / n},
-                       {"translation_direction_deg", sum_dir / n},
-                       {"rows", rows}};
-  if (!json_out.empty()) WriteJsonFile(json_out, result);
-  if (common.json) {
-    std::printf("%s\n", result.dump().c_str());
-  } else {
-    std::printf("%-40s %7s %12.3f %12.3f %12.2f %12.2f\n", "mean", "", sum_start_rot / n, sum_rot / n,
-                sum_start_dir / n, sum_dir / n);
-  }
   return 0;
 }

@@ -14,14 +14,12 @@
 #include "nerfreg/dist/launch.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/exe/scene_camera_flags.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/torch_device.h"
-#ifndef NERFREG_LEARNED_CORE_ONLY
-#include "nerfreg/dbarf_sfm/scene_cameras.h"
-#endif
 
 using namespace nerfreg;
 
@@ -37,31 +35,7 @@ std::string DefaultDbarfPoseWeights() {
 
 namespace {
 
-// How a dataset's cameras are estimated from its images: the SfM (cached with --sfm-cache) in the
-// full build; none in the learned core's.
-struct CameraEstimation {
-#ifndef NERFREG_LEARNED_CORE_ONLY
-  SfmSceneCamerasOptions sfm;
-#endif
-  void AddOptions(CLI::App& app) {
-#ifndef NERFREG_LEARNED_CORE_ONLY
-    app.add_option("--sfm-cache", sfm.cache_dir,
-                   "Keep the cameras estimated from each scene's images in this folder and reuse them (clear it after "
-                   "changing the SfM)");
-#else
-    (void)app;
-#endif
-  }
-  DbarfCameraEstimator Estimator() const {
-#ifndef NERFREG_LEARNED_CORE_ONLY
-    return SfmCameraEstimator(sfm);
-#else
-    return {};
-#endif
-  }
-};
-
-void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, CameraEstimation* estimation, std::string* device) {
+void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, SceneCameraFlags* estimation, std::string* device) {
   AddDeviceOption(app, device);
   app.add_option("--out", c->run.out, "Output weights (OUT.train: the state --resume continues; OUT.log.jsonl)")
       ->required();
@@ -156,7 +130,7 @@ int RunDbarfPretrain(int argc, char** argv) {
   DistOptions dist;
   AddDistOptions(app, &dist);
   std::string device = "cpu";
-  CameraEstimation estimation;
+  SceneCameraFlags estimation;
   AddTrainOptions(app, &c, &estimation, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.run.device = ParseDevice(device);
@@ -210,7 +184,7 @@ int RunDbarfFinetune(int argc, char** argv) {
                  "Render each view's depths again over the range its first render spans, widened by this factor "
                  "(> 1; 0: once, over the scene's depth range)");
   std::string device = "cpu";
-  CameraEstimation estimation;
+  SceneCameraFlags estimation;
   AddTrainOptions(app, &c, &estimation, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   c.run.device = ParseDevice(device);
@@ -248,7 +222,7 @@ int RunDbarfRender(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   job.device = ParseDevice(device);
   job.force = common.force;
-  job.estimate_cameras = CameraEstimation().Estimator();
+  job.estimate_cameras = SceneCameraFlags().Estimator();
   RenderDbarfViews(job);
   return 0;
 }
