@@ -41,9 +41,6 @@ if [ -f "${WEIGHTS}.train" ]; then
   flags+=(--resume)
   resumed=true
 fi
-before=$("${PYTHON}" -c 'import json,sys
-try: print(json.loads(open(sys.argv[1]).read().splitlines()[-1]).get("step", 0))
-except Exception: print(0)' "${WEIGHTS}.log.jsonl")
 start=${EPOCHREALTIME}
 rc=0
 # SIGINT first (the trainer's checkpoints are written atomically, so a stop loses at most the steps
@@ -58,10 +55,17 @@ if [ -s "${DATA}/val.txt" ] && [ -f "${WEIGHTS}" ]; then
   "${NERFREG}" dbarf eval-net "${val[@]}" --weights "${WEIGHTS}" --scene-cameras ground-truth --device "${DEVICE}" \
     --json-out "${WORK}/eval_net.json" --force --quiet >"${WORK}/eval_net.out" 2>"${WORK}/eval_net.err" || eval_rc=$?
 fi
-"${PYTHON}" - "${OUT}" "${WEIGHTS}" "${rc}" "${start}" "${end}" "${before}" "${resumed}" "${DEVICE}" "${WORK}/train.err" "${eval_rc}" "${WORK}/eval_net.json" <<'PY'
-import json, os, sys
-out, weights, rc, start, end, before, resumed, device, err, eval_rc, eval_json = sys.argv[1:12]
+"${PYTHON}" - "${OUT}" "${WEIGHTS}" "${rc}" "${start}" "${end}" "${resumed}" "${DEVICE}" "${WORK}/train.err" "${eval_rc}" "${WORK}/eval_net.json" <<'PY'
+import json, os, re, sys
+out, weights, rc, start, end, resumed, device, err, eval_rc, eval_json = sys.argv[1:11]
 rc, eval_rc = int(rc), int(eval_rc)
+# The step this call started from, as the trainer says it ("resuming OUT at step N"): a stopped
+# call's log can run past its last checkpoint, and the trainer rewinds it to there.
+before = 0
+for line in open(err):
+    m = re.search(r"resuming .* at step (\d+)", line)
+    if m:
+        before = int(m.group(1))
 rows = []
 if os.path.exists(weights + ".log.jsonl"):
     for line in open(weights + ".log.jsonl"):

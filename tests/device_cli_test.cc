@@ -165,6 +165,7 @@ TEST(DeviceCli, DbarfDeviceTrainScriptResumesAndStopsAtItsTimeLimit) {
   EXPECT_TRUE(second["eval_net"].contains("rotation_deg")) << second.dump();
   // A schedule far longer than the limit: stopped, with its checkpoint, and reported so.
   const Json third = run("DBARF_TRAIN_STEPS=100000 DBARF_TRAIN_CHECKPOINT=1 DBARF_TRAIN_SECONDS=15");
+  EXPECT_EQ(third["step_before"].get<int>(), 8) << third.dump();
   EXPECT_TRUE(third["stopped_by_time_limit"].get<bool>()) << third.dump();
   EXPECT_TRUE(third["checkpoint"].get<bool>()) << third.dump();
   EXPECT_GT(third["step_reached"].get<int>(), 8) << third.dump();

@@ -5,6 +5,8 @@
 #include <limits>
 #include <map>
 
+#include <Eigen/Geometry>
+
 #include "nerfreg/data/convert.h"
 #include "nerfreg/dbarf_data/posed_images.h"
 #include "nerfreg/util/error.h"
@@ -153,11 +155,10 @@ namespace {
 // the camera.
 bool DepthRangeOfBox(const Dataset& d, const Frame& f, double* near, double* far) {
   if (!d.aabb_min || !d.aabb_max) return false;
+  const Eigen::AlignedBox3d box(*d.aabb_min, *d.aabb_max);
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3d x((corner & 1 ? *d.aabb_max : *d.aabb_min).x(), (corner & 2 ? *d.aabb_max : *d.aabb_min).y(),
-                            (corner & 4 ? *d.aabb_max : *d.aabb_min).z());
-    const double z = (f.cam_from_world * x).z();
+    const double z = (f.cam_from_world * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner))).z();
     lo = std::min(lo, z), hi = std::max(hi, z);
   }
   if (!(hi > 0)) return false;

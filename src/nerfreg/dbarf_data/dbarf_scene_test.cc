@@ -91,10 +91,10 @@ TEST(DbarfScene, GroundTruthCamerasAreTheDatasetsInThePosedFrame) {
   WriteJsonFile(path + "/transforms.json", json);
   const DbarfScene boxed = LoadDbarfScene(path, options).scene;
   double box_near = 1e9, box_far = 0;
+  const Eigen::AlignedBox3d box(Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1));
   for (const Frame& f : truth.frames) {
     for (int corner = 0; corner < 8; ++corner) {
-      const double z =
-          (f.cam_from_world * Eigen::Vector3d(corner & 1 ? 1 : -1, corner & 2 ? 1 : -1, corner & 4 ? 1 : -1)).z();
+      const double z = (f.cam_from_world * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner))).z();
       box_near = std::min(box_near, z), box_far = std::max(box_far, z);
     }
   }
