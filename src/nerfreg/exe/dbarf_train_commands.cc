@@ -1,7 +1,8 @@
 // Commands of DBARF's learned part: dbarf pretrain | finetune (training, resumable) | render (novel
-// views from posed images); dbarf eval and eval-net are in dbarf_eval_commands.cc. These are in the
-// learned-core build too, which estimates no cameras from images (no SfM): there a dataset whose
-// poses are ground truth needs --scene-cameras ground-truth, and --sfm-cache is absent.
+// views from posed images); dbarf eval is in dbarf_eval_commands.cc, eval-net in
+// dbarf_eval_net_command.cc. These are in the learned-core build too, which estimates no cameras
+// from images (no SfM): there a dataset whose poses are ground truth needs --scene-cameras
+// ground-truth, and --sfm-cache is absent.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
