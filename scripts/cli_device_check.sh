@@ -8,8 +8,8 @@
 # portable: the two PSNRs must agree within 0.05 dB), renders its test cameras, exports points and
 # extracts its registration grid; then it pretrains DBARF on DATASET's images and cameras in two
 # halves (--resume; --scene-cameras ground-truth: the learned core has no SfM) and finetunes the
-# result; with PAIRS_JSON (pairs of grids, e.g. bench/gpu_dreg.cc's pairs_gpu.json) it also trains
-# the DReg-NeRF network for a few steps. Every command's exit code, seconds and printed JSON go into
+# result; then it trains the DReg-NeRF network for a few steps on PAIRS_JSON (pairs of grids, e.g.
+# bench/gpu_dreg.cc's pairs_gpu.json), or without it on the block's own grid paired with itself. Every command's exit code, seconds and printed JSON go into
 # OUT_JSON; the script fails if any command failed.
 #   CLI_CHECK_ITERS         block training iterations (default 1000)
 #   CLI_CHECK_PRESET        block training preset (default fast)
@@ -48,7 +48,7 @@ step() {
   "$@" --quiet >"${WORK}/${name}.out" 2>"${WORK}/${name}.err" || rc=$?
   "${PYTHON}" - "${name}" "${rc}" "${start}" "${EPOCHREALTIME}" "${WORK}/${name}.out" "${WORK}/${name}.err" "$*" \
     >>"${STEPS}" <<'PY'
-import json, sys
+import json, os, sys
 name, rc, start, end, out, err, command = sys.argv[1:8]
 seconds = float(end) - float(start)
 lines = [l for l in open(out).read().splitlines() if l.strip()]
@@ -91,6 +91,20 @@ step dbarf_pretrain_resume "${NERFREG}" dbarf pretrain "${DATASET}" --scene-came
 step dbarf_finetune "${NERFREG}" dbarf finetune "${DATASET}" --scene-cameras ground-truth \
   --weights "${WORK}/dbarf.pt" --steps $((DBARF_STEPS / 4 > 0 ? DBARF_STEPS / 4 : 1)) --stage-steps "${DBARF_STAGE}" \
   --out "${WORK}/dbarf_finetuned.pt" --device "${DEVICE}" --json
+# Without PAIRS_JSON, reg train runs on the block's own grid paired with itself: the trainer moves
+# the source at random (up to 180 deg), so the pair is a registration task all the same.
+if [ -z "${PAIRS}" ] && [ -f "${WORK}/block.grid" ]; then
+  PAIRS=${WORK}/self_pair.json
+  "${PYTHON}" - "${WORK}/block.grid" "${PAIRS}" <<'PY'
+import json, os, sys
+grid, out = sys.argv[1:3]
+grid = os.path.abspath(grid)  # the trainer reads paths relative to the pairs file
+eye = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]
+pair = {"name": "self", "object": "self", "kind": "nerf", "split": "train", "source": grid, "target": grid,
+        "target_from_source": eye, "overlap": 1.0}
+json.dump({"pairs": [pair]}, open(out, "w"), indent=2)
+PY
+fi
 if [ -n "${PAIRS}" ]; then
   step reg_train "${NERFREG}" reg train "${PAIRS}" --out "${WORK}/dreg.pt" --config "${CLI_CHECK_CONFIG:-paper}" \
     --iters 20 --val-every 10 --checkpoint-every 10 --device "${DEVICE}"

@@ -121,8 +121,9 @@ int RunRegTrain(int argc, char** argv) {
                             {"iterations", r.iterations},
                             {"seconds", r.seconds},
                             {"final_loss", r.final_loss},
-                            {"val_median_rotation_deg", r.val.median_rotation_deg},
-                            {"val_success_rate", r.val.success_rate},
+                            // null, not 0, without validation pairs: 0 deg would read as perfect.
+                            {"val_median_rotation_deg", r.val.pairs > 0 ? Json(r.val.median_rotation_deg) : Json()},
+                            {"val_success_rate", r.val.pairs > 0 ? Json(r.val.success_rate) : Json()},
                             {"val_pairs", r.val.pairs}})
                           .dump()
                           .c_str());
