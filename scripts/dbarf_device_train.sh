@@ -10,12 +10,14 @@
 # network of WORK/dbarf.pt is scored on those scenes by `dbarf eval-net` (from the identity, its own
 # cameras choosing the views), there: the paper weights (96 MB) are more than a device call returns.
 # OUT_JSON: the steps reached, this call's seconds and steps, whether it resumed or was stopped by
-# the time limit, the training log's last row, and the evaluation ("eval_net").
+# the time limit, the training log's last row and its means by windows of steps ("log_windows"),
+# and the evaluation ("eval_net").
 #   DBARF_TRAIN_SECONDS     wall time of this call's training (default 300)
 #   DBARF_TRAIN_STEPS       total steps of the schedule (default 20000)
 #   DBARF_TRAIN_CONFIG      --config (default paper)
 #   DBARF_TRAIN_STAGE       --stage-steps (default 1000)
 #   DBARF_TRAIN_CHECKPOINT  --checkpoint-every (default 100)
+#   DBARF_TRAIN_WINDOW      steps per row of OUT_JSON's log_windows (default 300)
 #   DBARF_TRAIN_ARGS        more dbarf pretrain flags (default --pose-init network: the original's
 #                           pose network, from the identity, which eval-net then scores)
 set -euo pipefail
@@ -55,9 +57,11 @@ if [ -s "${DATA}/val.txt" ] && [ -f "${WEIGHTS}" ]; then
   "${NERFREG}" dbarf eval-net "${val[@]}" --weights "${WEIGHTS}" --scene-cameras ground-truth --device "${DEVICE}" \
     --json-out "${WORK}/eval_net.json" --force --quiet >"${WORK}/eval_net.out" 2>"${WORK}/eval_net.err" || eval_rc=$?
 fi
-"${PYTHON}" - "${OUT}" "${WEIGHTS}" "${rc}" "${start}" "${end}" "${resumed}" "${DEVICE}" "${WORK}/train.err" "${eval_rc}" "${WORK}/eval_net.json" <<'PY'
+# The log by windows of steps and stage (scripts/dbarf_log_windows.py): whether the depth collapses.
+windows=$("${PYTHON}" "$(dirname "$0")/dbarf_log_windows.py" "${WEIGHTS}.log.jsonl" --window "${DBARF_TRAIN_WINDOW:-300}" 2>/dev/null || echo null)
+"${PYTHON}" - "${OUT}" "${WEIGHTS}" "${rc}" "${start}" "${end}" "${resumed}" "${DEVICE}" "${WORK}/train.err" "${eval_rc}" "${WORK}/eval_net.json" "${windows}" <<'PY'
 import json, os, re, sys
-out, weights, rc, start, end, resumed, device, err, eval_rc, eval_json = sys.argv[1:11]
+out, weights, rc, start, end, resumed, device, err, eval_rc, eval_json, windows = sys.argv[1:12]
 rc, eval_rc = int(rc), int(eval_rc)
 # The step this call started from, as the trainer says it ("resuming OUT at step N"): a stopped
 # call's log can run past its last checkpoint, and the trainer rewinds it to there.
@@ -79,6 +83,7 @@ result = {"device": device, "exit_code": rc, "stopped_by_time_limit": rc in (124
           "step_before": int(before), "step_reached": last.get("step", 0), "log_last": last,
           "weights": weights, "checkpoint": os.path.exists(weights + ".train"),
           "stderr_tail": [l for l in open(err).read().splitlines() if l.strip()][-3:] if rc else []}
+result["log_windows"] = json.loads(windows)
 steps = result["step_reached"] - result["step_before"]
 result["steps_this_call"] = steps
 result["steps_per_second"] = round(steps / result["seconds"], 3) if result["seconds"] > 0 else None

@@ -155,10 +155,21 @@ TEST(DeviceCli, DbarfDeviceTrainScriptResumesAndStopsAtItsTimeLimit) {
   const Json first = run("DBARF_TRAIN_STEPS=4 DBARF_TRAIN_CHECKPOINT=2");
   EXPECT_FALSE(first["resumed"].get<bool>()) << first.dump();
   EXPECT_EQ(first["step_reached"].get<int>(), 4) << first.dump();
-  const Json second = run("DBARF_TRAIN_STEPS=8 DBARF_TRAIN_CHECKPOINT=2");
+  const Json second = run("DBARF_TRAIN_STEPS=8 DBARF_TRAIN_CHECKPOINT=2 DBARF_TRAIN_WINDOW=4");
   EXPECT_TRUE(second["resumed"].get<bool>()) << second.dump();
   EXPECT_EQ(second["step_before"].get<int>(), 4) << second.dump();
   EXPECT_EQ(second["step_reached"].get<int>(), 8) << second.dump();
+  // The log by windows of 4 steps and stage: every logged step counted once, and the pose stages'
+  // rows carry the depth's disparity (the scenes have ground truth), which shows a collapse.
+  int logged = 0;
+  bool pose_disparity = false;
+  for (const auto& w : second["log_windows"]) {
+    logged += w["steps"].get<int>();
+    EXPECT_EQ(w["to_step"].get<int>() - w["from_step"].get<int>(), 4) << w.dump();
+    if (w["stage"] == "pose") pose_disparity = w.contains("disparity");
+  }
+  EXPECT_EQ(logged, 8) << second.dump();
+  EXPECT_TRUE(pose_disparity) << second.dump();
   // The pose network scored on the validation list, against the identity it starts from.
   EXPECT_EQ(second["eval_net"]["exit_code"].get<int>(), 0) << second.dump();
   EXPECT_GT(second["eval_net"]["start_rotation_deg"].get<double>(), 0.0) << second.dump();
