@@ -9,8 +9,9 @@
 # extracts its registration grid; then it pretrains DBARF on DATASET's images and cameras in two
 # halves (--resume; --scene-cameras ground-truth: the learned core has no SfM) and finetunes the
 # result; then it trains the DReg-NeRF network for a few steps on PAIRS_JSON (pairs of grids, e.g.
-# bench/gpu_dreg.cc's pairs_gpu.json), or without it on the block's own grid paired with itself. Every command's exit code, seconds and printed JSON go into
-# OUT_JSON; the script fails if any command failed.
+# bench/gpu_dreg.cc's pairs_gpu.json), or without it on the block's own grid paired with itself.
+# Every command's exit code, seconds and printed JSON go into OUT_JSON; the script fails if any
+# command failed.
 #   CLI_CHECK_ITERS         block training iterations (default 1000)
 #   CLI_CHECK_PRESET        block training preset (default fast)
 #   CLI_CHECK_CONFIG        reg train --config (default paper)
@@ -48,7 +49,7 @@ step() {
   "$@" --quiet >"${WORK}/${name}.out" 2>"${WORK}/${name}.err" || rc=$?
   "${PYTHON}" - "${name}" "${rc}" "${start}" "${EPOCHREALTIME}" "${WORK}/${name}.out" "${WORK}/${name}.err" "$*" \
     >>"${STEPS}" <<'PY'
-import json, os, sys
+import json, sys
 name, rc, start, end, out, err, command = sys.argv[1:8]
 seconds = float(end) - float(start)
 lines = [l for l in open(out).read().splitlines() if l.strip()]
