@@ -31,6 +31,12 @@ void WritePosedImages(const std::string& path, const PosedImages& posed) {
     json["frames"][m]["confidence"] = ConfidenceToJson(posed.confidence[m]);
   }
   json["not_posed"] = posed.not_posed;
+  if (!posed.not_posed_reason.empty()) {
+    Json reasons = Json::object();
+    for (size_t k = 0; k < posed.not_posed.size() && k < posed.not_posed_reason.size(); ++k)
+      reasons[posed.not_posed[k]] = posed.not_posed_reason[k];
+    json["not_posed_reason"] = reasons;
+  }
   if (!posed.confidence.empty()) {
     json["low_confidence"] = posed.low_confidence;
     json["confidence_doc"] =

@@ -34,6 +34,7 @@ struct PosedImages {
   std::vector<std::string> posed_by;
   std::vector<ImagePoseConfidence> confidence;
   std::vector<std::string> not_posed, low_confidence;  // image names
+  std::vector<std::string> not_posed_reason;           // one per not_posed (may be empty)
   // [[name_i, name_j, inliers], ...]: the view graph, plus the pairs the network ran on (0 inliers).
   Json view_graph = Json::array();
   // The "dbarf_poses" object: counts, timings, the method, and the depth range ("near", "far").

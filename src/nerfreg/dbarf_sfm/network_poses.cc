@@ -296,33 +296,6 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
   return out;
 }
 
-std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
-                                   double fraction) {
-  const size_t n = cam_from_world.size();
-  std::vector<int> out(n, -1);
-  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  int count = 0;
-  for (size_t k = 0; k < n; ++k) {
-    if (!posed[k]) continue;
-    centres[k] = cam_from_world[k].Inverse().translation;
-    mean += centres[k];
-    ++count;
-  }
-  if (count < 2) return out;
-  mean /= count;
-  double spread = 0;
-  for (size_t k = 0; k < n; ++k)
-    if (posed[k]) spread += (centres[k] - mean).squaredNorm();
-  spread = std::sqrt(spread / count);
-  for (size_t a = 0; a < n; ++a) {
-    for (size_t b = 0; b < n && posed[a] && out[a] < 0; ++b) {
-      if (b != a && posed[b] && (centres[a] - centres[b]).norm() <= fraction * spread) out[a] = static_cast<int>(b);
-    }
-  }
-  return out;
-}
-
 bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>& p98, double scale,
                        const NetworkPosesOptions& options, double* near, double* far) {
   *near = options.near;
@@ -634,11 +607,15 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     ThrowInputError(names.empty() ? std::string("images") : names[0], "",
                     "at least 3 images to pose, got " + std::to_string(n));
   }
-  CheckImageSizes(images, cameras, names);  // the network method may not build a view graph
+  // The networks stack images, so they need one size; the SfM takes any sizes.
+  bool one_size = true;
+  for (const Image& im : images) one_size = one_size && im.width == images[0].width && im.height == images[0].height;
+  CheckImageSizes(images, cameras, names, /*equal_sizes=*/options.method == "network");
   const Timer timer;
   // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
   // pose everything and the network not run).
   ImagePosesResult result;
+  result.cameras = cameras;
   std::unique_ptr<DbarfModel> model;
   if (options.method != "classical") {
     model = std::make_unique<DbarfModel>(LoadDbarfWeights(options.weights));
@@ -654,19 +631,22 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
 
   bool run_network_on_all = options.method == "network";
   if (options.method != "network") {
-    result.sfm = PoseImages(images, cameras, names, options.sfm);
+    result.sfm = PoseImages(images, cameras, names, options.sfm, options.camera_group);
     result.times.Append(result.sfm.times);
+    result.cameras = result.sfm.cameras;  // refined where the SfM self-calibrated
     int num_posed = 0;
     for (bool p : result.sfm.posed) num_posed += p;
     const bool complete = num_posed == n;
     const bool have_range = SfmDepthRange(result.sfm, source, &result.near, &result.far);
-    if (options.method == "classical" || complete) {
+    if (options.method == "classical" || complete || !one_size) {
       // The classical result as it was: the depth range is required (InputError otherwise).
+      if (!one_size && !complete && options.method != "classical")
+        LOG_WARN("images of several sizes: the network cannot pose the images the SfM left out");
       if (num_posed > 0) DepthRangeFromPoints(result.sfm, source, &result.near, &result.far);
-      SetSfmConfidence(result.sfm, cameras, &result);
+      SetSfmConfidence(result.sfm, result.cameras, &result);
     } else if (num_posed >= 3 && have_range) {
-      SetSfmConfidence(result.sfm, cameras, &result);
-      const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, options.network.max_width);
+      SetSfmConfidence(result.sfm, result.cameras, &result);
+      const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, options.network.max_width);
       RegisterUnposedWithNetwork(*model, net_images, net_intrinsics, options.network, &result);
     } else {
       LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
@@ -680,7 +660,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     // low-texture images the photometric comparison is weak, and a well-constrained SfM there was
     // right where the network's cameras scored better (docs/poses_and_views.md).
     const double doubted = DoubtedFraction(result, options);
-    if (doubted >= options.auto_doubt_fraction && !AssessSfm(result.sfm, cameras).WellConstrained()) {
+    if (one_size && doubted >= options.auto_doubt_fraction && !AssessSfm(result.sfm, result.cameras).WellConstrained()) {
       LOG_WARN(
           "the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
           "that explain the images better",
@@ -692,7 +672,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
       net.confidence.assign(n, ImagePoseConfidence());
       net.network_pairs.clear();
       NetworkRunState state;
-      const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, options.network.max_width);
+      const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, options.network.max_width);
       PoseAllWithNetwork(*model, net_images, net_intrinsics, result.sfm.view_graph, options.network, &net, &state);
       result.auto_sfm_score = PhotometricCameraScore(net_images, net_intrinsics, state, result.cam_from_world,
                                                      result.posed, options.network.photometric_ba);
@@ -738,7 +718,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     result.confidence.assign(n, ImagePoseConfidence());
     NetworkPosesOptions network = options.network;
     if (options.method == "auto") network.graph_edge_weight = options.auto_graph_edge_weight;
-    const auto [net_images, net_intrinsics] = NetworkInputs(images, cameras, network.max_width);
+    const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, network.max_width);
     PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
   }
 
@@ -749,22 +729,46 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   const bool matched = options.method != "network" || options.network.match_images;
   const std::vector<std::string> problems =
       ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
+  // The SfM checks its own cameras for a collapse (with the matches' parallax, global_sfm.h);
+  // here, centres the network placed onto another's.
   const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);
+  result.not_posed_reason.assign(n, "");
   for (int k = 0; k < n; ++k) {
-    if (!result.posed[k]) {
-      result.not_posed.push_back(names[k]);
-      continue;
-    }
+    if (!result.posed[k] && k < static_cast<int>(result.sfm.not_posed_reason.size()))
+      result.not_posed_reason[k] = result.sfm.not_posed_reason[k];
+    if (!result.posed[k]) continue;
     ImagePoseConfidence& c = result.confidence[k];
     c.problem = problems[k];
-    if (c.problem.empty() && coincident[k] >= 0) {
+    const bool by_network = result.posed_by[k] == "network";
+    if (c.problem.empty() && coincident[k] >= 0 && (by_network || result.posed_by[coincident[k]] == "network")) {
       c.problem = "its camera centre coincides with " + names[coincident[k]] + "'s (a collapsed solution)";
     }
-    c.low = !c.problem.empty() || c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
-            c.direction_residual_deg > options.low_confidence_direction_deg ||
+    const bool disagrees = c.rotation_residual_deg > options.low_confidence_deg ||
+                           c.direction_residual_deg > options.low_confidence_direction_deg;
+    c.low = !c.problem.empty() || c.edges == 0 || disagrees ||
             (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+    // A camera the network placed beside the SfM's whose own measurements disagree with it, or that
+    // collapsed onto another, is not an answer: it is left out with the reason, never counted.
+    if (options.method == "auto" && result.method_used == "auto" && by_network &&
+        (disagrees || !c.problem.empty() || c.edges == 0)) {
+      result.posed[k] = false;
+      result.posed_by[k] = "";
+      result.cam_from_world[k] = Rigid3d();
+      char buf[200];
+      std::snprintf(buf, sizeof(buf), "the network's pose disagrees with its edges to the posed images (rotation %.1f deg, direction %.1f deg over %d edges)",
+                    c.rotation_residual_deg, c.direction_residual_deg, c.edges);
+      result.not_posed_reason[k] = c.problem.empty() ? std::string(buf) : "the network's pose " + c.problem;
+      continue;
+    }
     if (c.low) result.low_confidence.push_back(names[k]);
   }
+  for (int k = 0; k < n; ++k) {
+    if (result.posed[k]) continue;
+    result.not_posed.push_back(names[k]);
+    if (result.not_posed_reason[k].empty()) result.not_posed_reason[k] = "no method could relate it to the others";
+  }
+  result.sfm.cam_from_world = result.cam_from_world;
+  result.sfm.posed = result.posed;
   result.sfm.not_posed = result.not_posed;
   if (result.seconds_network > 0) result.times.Record("network", result.seconds_network);
   result.seconds = timer.Seconds();

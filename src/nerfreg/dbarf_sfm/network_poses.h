@@ -91,6 +91,9 @@ struct ImagePosesOptions {
   std::string method = "auto";  // classical | network | auto
   std::string weights;          // DBARF weights (network, auto); loaded only when needed
   SfmOptions sfm;
+  // Per image, the camera group whose intrinsics it shares when the SfM refines them (empty: one
+  // group per distinct camera).
+  std::vector<int> camera_group;
   NetworkPosesOptions network;
   // Method auto, where the SfM poses too few images to register against: the weight of the view
   // graph's essential-matrix edges averaged with the network's (NetworkPosesOptions::graph_edge_weight).
@@ -114,6 +117,10 @@ struct ImagePosesResult {
   std::vector<std::string> posed_by;  // per image: "sfm", "network" or "" (not posed)
   std::vector<ImagePoseConfidence> confidence;
   std::vector<std::string> not_posed, low_confidence;  // image names
+  std::vector<std::string> not_posed_reason;           // per image; "" where posed
+  // The intrinsics the poses go with, one per image: the given ones, refined where the SfM
+  // self-calibrated (SfmOptions::refine_focal / refine_distortion).
+  std::vector<Camera> cameras;
   double near = 0, far = 0;                            // depth range of the content in the output frame
   // The classical result (auto, classical: its points and view graph; cam_from_world / posed are
   // the final ones); network: the view graph only (keypoints empty when images were not matched).
@@ -179,13 +186,6 @@ std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::ve
 // range typical of the scenes it was trained on. Returns whether the network's own range was used.
 bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>& p98, double scale,
                        const NetworkPosesOptions& options, double* near, double* far);
-
-// Per image, another posed image whose camera centre coincides with its own (closer than
-// `fraction` of the root-mean-square spread of the posed centres), or -1. A solution with such
-// images has collapsed (seen from the SfM on repetitive texture and from the network on
-// low-texture images): an image capture for a NeRF has no two photographs from one point.
-std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
-                                   double fraction = 0.01);
 
 struct NetworkRelativePose {
   int target = 0, source = 0;

@@ -24,15 +24,16 @@ int RunDbarfPoses(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, &common);
   DescribeCommand(app,
-                  "Estimate every image's camera from a folder of unposed images with known intrinsics. --method "
-                  "classical: SIFT view graph, robust rotation and translation averaging, triangulation and bundle "
-                  "adjustment (the classical initialisation of DBARF). --method network: the DBARF pose network "
+                  "Estimate every image's camera from a folder of unposed images, with known intrinsics or "
+                  "self-calibrated. --method classical: SIFT view graph, robust rotation averaging, global "
+                  "positioning of cameras and points, triangulation and bundle adjustment (the classical "
+                  "initialisation of DBARF). --method network: the DBARF pose network "
                   "predicts each image's neighbours relative to it (from the identity), and the relative poses are "
                   "averaged into global cameras (no SfM). --method auto (default): classical, and the images it "
                   "cannot pose are posed by the network against their posed neighbours. Writes OUT/transforms.json "
                   "(camera 0 at the identity, mean distance of the others to it 1; per frame \"posed_by\" (sfm or "
                   "network) and \"confidence\" (see its \"confidence_doc\"); images that could not be posed under "
-                  "\"not_posed\", low-confidence ones under \"low_confidence\"), a COLMAP model in OUT/sparse/0 and "
+                  "\"not_posed\" with the reason, low-confidence ones under \"low_confidence\"), a COLMAP model in OUT/sparse/0 and "
                   "OUT/cameras.png (the posed cameras seen from above: centres and viewing directions, with a scale "
                   "bar whose length is logged).",
                   "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");
@@ -42,9 +43,12 @@ int RunDbarfPoses(int argc, char** argv) {
   options.weights = DefaultDbarfPoseWeights();
   app.add_option("images", job.images_dir, "Folder of PNG / JPEG images (sorted by name)")->required();
   auto* t_opt = app.add_option("--intrinsics", job.intrinsics,
-                               "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored)");
+                               "transforms.json with fl_x fl_y cx cy w h or camera_angle_x (poses ignored); without "
+                               "it or --focal the images are self-calibrated (EXIF prior, focal and k1, k2 refined)");
   auto* f_opt = app.add_option("--focal", job.focal, "Focal length in pixels (principal point at the image centre)");
   t_opt->excludes(f_opt);
+  app.add_flag("--refine-intrinsics", job.refine_intrinsics,
+               "Treat --intrinsics / --focal as priors: refine the focal length and k1, k2 in the bundle adjustment");
   app.add_option("--out", job.out, "Output folder")->required();
   app.add_option("--method", options.method, "classical, network or auto (default auto)");
   app.add_option(

@@ -1,6 +1,7 @@
 #include "nerfreg/pipeline/pose_image_folder.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -72,6 +73,39 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
   const Dataset d = DatasetFromTransformsJson(json, path, images_dir);
   std::vector<Camera> cameras;
   for (size_t k = 0; k < d.frames.size(); ++k) cameras.push_back(d.frames[k].camera), (*splits)[k] = d.frames[k].split;
+  return cameras;
+}
+
+struct PhotoPrior {
+  double focal_px = 0;
+  std::string source;      // where the focal length came from
+  std::string camera_key;  // make and model, "" when unknown
+};
+PhotoPrior PhotoFocalPrior(const std::string& /*path*/, int width, int height) {
+  return {1.2 * std::max(width, height), "the image size (1.2 x the longer side)", ""};
+}
+
+// Cameras of photos without a calibration file: a focal prior per image from its EXIF (or its size,
+// util/exif.h), principal point at the centre, no distortion; `group` gets one camera group per
+// make / model / size, whose intrinsics the SfM estimates and refines together.
+std::vector<Camera> PriorCameras(const std::string& dir, const std::vector<std::string>& names,
+                                 const std::vector<Image>& images, std::vector<int>* group) {
+  std::vector<Camera> cameras;
+  std::map<std::string, int> group_of;
+  group->clear();
+  for (size_t k = 0; k < names.size(); ++k) {
+    const std::string path = JoinPaths(dir, names[k]);
+    const Image& im = images[k];
+    const PhotoPrior prior = PhotoFocalPrior(path, im.width, im.height);
+    const std::string key = prior.camera_key + " " + std::to_string(im.width) + "x" + std::to_string(im.height);
+    const auto [it, inserted] = group_of.emplace(key, static_cast<int>(group_of.size()));
+    group->push_back(it->second);
+    cameras.push_back(
+        Camera::Pinhole(im.width, im.height, prior.focal_px, prior.focal_px, 0.5 * im.width, 0.5 * im.height));
+    if (inserted)
+      LOG_INFO("{}: camera group {} ({}), focal prior {:.1f} px from {}", names[k], it->second, key, prior.focal_px,
+               prior.source);
+  }
   return cameras;
 }
 
@@ -150,6 +184,8 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
     posed.confidence.push_back(result.confidence[k]);
   }
   posed.not_posed = result.not_posed;
+  for (size_t k = 0; k < names.size(); ++k)
+    if (!result.posed[k]) posed.not_posed_reason.push_back(result.not_posed_reason[k]);
   posed.low_confidence = result.low_confidence;
   // The view graph, plus the pairs the network was run on that it lacks (0 inliers, so they rank
   // last): dbarf finetune / render take their neighbours from it, and images the matcher could
@@ -178,6 +214,9 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                 {"near", result.near},
                 {"far", result.far},
                 {"frame", "first posed camera at the identity; mean distance of the others to it = 1"},
+                {"intrinsics", o.intrinsics.empty() && !(o.focal > 0) ? "self-calibrated"
+                               : o.refine_intrinsics                   ? "refined from the given ones"
+                                                                       : "given"},
                 {"well_constrained", quality.WellConstrained()},
                 {"problems", quality.problems}};
   if (!result.auto_choice.empty()) {
@@ -199,7 +238,7 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
 }  // namespace
 
 void ImageFolderPosesOptions::Check() const {
-  if (intrinsics.empty() && !(focal > 0)) throw InputError("dbarf poses: give --intrinsics T.json or --focal PX (> 0)");
+  if (focal < 0 || !std::isfinite(focal)) ThrowInputError("--focal", "", "a focal length in pixels > 0");
   if (neighbours != "graph" && neighbours != "appearance") {
     throw InputError("--neighbours: expected graph or appearance, got \"" + neighbours + "\"");
   }
@@ -223,17 +262,36 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   for (const auto& name : names) images.push_back(ReadImage(JoinPaths(o.images_dir, name)));
   std::vector<Camera> cameras;
   std::vector<std::string> splits(names.size(), "train");  // --intrinsics' splits, if given
+  const bool calibrated = !o.intrinsics.empty() || o.focal > 0;
   if (!o.intrinsics.empty()) {
     cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names, &splits);
-  } else {
+  } else if (o.focal > 0) {
     for (const Image& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
+  } else {
+    cameras = PriorCameras(o.images_dir, names, images, &o.poses.camera_group);
+  }
+  if (!calibrated || o.refine_intrinsics) {
+    o.poses.sfm.view_graph.estimate_focal = !calibrated;
+    o.poses.sfm.refine_focal = true;
+    o.poses.sfm.refine_distortion = true;
   }
   StageTimes times;
   times.Record("read images", timer.Seconds());
   LOG_INFO("posing {} images of {} (method {})", names.size(), o.images_dir, o.poses.method);
   const ImagePosesResult result = EstimateImagePoses(images, cameras, names, o.poses, o.images_dir);
   times.Append(result.times);
+  if (!calibrated || o.refine_intrinsics) {
+    std::set<int> logged;
+    for (size_t k = 0; k < names.size(); ++k) {
+      const int group = o.poses.camera_group.empty() ? 0 : o.poses.camera_group[k];
+      if (!logged.insert(group).second) continue;
+      const Camera& c = result.cameras[k];
+      LOG_INFO("{} and its camera group: focal {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", names[k], c.fx,
+               cameras[k].fx, c.k1, c.k2);
+    }
+  }
+  cameras = result.cameras;
   const Timer writing;
   const SfmResult& r = result.sfm;  // final cameras, with the SfM's points (if any)
   ImageFolderPosesResult summary;
@@ -281,8 +339,10 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     WritePosedImages(JoinPaths(tmp, "transforms.json"), posed);
     output.Commit();
   }
-  for (const auto& name : result.not_posed)
-    LOG_WARN("{}: not posed; listed under \"not_posed\" in {}/transforms.json", name, out);
+  for (size_t k = 0; k < names.size(); ++k)
+    if (!result.posed[k])
+      LOG_WARN("{}: not posed ({}); listed under \"not_posed\" in {}/transforms.json", names[k],
+               result.not_posed_reason[k], out);
   if (!result.low_confidence.empty()) {
     LOG_WARN("low-confidence poses ({}): {}; see \"confidence\" in {}/transforms.json", result.low_confidence.size(),
              DescribeLowConfidence(result, names), out);

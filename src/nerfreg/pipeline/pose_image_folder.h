@@ -12,9 +12,13 @@ namespace nerfreg {
 struct ImageFolderPosesOptions {
   std::string images_dir;  // PNG / JPEG images, sorted by name
   // Intrinsics: a transforms.json (its poses ignored), or a focal length in pixels (principal point
-  // at the image centre).
+  // at the image centre); both are held fixed unless refine_intrinsics. With neither, the images
+  // are self-calibrated: a focal prior from EXIF (or the image size), the focal length estimated
+  // from the fundamental matrices and refined with k1, k2 in the bundle adjustment, per camera
+  // group (one per make / model / size).
   std::string intrinsics;
   double focal = 0;
+  bool refine_intrinsics = false;
   std::string out;                   // output folder
   bool force = false;                // replace an existing output
   std::string neighbours = "graph";  // network: graph (SIFT view graph) or appearance (thumbnails only)

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <map>
 #include <stdexcept>
 
 namespace nerfreg {
@@ -17,15 +18,40 @@ void BundleAdjustmentOptions::Check() const {
 
 namespace {
 
-// Camera parameters: angle-axis rotation (3), translation (3) of cam_from_world.
-struct ReprojectionCost {
-  ReprojectionCost(const Eigen::Vector3d& x_normalized, double fx, double fy) : xn_(x_normalized), fx_(fx), fy_(fy) {}
+// Camera parameters: angle-axis rotation (3), translation (3) of cam_from_world. Intrinsics: focal
+// (fx), k1, k2 of the image's group; fy / fx, the principal point and the other distortion
+// coefficients are the image's own constants.
+struct ProjectionCost {
+  ProjectionCost(const Eigen::Vector2d& uv, const Camera& c)
+      : uv_(uv), aspect_(c.fy / c.fx), cx_(c.cx), cy_(c.cy), p1_(c.p1), p2_(c.p2), k3_(c.k3), k4_(c.k4) {}
+  template <typename T>
+  bool operator()(const T* camera, const T* point, const T* intrinsics, T* residual) const {
+    T p[3];
+    ceres::AngleAxisRotatePoint(camera, point, p);
+    for (int k = 0; k < 3; ++k) p[k] += camera[3 + k];
+    // Points behind the camera keep a finite residual; triangulation removes them later.
+    const T z = p[2] > T(1e-6) ? p[2] : T(1e-6);
+    const T u = p[0] / z, v = p[1] / z;
+    const T r2 = u * u + v * v;
+    const T radial = T(1) + r2 * (intrinsics[1] + r2 * (intrinsics[2] + r2 * (T(k3_) + r2 * T(k4_))));
+    const T ud = u * radial + T(2 * p1_) * u * v + T(p2_) * (r2 + T(2) * u * u);
+    const T vd = v * radial + T(p1_) * (r2 + T(2) * v * v) + T(2 * p2_) * u * v;
+    residual[0] = intrinsics[0] * ud + T(cx_) - T(uv_.x());
+    residual[1] = intrinsics[0] * T(aspect_) * vd + T(cy_) - T(uv_.y());
+    return true;
+  }
+  Eigen::Vector2d uv_;
+  double aspect_, cx_, cy_, p1_, p2_, k3_, k4_;
+};
+
+// Fisheye cameras: (fx * (x/z - x_n), fy * (y/z - y_n)) on undistorted normalised coordinates.
+struct NormalizedCost {
+  NormalizedCost(const Eigen::Vector3d& x_normalized, double fx, double fy) : xn_(x_normalized), fx_(fx), fy_(fy) {}
   template <typename T>
   bool operator()(const T* camera, const T* point, T* residual) const {
     T p[3];
     ceres::AngleAxisRotatePoint(camera, point, p);
     for (int k = 0; k < 3; ++k) p[k] += camera[3 + k];
-    // Points behind the camera keep a finite residual; triangulation removes them later.
     const T z = p[2] > T(1e-6) ? p[2] : T(1e-6);
     residual[0] = T(fx_) * (p[0] / z - T(xn_.x()));
     residual[1] = T(fy_) * (p[1] / z - T(xn_.y()));
@@ -35,17 +61,33 @@ struct ReprojectionCost {
   double fx_, fy_;
 };
 
+double SquaredErrorSum(const std::vector<Camera>& cameras, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                       const std::vector<bool>& posed, const std::vector<Rigid3d>& cam_from_world,
+                       const std::vector<SfmPoint>& points) {
+  double sum = 0;
+  for (const auto& point : points)
+    for (const auto& e : point.elements) {
+      if (!posed[e.image]) continue;
+      const Eigen::Vector3d p = cam_from_world[e.image] * point.x_in_world;
+      const double error = p.z() > 1e-6 ? (cameras[e.image].ImgFromCam(p) - keypoints[e.image][e.keypoint]).norm()
+                                        : 1e3;  // behind: counted as a gross error
+      sum += error * error;
+    }
+  return sum;
+}
+
 }  // namespace
 
-BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
+BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::vector<int>& camera_group,
                                      const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
                                      const std::vector<bool>& posed, int fixed_camera,
                                      std::vector<Rigid3d>* cam_from_world, std::vector<SfmPoint>* points,
                                      const BundleAdjustmentOptions& options) {
   options.Check();
-  const int n = static_cast<int>(cameras.size());
+  const int n = static_cast<int>(cameras->size());
   if (static_cast<int>(cam_from_world->size()) != n || static_cast<int>(posed.size()) != n ||
-      static_cast<int>(keypoints.size()) != n || fixed_camera < 0 || fixed_camera >= n || !posed[fixed_camera]) {
+      static_cast<int>(keypoints.size()) != n || fixed_camera < 0 || fixed_camera >= n || !posed[fixed_camera] ||
+      (!camera_group.empty() && static_cast<int>(camera_group.size()) != n)) {
     throw std::invalid_argument("BundleAdjust: inconsistent sizes or fixed camera");
   }
   std::vector<std::array<double, 6>> params(n);
@@ -54,26 +96,47 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
     ceres::RotationMatrixToAngleAxis(ceres::ColumnMajorAdapter3x3(r.data()), params[k].data());
     for (int a = 0; a < 3; ++a) params[k][3 + a] = (*cam_from_world)[k].translation(a);
   }
+  // One intrinsics block (focal, k1, k2) per group, from the group's first image.
+  std::vector<int> group(n);
+  for (int k = 0; k < n; ++k) group[k] = camera_group.empty() ? k : camera_group[k];
+  std::map<int, std::array<double, 3>> intrinsics;
+  for (int k = 0; k < n; ++k)
+    if (!intrinsics.count(group[k])) intrinsics[group[k]] = {(*cameras)[k].fx, (*cameras)[k].k1, (*cameras)[k].k2};
+
   ceres::Problem problem;
   BundleAdjustmentSummary summary;
-  double initial_sq = 0;
   for (auto& point : *points) {
     for (const auto& e : point.elements) {
       if (!posed[e.image]) continue;
-      const Camera& cam = cameras[e.image];
-      const Eigen::Vector3d xn = cam.CamFromImg(keypoints[e.image][e.keypoint]);
-      auto* cost = new ReprojectionCost(xn, cam.fx, cam.fy);
-      double r[2];
-      (*cost)(params[e.image].data(), point.x_in_world.data(), r);
-      initial_sq += r[0] * r[0] + r[1] * r[1];
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 6, 3>(cost),
-                               new ceres::HuberLoss(options.huber_scale_px), params[e.image].data(),
-                               point.x_in_world.data());
+      const Camera& cam = (*cameras)[e.image];
+      const Eigen::Vector2d& uv = keypoints[e.image][e.keypoint];
+      ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_scale_px);
+      if (cam.model == CameraModel::kOpenCVFisheye) {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<NormalizedCost, 2, 6, 3>(new NormalizedCost(cam.CamFromImg(uv), cam.fx, cam.fy)),
+            loss, params[e.image].data(), point.x_in_world.data());
+      } else {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<ProjectionCost, 2, 6, 3, 3>(new ProjectionCost(uv, cam)), loss,
+            params[e.image].data(), point.x_in_world.data(), intrinsics[group[e.image]].data());
+      }
       ++summary.num_observations;
     }
   }
   if (summary.num_observations == 0) return summary;
-  summary.initial_rms_px = std::sqrt(initial_sq / summary.num_observations);
+  summary.initial_rms_px =
+      std::sqrt(SquaredErrorSum(*cameras, keypoints, posed, *cam_from_world, *points) / summary.num_observations);
+  for (auto& [g, block] : intrinsics) {
+    if (!problem.HasParameterBlock(block.data())) continue;
+    std::vector<int> held;
+    if (!options.refine_focal) held.push_back(0);
+    if (!options.refine_distortion) held.push_back(1), held.push_back(2);
+    if (held.size() == 3)
+      problem.SetParameterBlockConstant(block.data());
+    else if (!held.empty())
+      problem.SetManifold(block.data(), new ceres::SubsetManifold(3, held));
+    if (options.refine_focal) problem.SetParameterLowerBound(block.data(), 0, 1e-3 * block[0]);
+  }
   if (problem.HasParameterBlock(params[fixed_camera].data()))
     problem.SetParameterBlockConstant(params[fixed_camera].data());
   // The scale gauge: the largest translation coordinate of the camera farthest from the fixed one
@@ -86,11 +149,17 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
     const double d = ((*cam_from_world)[k].Inverse().translation - fixed_center).norm();
     if (d > far_distance) far = k, far_distance = d;
   }
-  if (far >= 0) {
-    const Eigen::Vector3d t = (*cam_from_world)[far].translation - (*cam_from_world)[far].rotation * fixed_center;
-    int axis = 0;
-    t.cwiseAbs().maxCoeff(&axis);
-    problem.SetManifold(params[far].data(), new ceres::SubsetManifold(6, {3 + axis}));
+  for (int k = 0; k < n; ++k) {
+    if (k == fixed_camera || !posed[k] || !problem.HasParameterBlock(params[k].data())) continue;
+    std::vector<int> held;
+    if (!options.refine_rotations) held = {0, 1, 2};
+    if (k == far) {
+      const Eigen::Vector3d t = (*cam_from_world)[far].translation - (*cam_from_world)[far].rotation * fixed_center;
+      int axis = 0;
+      t.cwiseAbs().maxCoeff(&axis);
+      held.push_back(3 + axis);
+    }
+    if (!held.empty()) problem.SetManifold(params[k].data(), new ceres::SubsetManifold(6, held));
   }
   const ceres::Solver::Summary ceres_summary =
       SolveCeresProblem(&problem, options.max_iterations, ceres::SPARSE_SCHUR, options.num_threads);
@@ -101,19 +170,27 @@ BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
     Eigen::Matrix3d r;
     ceres::AngleAxisToRotationMatrix(params[k].data(), ceres::ColumnMajorAdapter3x3(r.data()));
     (*cam_from_world)[k] = Rigid3d(r, Eigen::Vector3d(params[k][3], params[k][4], params[k][5]));
-  }
-  double final_sq = 0;
-  for (const auto& point : *points)
-    for (const auto& e : point.elements) {
-      if (!posed[e.image]) continue;
-      const Camera& cam = cameras[e.image];
-      const Eigen::Vector3d xn = cam.CamFromImg(keypoints[e.image][e.keypoint]);
-      const Eigen::Vector3d p = (*cam_from_world)[e.image] * point.x_in_world;
-      const double dx = cam.fx * (p.x() / p.z() - xn.x()), dy = cam.fy * (p.y() / p.z() - xn.y());
-      final_sq += dx * dx + dy * dy;
+    Camera& cam = (*cameras)[k];
+    if (cam.model != CameraModel::kOpenCVFisheye && (options.refine_focal || options.refine_distortion)) {
+      const std::array<double, 3>& block = intrinsics[group[k]];
+      const double aspect = cam.fy / cam.fx;
+      cam.fx = block[0], cam.fy = block[0] * aspect, cam.k1 = block[1], cam.k2 = block[2];
     }
-  summary.final_rms_px = std::sqrt(final_sq / summary.num_observations);
+  }
+  summary.final_rms_px =
+      std::sqrt(SquaredErrorSum(*cameras, keypoints, posed, *cam_from_world, *points) / summary.num_observations);
   return summary;
+}
+
+BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
+                                     const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                     const std::vector<bool>& posed, int fixed_camera,
+                                     std::vector<Rigid3d>* cam_from_world, std::vector<SfmPoint>* points,
+                                     const BundleAdjustmentOptions& options) {
+  if (options.refine_focal || options.refine_distortion)
+    throw std::invalid_argument("BundleAdjust: refining intrinsics needs mutable cameras");
+  std::vector<Camera> copy = cameras;
+  return BundleAdjust(&copy, {}, keypoints, posed, fixed_camera, cam_from_world, points, options);
 }
 
 }  // namespace nerfreg

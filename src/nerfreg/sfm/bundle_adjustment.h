@@ -1,10 +1,14 @@
 #pragma once
 // Bundle adjustment (Ceres): refines every posed camera's cam_from_world and every point by
-// minimising the reprojection error in pixels under a Huber loss; intrinsics are fixed as given.
-// Observations are undistorted once into normalised coordinates, and the residual is
-// (fx * (x/z - x_n), fy * (y/z - y_n)): exactly pixels for a pinhole camera, a first-order
-// approximation of them with distortion. The gauge: one camera is held fixed, and for the scale
-// one translation coordinate of the camera farthest from it; the caller sets the final frame.
+// minimising the reprojection error in pixels under a Huber loss, and optionally the intrinsics
+// (self-calibration: focal length and radial distortion k1, k2, shared by the images of one camera
+// group, as COLMAP refines one camera per make / model / size).
+//
+// The residual is the full projection (pinhole + OpenCV radial-tangential distortion) minus the
+// keypoint, in pixels. Fisheye cameras keep the first-order residual on undistorted normalised
+// coordinates (fx * (x/z - x_n), ...) and are never refined. The gauge: one camera is held fixed,
+// and for the scale one translation coordinate of the camera farthest from it; the caller sets the
+// final frame.
 #include <vector>
 
 #include "nerfreg/geometry/camera.h"
@@ -17,7 +21,14 @@ struct BundleAdjustmentOptions {
   double huber_scale_px = 1.0;  // reprojection errors beyond this count linearly
   int max_iterations = 50;      // Ceres iterations
   int num_threads = 1;          // Ceres threads
-  void Check() const;           // throws std::invalid_argument
+  // false holds every rotation at its value (GLOMAP's first adjustment after global positioning:
+  // positions settle before orientations may trade against them).
+  bool refine_rotations = true;
+  // Self-calibration, per camera group: the focal length (fx and fy scaled together) and the
+  // radial distortion k1, k2. The principal point stays (it is poorly constrained, COLMAP's default).
+  bool refine_focal = false;
+  bool refine_distortion = false;
+  void Check() const;  // throws std::invalid_argument
 };
 
 struct BundleAdjustmentSummary {
@@ -29,7 +40,16 @@ struct BundleAdjustmentSummary {
 };
 
 // fixed_camera: the posed image whose pose is held constant. Cameras with !posed[k] and points'
-// elements in them are left alone.
+// elements in them are left alone. camera_group: per image, the index of its shared intrinsics
+// (empty: every image its own); only read when refining intrinsics, which then writes the refined
+// values back into every camera of the group.
+BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::vector<int>& camera_group,
+                                     const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                     const std::vector<bool>& posed, int fixed_camera,
+                                     std::vector<Rigid3d>* cam_from_world, std::vector<SfmPoint>* points,
+                                     const BundleAdjustmentOptions& options);
+
+// The same with fixed intrinsics.
 BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
                                      const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
                                      const std::vector<bool>& posed, int fixed_camera,

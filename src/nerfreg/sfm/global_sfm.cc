@@ -1,5 +1,6 @@
 #include "nerfreg/sfm/global_sfm.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -23,78 +24,239 @@ ViewGraphOptions SfmViewGraphDefaults() {
 void SfmOptions::Check() const {
   view_graph.Check();
   rotation.Check();
+  global_positioning.Check();
   translation.Check();
   tracks.Check();
   bundle_adjustment.Check();
-  if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0)) {
+  if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
+      collapse_retries < 0) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
     if (!(t > 0)) throw std::invalid_argument("SfmOptions: round_reprojection_error_px must be positive");
 }
 
-SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options) {
+std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                   double fraction) {
+  const size_t n = cam_from_world.size();
+  std::vector<int> out(n, -1);
+  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (size_t k = 0; k < n; ++k) {
+    if (!posed[k]) continue;
+    centres[k] = cam_from_world[k].Inverse().translation;
+    mean += centres[k];
+    ++count;
+  }
+  if (count < 2) return out;
+  mean /= count;
+  double spread = 0;
+  for (size_t k = 0; k < n; ++k)
+    if (posed[k]) spread += (centres[k] - mean).squaredNorm();
+  spread = std::sqrt(spread / count);
+  for (size_t a = 0; a < n; ++a) {
+    for (size_t b = 0; b < n && posed[a] && out[a] < 0; ++b) {
+      if (b != a && posed[b] && (centres[a] - centres[b]).norm() <= fraction * spread) out[a] = static_cast<int>(b);
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// One group for equal cameras, else one per image.
+std::vector<int> DefaultCameraGroups(const std::vector<Camera>& cameras) {
+  std::vector<int> same(cameras.size(), 0), own(cameras.size());
+  for (size_t k = 0; k < cameras.size(); ++k) {
+    own[k] = static_cast<int>(k);
+    const Camera &a = cameras[k], &b = cameras[0];
+    if (a.width != b.width || a.height != b.height || a.fx != b.fx || a.fy != b.fy || a.cx != b.cx || a.cy != b.cy)
+      return own;
+  }
+  return same;
+}
+
+// The median angle (degrees) between the two rays of an edge's inlier matches once both are
+// rotated into the world frame: ~0 for photos taken from one spot (a pure rotation), larger the
+// more the two views' centres differ relative to the scene's depth.
+double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
+  std::vector<double> angles;
+  for (const auto& [a, b] : edge.inlier_matches) {
+    const Eigen::Vector3d ra = cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    const Eigen::Vector3d rb = cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
+  }
+  if (angles.empty()) return 0;
+  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+  return angles[angles.size() / 2];
+}
+
+// Parallax above which two images cannot share a camera centre.
+constexpr double kCollapseParallaxDeg = 1.0;
+
+struct Solution {
+  std::vector<Rigid3d> cam_from_world;
+  std::vector<bool> posed;
+  std::vector<SfmPoint> points;
+  std::vector<Camera> cameras;
+  std::vector<int> collapsed_with;  // per image: the image whose centre it wrongly shares, or -1
+};
+
+}  // namespace
+
+SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
+                       const std::vector<int>& camera_group) {
   options.Check();
   const int n = static_cast<int>(graph.names.size());
-  if (static_cast<int>(cameras.size()) != n || static_cast<int>(graph.keypoints.size()) != n) {
-    throw std::invalid_argument("RunGlobalSfm: one camera and one keypoint list per image");
+  if (static_cast<int>(cameras.size()) != n || static_cast<int>(graph.keypoints.size()) != n ||
+      (!camera_group.empty() && static_cast<int>(camera_group.size()) != n)) {
+    throw std::invalid_argument("RunGlobalSfm: one camera, keypoint list and group per image");
   }
+  const std::vector<int> groups = camera_group.empty() ? DefaultCameraGroups(cameras) : camera_group;
   const Timer timer;
   SfmResult result;
   result.view_graph = graph;
+  result.cameras = cameras;
   result.cam_from_world.assign(n, Rigid3d());
   result.posed.assign(n, false);
+  result.not_posed_reason.assign(n, "");
 
   Timer stage;
   const RotationAveragingResult rotations = AverageRotations(graph, options.rotation);
   result.times.Record("rotation averaging", stage.Seconds());
-  stage.Restart();
   std::vector<bool> usable = rotations.edge_inlier;
   for (bool u : usable) result.num_edges_used += u;
-  const TranslationAveragingResult centers =
-      AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
-  result.times.Record("translation averaging", stage.Seconds());
+  stage.Restart();
+  const std::vector<Track> tracks = BuildTracks(graph, usable, options.tracks);
+  result.times.Record("tracks", stage.Seconds());
+
+  // Positions, then rounds of triangulation and bundle adjustment; again from another random start
+  // while the solution has collapsed.
+  double seconds_positioning = 0, seconds_triangulation = 0, seconds_ba = 0;
+  Solution solution;
+  for (int attempt = 0; attempt <= options.collapse_retries; ++attempt) {
+    Solution s;
+    s.cameras = cameras;
+    s.cam_from_world.assign(n, Rigid3d());
+    s.posed.assign(n, false);
+    s.collapsed_with.assign(n, -1);
+    stage.Restart();
+    std::vector<Eigen::Vector3d> centers(n, Eigen::Vector3d::Zero());
+    // A collapsed solution is solved again by global positioning, from another random start.
+    const SfmPositioning positioning = attempt == 0 ? options.positioning : SfmPositioning::kGlobalPositioning;
+    if (positioning == SfmPositioning::kGlobalPositioning) {
+      GlobalPositioningOptions gp = options.global_positioning;
+      gp.seed += attempt;
+      const GlobalPositioningResult positions =
+          PositionCamerasAndPoints(tracks, graph.keypoints, cameras, rotations.cam_from_world, rotations.connected, gp);
+      centers = positions.centers;
+      s.posed = positions.solved;
+    } else {
+      const TranslationAveragingResult averaged =
+          AverageTranslations(graph, rotations.cam_from_world, usable, options.translation);
+      centers = averaged.centers;
+      s.posed = averaged.solved;
+    }
+    seconds_positioning += stage.Seconds();
+    int root = -1;
+    for (int k = 0; k < n; ++k) {
+      if (!s.posed[k]) continue;
+      if (root < 0) root = k;
+      const Eigen::Quaterniond& r = rotations.cam_from_world[k];
+      s.cam_from_world[k] = Rigid3d(r, -(r * centers[k]));
+    }
+    if (root < 0) {
+      solution = std::move(s);
+      break;
+    }
+    for (size_t round = 0; round < options.round_reprojection_error_px.size(); ++round) {
+      const double threshold = options.round_reprojection_error_px[round];
+      stage.Restart();
+      TriangulationOptions tri;
+      tri.max_reprojection_error_px = threshold;
+      tri.min_angle_deg = options.min_triangulation_angle_deg;
+      s.points.clear();
+      for (const Track& track : tracks) {
+        SfmPoint point;
+        if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
+          s.points.push_back(std::move(point));
+      }
+      seconds_triangulation += stage.Seconds();
+      stage.Restart();
+      BundleAdjustmentOptions ba = options.bundle_adjustment;
+      if (round == 0 && positioning == SfmPositioning::kGlobalPositioning) {
+        // Positions first, orientations held (GLOMAP): the averaged rotations are better than the
+        // positions at this point, and a free rotation would trade against a wrong position.
+        ba.refine_rotations = false;
+        BundleAdjust(&s.cameras, groups, graph.keypoints, s.posed, root, &s.cam_from_world, &s.points, ba);
+        ba.refine_rotations = true;
+      }
+      ba.refine_focal = options.refine_focal && round > 0;
+      ba.refine_distortion = options.refine_distortion && round > 0;
+      [[maybe_unused]] const auto summary =
+          BundleAdjust(&s.cameras, groups, graph.keypoints, s.posed, root, &s.cam_from_world, &s.points, ba);
+      seconds_ba += stage.Seconds();
+      LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
+                s.points.size(), summary.initial_rms_px, summary.final_rms_px, summary.iterations, stage.Seconds());
+    }
+    // Coincident centres are a collapse only where the two images' own matches show parallax.
+    int num_collapsed = 0;
+    if (options.collapse_fraction > 0) {
+      const std::vector<int> coincident = CoincidentCentres(s.cam_from_world, s.posed, options.collapse_fraction);
+      for (int k = 0; k < n; ++k) {
+        if (coincident[k] < 0) continue;
+        const ViewGraphEdge* edge = graph.FindEdge(k, coincident[k]);
+        if (edge != nullptr &&
+            MedianParallaxDeg(*edge, graph.keypoints, s.cameras, s.cam_from_world) > kCollapseParallaxDeg) {
+          s.collapsed_with[k] = coincident[k];
+          ++num_collapsed;
+        }
+      }
+    }
+    solution = std::move(s);
+    if (num_collapsed == 0) break;
+    ++result.num_collapse_resolves;
+    LOG_INFO("sfm: {} camera centres collapsed onto others; solving again from another start ({}/{})",
+             num_collapsed, attempt + 1, options.collapse_retries);
+  }
+  result.times.Record("positioning", seconds_positioning);
+  result.times.Record("triangulation", seconds_triangulation);
+  result.times.Record("bundle adjustment", seconds_ba);
+  result.cam_from_world = solution.cam_from_world;
+  result.posed = solution.posed;
+  result.points = std::move(solution.points);
+  result.cameras = solution.cameras;
+  // Images still collapsed are not posed: of each coincident pair, the one seen in fewer points.
+  if (!solution.collapsed_with.empty()) {
+    std::vector<int> seen(n, 0);
+    for (const auto& point : result.points)
+      for (const auto& e : point.elements) ++seen[e.image];
+    for (int k = 0; k < n; ++k) {
+      const int other = solution.collapsed_with[k];
+      if (other < 0 || !result.posed[k] || !result.posed[other]) continue;
+      const int drop = seen[k] <= seen[other] ? k : other;
+      result.posed[drop] = false;
+      result.not_posed_reason[drop] = "its camera centre coincides with " + graph.names[drop == k ? other : k] +
+                                      "'s although their matches show parallax (a collapsed solution)";
+    }
+  }
   int root = -1;
   for (int k = 0; k < n; ++k) {
-    result.posed[k] = centers.solved[k];
-    if (!result.posed[k]) continue;
-    if (root < 0) root = k;
-    const Eigen::Quaterniond& r = rotations.cam_from_world[k];
-    result.cam_from_world[k] = Rigid3d(r, -(r * centers.centers[k]));
+    if (result.posed[k] && root < 0) root = k;
+    if (result.posed[k] || !result.not_posed_reason[k].empty()) continue;
+    result.not_posed_reason[k] = rotations.connected[k] ? "too few tracks shared with the posed images"
+                                                        : "no consistent two-view geometry with the others";
   }
   for (int k = 0; k < n; ++k)
     if (!result.posed[k]) result.not_posed.push_back(graph.names[k]);
   if (root < 0) {
+    result.points.clear();
     result.seconds_sfm = timer.Seconds();
     return result;
   }
-
-  stage.Restart();
-  const std::vector<Track> tracks = BuildTracks(graph, usable, options.tracks);
-  result.times.Record("tracks", stage.Seconds());
-  double seconds_triangulation = 0, seconds_ba = 0;
-  for (double threshold : options.round_reprojection_error_px) {
-    stage.Restart();
-    TriangulationOptions tri;
-    tri.max_reprojection_error_px = threshold;
-    tri.min_angle_deg = options.min_triangulation_angle_deg;
-    result.points.clear();
-    for (const Track& track : tracks) {
-      SfmPoint point;
-      if (TriangulateTrack(track, graph.keypoints, cameras, result.cam_from_world, result.posed, tri, &point)) {
-        result.points.push_back(std::move(point));
-      }
-    }
-    seconds_triangulation += stage.Seconds();
-    stage.Restart();
-    [[maybe_unused]] const auto ba = BundleAdjust(cameras, graph.keypoints, result.posed, root, &result.cam_from_world,
-                                                  &result.points, options.bundle_adjustment);
-    seconds_ba += stage.Seconds();
-    LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
-              result.points.size(), ba.initial_rms_px, ba.final_rms_px, ba.iterations, stage.Seconds());
-  }
-  result.times.Record("triangulation", seconds_triangulation);
-  result.times.Record("bundle adjustment", seconds_ba);
+  const std::vector<Camera>& final_cameras = result.cameras;
   // Final observations: those within the last threshold of the adjusted points.
   const double last = options.round_reprojection_error_px.back();
   std::vector<SfmPoint> kept;
@@ -104,9 +266,9 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     std::vector<TrackElement> good;
     double sum = 0;
     for (const auto& e : point.elements) {
-      const double error = ReprojectionErrorPx(cameras[e.image], result.cam_from_world[e.image], point.x_in_world,
+      const double error = ReprojectionErrorPx(final_cameras[e.image], result.cam_from_world[e.image], point.x_in_world,
                                                graph.keypoints[e.image][e.keypoint]);
-      if (error <= last) good.push_back(e), sum += error;
+      if (error <= last && result.posed[e.image]) good.push_back(e), sum += error;
     }
     if (good.size() < 2) continue;
     point.elements = std::move(good);
@@ -138,7 +300,8 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
 }
 
 SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names, const SfmOptions& options) {
+                     const std::vector<std::string>& names, const SfmOptions& options,
+                     const std::vector<int>& camera_group) {
   options.Check();
   if (images.size() != cameras.size() || images.size() != names.size()) {
     throw std::invalid_argument("PoseImages: images, cameras and names differ in count");
@@ -149,14 +312,14 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   }
   const Timer timer;
   StageTimes times;
-  const ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times);
+  const ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times, camera_group);
   const double seconds_view_graph = timer.Seconds();
-  SfmResult result = RunGlobalSfm(graph, cameras, options);
+  SfmResult result = RunGlobalSfm(graph, graph.cameras, options, camera_group);
   result.seconds_view_graph = seconds_view_graph;
   times.Append(result.times);
   result.times = times;
-  for (const auto& name : result.not_posed)
-    LOG_WARN("{}: not posed (no consistent two-view geometry with the others)", name);
+  for (size_t k = 0; k < names.size(); ++k)
+    if (!result.posed[k]) LOG_WARN("{}: not posed ({})", names[k], result.not_posed_reason[k]);
   return result;
 }
 

@@ -4,11 +4,17 @@
 //
 //   view graph (SIFT, essential matrices, viewgraph/view_graph.h)
 //   -> rotation averaging (robust, spanning-tree init; rotation_averaging.h)
-//   -> translation averaging of the unit directions (translation_averaging.h)
 //   -> tracks (union-find over the inlier matches of rotation-consistent edges; tracks.h)
-//   -> rounds of triangulation + bundle adjustment (pixels, Huber), each round re-triangulating
-//      every track with a tighter reprojection threshold, so observations rejected with rough
-//      poses come back once the poses are good (triangulation.h, bundle_adjustment.h).
+//   -> global positioning: camera centres and points together from the rays, from a random start
+//      (global_positioning.h, as GLOMAP / COLMAP 4), or translation averaging of the pairwise
+//      directions (translation_averaging.h; the former default, kept for comparison)
+//   -> rounds of triangulation + bundle adjustment (pixels, Huber), the first with rotations held,
+//      each round re-triangulating every track with a tighter reprojection threshold, so
+//      observations rejected with rough poses come back once the poses are good; the last rounds
+//      refine the intrinsics when asked (self-calibration; triangulation.h, bundle_adjustment.h)
+//   -> a check for a collapsed solution (camera centres that coincide although the two images' own
+//      matches show parallax): solved again by global positioning from another random start, and
+//      images still collapsed are left unposed with the reason.
 //
 // The output frame: the first posed image's camera is the identity (world = its camera frame,
 // OpenCV axes) and the scale makes the mean distance of the other posed cameras to it 1. Images
@@ -19,6 +25,7 @@
 #include "nerfreg/geometry/camera.h"
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/sfm/bundle_adjustment.h"
+#include "nerfreg/sfm/global_positioning.h"
 #include "nerfreg/sfm/rotation_averaging.h"
 #include "nerfreg/sfm/tracks.h"
 #include "nerfreg/sfm/translation_averaging.h"
@@ -33,9 +40,17 @@ namespace nerfreg {
 // before SIFT (as COLMAP's first octave -1 does), since DBARF's inputs are often small renders.
 ViewGraphOptions SfmViewGraphDefaults();
 
+// How camera centres are found once orientations are known.
+enum class SfmPositioning {
+  kGlobalPositioning,     // cameras and points from the rays (global_positioning.h)
+  kTranslationAveraging,  // pairwise directions alone (translation_averaging.h)
+};
+
 struct SfmOptions {
   ViewGraphOptions view_graph = SfmViewGraphDefaults();
   RotationAveragingOptions rotation;
+  SfmPositioning positioning = SfmPositioning::kGlobalPositioning;
+  GlobalPositioningOptions global_positioning;
   TranslationAveragingOptions translation;
   TrackOptions tracks;
   BundleAdjustmentOptions bundle_adjustment;
@@ -44,33 +59,58 @@ struct SfmOptions {
   // observations. One bundle adjustment follows each round.
   std::vector<double> round_reprojection_error_px = {8.0, 3.0, 2.0};
   double min_triangulation_angle_deg = 1.0;  // points seen under a smaller angle are not kept
-  void Check() const;                        // throws std::invalid_argument
+  // Self-calibration in the bundle adjustments after the first round: the focal length and the
+  // radial distortion (k1, k2) of each camera group.
+  bool refine_focal = false;
+  bool refine_distortion = false;
+  // Camera centres closer than this fraction of the centres' rms spread count as coincident (a
+  // collapsed solution: no capture has two photos from one point); 0 turns the check off.
+  double collapse_fraction = 0.01;
+  int collapse_retries = 2;  // re-solves from another random start before images are left out
+  void Check() const;        // throws std::invalid_argument
 };
 
 struct SfmResult {
   std::vector<Rigid3d> cam_from_world;  // one per image; identity where !posed
   std::vector<bool> posed;
   std::vector<std::string> not_posed;  // names of the images left out (no edge, or outside the
-                                       // largest consistent component)
+                                       // largest consistent component, or collapsed)
+  // Per image, why it is not posed ("" where posed): "no consistent two-view geometry", "too few
+  // tracks", "its camera centre coincides with NAME's (a collapsed solution)".
+  std::vector<std::string> not_posed_reason;
+  std::vector<Camera> cameras;  // the intrinsics used, refined where asked
   std::vector<SfmPoint> points;        // the triangulated tracks, elements index view_graph.keypoints
   int num_points = 0;
   double mean_reprojection_error_px = 0;  // over the final observations
   ViewGraph view_graph;                   // the graph the poses came from, with its keypoints
   int num_edges_used = 0;                 // edges consistent with the averaged rotations
+  int num_collapse_resolves = 0;          // solutions found collapsed and solved again
   double seconds_view_graph = 0;
   double seconds_sfm = 0;  // averaging, triangulation and bundle adjustment
-  // Per stage: features, matching, geometry (PoseImages only), rotation averaging, translation
-  // averaging, tracks, triangulation, bundle adjustment (all rounds together).
+  // Per stage: features, matching, geometry (PoseImages only), rotation averaging, tracks,
+  // positioning, triangulation, bundle adjustment (all rounds and attempts together).
   StageTimes times;
 };
 
 // From a built view graph (used directly by tests with synthetic correspondences). cameras: one
-// per graph image. Throws std::invalid_argument on inconsistent sizes.
-SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options);
+// per graph image; camera_group: per image, the group whose intrinsics it shares when they are
+// refined (empty: all one group if the cameras are equal, else one each). Throws
+// std::invalid_argument on inconsistent sizes.
+SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
+                       const std::vector<int>& camera_group = {});
 
 // From images: builds the view graph, then RunGlobalSfm. Throws InputError naming the file when
 // there are fewer than 3 images or their sizes differ (from each other or from their camera).
 SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names, const SfmOptions& options);
+                     const std::vector<std::string>& names, const SfmOptions& options,
+                     const std::vector<int>& camera_group = {});
+
+// Per image, another posed image whose camera centre coincides with its own (closer than
+// `fraction` of the root-mean-square spread of the posed centres), or -1. A solution with such
+// images may have collapsed (seen from the SfM on repetitive texture and from the network on
+// low-texture images); photos taken from one spot do this too, which is why RunGlobalSfm only
+// calls it a collapse where the two images' own matches show parallax.
+std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                   double fraction = 0.01);
 
 }  // namespace nerfreg

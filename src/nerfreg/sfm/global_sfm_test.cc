@@ -73,13 +73,16 @@ struct RenderedViews {
 
 // A procedural forward-facing scene rendered like `nerfreg render --trajectory forward`
 // (8-bit quantised, as the PNGs are).
-RenderedViews RenderForward(unsigned seed, int views) {
+RenderedViews RenderForward(unsigned seed, int views, int width = 128, int height = 96, double k1 = 0) {
   const TriangleMesh mesh = ProceduralForwardScene(seed);
   RayCaster caster(mesh);
   ForwardOptions fo;
   fo.num_views = views;
+  fo.width = width;
+  fo.height = height;
   RenderedViews out;
-  for (const PosedCamera& pc : ForwardTrajectory(fo)) {
+  for (PosedCamera pc : ForwardTrajectory(fo)) {
+    pc.camera.k1 = k1;
     Image im = CompositeOver(RenderView(caster, mesh, pc.camera, pc.cam_from_world, RenderOptions{}).rgba, 0, 0, 0);
     for (float& v : im.data) v = std::round(std::clamp(v, 0.f, 1.f) * 255.f) / 255.f;
     out.images.push_back(std::move(im));
@@ -124,7 +127,30 @@ TEST(GlobalSfm, PosesThreeViews) {
   EXPECT_LT(e.median_center_percent, 3.5);
 }
 
-TEST(GlobalSfm, FewerThanThreeImagesOrMixedSizesAreInputErrorsNamingTheFile) {
+// Photos without a calibration file: from a focal prior 1.2 x the longer side (COLMAP's) and no
+// distortion, the focal length comes from the fundamental matrices and is refined with k1, k2 in
+// the bundle adjustment.
+TEST(GlobalSfm, SelfCalibrationRecoversTheFocalLengthAndDistortionOfRenderedViews) {
+  const RenderedViews v = RenderForward(7, 12, 320, 240, -0.08);
+  const Camera truth = v.cameras[0];
+  std::vector<Camera> prior;
+  for (const Camera& c : v.cameras) prior.push_back(Camera::Pinhole(c.width, c.height, 384, 384, 160, 120));
+  SfmOptions o;
+  o.view_graph.estimate_focal = true;
+  o.refine_focal = o.refine_distortion = true;
+  const SfmResult r = PoseImages(v.images, prior, v.names, o);
+  for (int k = 0; k < 12; ++k) ASSERT_TRUE(r.posed[k]) << v.names[k];
+  std::printf("self-calibration: focal %.2f (truth %.2f, prior 384) k1 %.4f k2 %.4f (truth %.3f)\n", r.cameras[0].fx,
+              truth.fx, r.cameras[0].k1, r.cameras[0].k2, truth.k1);
+  EXPECT_NEAR(r.cameras[0].fx, truth.fx, 0.01 * truth.fx);
+  EXPECT_NEAR(r.cameras[0].k1, truth.k1, 0.02);
+  for (const Camera& c : r.cameras) EXPECT_EQ(c.fx, r.cameras[0].fx);  // one camera group
+  const PoseEvaluation e = EvaluatePoses(r.cam_from_world, v.cam_from_world, PoseAlignment::kRotationsAndCenters);
+  ASSERT_TRUE(e.aligned);
+  EXPECT_LT(e.median_rotation_deg, 0.2);
+}
+
+TEST(GlobalSfm, FewerThanThreeImagesOrASizeUnlikeItsCameraAreInputErrorsNamingTheFile) {
   const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
   try {
     PoseImages({Image(32, 24, 3), Image(32, 24, 3)}, {cam, cam}, {"a.png", "b.png"}, SfmOptions{});
@@ -132,9 +158,9 @@ TEST(GlobalSfm, FewerThanThreeImagesOrMixedSizesAreInputErrorsNamingTheFile) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("a.png"), std::string::npos) << e.what();
   }
-  const Camera wide = Camera::Pinhole(40, 24, 30, 30, 20, 12);
+  // Images of several sizes are fine (one camera each); an image unlike its camera is not.
   try {
-    PoseImages({Image(32, 24, 3), Image(32, 24, 3), Image(40, 24, 3)}, {cam, cam, wide}, {"a.png", "b.png", "odd.png"},
+    PoseImages({Image(32, 24, 3), Image(32, 24, 3), Image(40, 24, 3)}, {cam, cam, cam}, {"a.png", "b.png", "odd.png"},
                SfmOptions{});
     FAIL();
   } catch (const InputError& e) {

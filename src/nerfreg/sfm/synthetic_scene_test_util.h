@@ -126,4 +126,11 @@ inline SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& o) {
   return s;
 }
 
+// The scene's true orientations (cam_from_world rotations).
+inline std::vector<Eigen::Quaterniond> TrueRotations(const SyntheticScene& s) {
+  std::vector<Eigen::Quaterniond> out;
+  for (const auto& p : s.cam_from_world) out.push_back(p.rotation);
+  return out;
+}
+
 }  // namespace nerfreg

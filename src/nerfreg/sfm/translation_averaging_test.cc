@@ -22,12 +22,6 @@ double MaxCenterErrorPercent(const SyntheticScene& s, const TranslationAveraging
   return 100 * worst / e.widest_baseline;
 }
 
-std::vector<Eigen::Quaterniond> TrueRotations(const SyntheticScene& s) {
-  std::vector<Eigen::Quaterniond> out;
-  for (const auto& p : s.cam_from_world) out.push_back(p.rotation);
-  return out;
-}
-
 TEST(TranslationAveraging, ExactDirectionsGiveExactCentersInTheDocumentedGauge) {
   SyntheticSceneOptions o;
   o.num_cameras = 8;

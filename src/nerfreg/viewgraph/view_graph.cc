@@ -124,12 +124,66 @@ std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, d
   return out;
 }
 
+// Per camera group with pairs inside it, the focal length from the pairs' fundamental matrices
+// (pixels, USAC MAGSAC++), written into every camera of the group where the estimate is distinct.
+void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
+                         const std::vector<std::vector<cv::DMatch>>& pair_matches,
+                         const std::vector<std::vector<cv::Point2d>>& pixels, const std::vector<int>& group,
+                         const ViewGraphOptions& options, const std::vector<std::string>& names,
+                         std::vector<Camera>* cameras) {
+  const int num_pairs = static_cast<int>(pairs.size());
+  std::vector<std::optional<Eigen::Matrix3d>> fundamentals(num_pairs);
+  cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
+    for (int p = range.start; p < range.end; ++p) {
+      const auto [i, j] = pairs[p];
+      if (group[i] != group[j] || static_cast<int>(pair_matches[p].size()) < options.min_inliers) continue;
+      std::vector<cv::Point2d> pi, pj;
+      for (const auto& m : pair_matches[p]) pi.push_back(pixels[i][m.queryIdx]), pj.push_back(pixels[j][m.trainIdx]);
+      cv::Mat mask;
+      const cv::Mat f = cv::findFundamentalMat(pi, pj, cv::USAC_MAGSAC, 2.0 * options.ransac_threshold_px,
+                                               options.ransac_confidence, mask);
+      if (f.rows != 3 || f.cols != 3 || cv::countNonZero(mask) < options.min_inliers) continue;
+      Eigen::Matrix3d e;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) e(a, b) = f.at<double>(a, b);
+      fundamentals[p] = e / e.norm();
+    }
+  });
+  std::vector<int> group_ids(group.begin(), group.end());
+  std::sort(group_ids.begin(), group_ids.end());
+  group_ids.erase(std::unique(group_ids.begin(), group_ids.end()), group_ids.end());
+  for (int g : group_ids) {
+    std::vector<Eigen::Matrix3d> f;
+    int first = -1;
+    for (int p = 0; p < num_pairs; ++p)
+      if (fundamentals[p] && group[pairs[p].first] == g) f.push_back(*fundamentals[p]);
+    for (size_t k = 0; k < group.size() && first < 0; ++k)
+      if (group[k] == g) first = static_cast<int>(k);
+    const Camera& c = (*cameras)[first];
+    const FocalEstimate e = EstimateFocalFromFundamentals(f, c.width, c.height, options.focal_estimation);
+    if (!e.distinct) {
+      LOG_INFO("{} and its camera group: focal length not determined by {} fundamental matrices; the prior {:.1f} px "
+               "stays (bundle adjustment refines it)",
+               names[first], e.num_pairs, c.fx);
+      continue;
+    }
+    LOG_INFO("{} and its camera group: focal length {:.1f} px from {} fundamental matrices (prior {:.1f} px)",
+             names[first], e.focal_px, e.num_pairs, c.fx);
+    for (size_t k = 0; k < group.size(); ++k)
+      if (group[k] == g) {
+        Camera& ck = (*cameras)[k];
+        ck.fy *= e.focal_px / ck.fx;
+        ck.fx = e.focal_px;
+      }
+  }
+}
+
 }  // namespace
 
 void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names) {
+                     const std::vector<std::string>& names, bool equal_sizes) {
   for (size_t k = 0; k < images.size(); ++k) {
-    if (images[k].width != images[0].width || images[k].height != images[0].height) {
+    if (equal_sizes && (images[k].width != images[0].width || images[k].height != images[0].height)) {
       ThrowInputError(names[k], "size",
                       std::to_string(images[0].width) + "x" + std::to_string(images[0].height) + " like " + names[0] +
                           ", got " + std::to_string(images[k].width) + "x" + std::to_string(images[k].height));
@@ -142,25 +196,28 @@ void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>
 }
 
 ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times) {
+                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times,
+                         const std::vector<int>& camera_group, const std::vector<std::pair<int, int>>& pairs_in) {
   options.Check();
-  if (images.size() != cameras.size() || images.size() != names.size()) {
-    throw std::invalid_argument("BuildViewGraph: images, cameras and names differ in count");
+  if (images.size() != cameras.size() || images.size() != names.size() ||
+      (!camera_group.empty() && camera_group.size() != images.size())) {
+    throw std::invalid_argument("BuildViewGraph: images, cameras, names and groups differ in count");
   }
-  CheckImageSizes(images, cameras, names);
+  CheckImageSizes(images, cameras, names, /*equal_sizes=*/false);
   ViewGraph graph;
   graph.names = names;
+  graph.cameras = cameras;
   const int n = static_cast<int>(images.size());
   std::vector<Features> features(n);
-  std::vector<std::vector<cv::Point2d>> normalised(n);
+  std::vector<std::vector<cv::Point2d>> pixels(n);
   graph.keypoints.resize(n);
-  const int up = EffectiveUpsample(options, images.empty() ? 0 : std::max(images[0].width, images[0].height));
   const Timer timer;
   // Images, then pairs, in parallel (OpenCV's pool: all cores, or cv::setNumThreads). Each item
   // writes only its own slot, so the graph is the same whatever the thread count.
   cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
     cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
     for (int k = range.start; k < range.end; ++k) {
+      const int up = EffectiveUpsample(options, std::max(images[k].width, images[k].height));
       cv::Mat gray = ToGray8(images[k]);
       if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
       sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
@@ -174,15 +231,15 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
         // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
         const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
         graph.keypoints[k].push_back(uv);
-        const Eigen::Vector3d d = cameras[k].CamFromImg(uv);
-        normalised[k].push_back({d.x(), d.y()});
+        pixels[k].push_back({uv.x(), uv.y()});
       }
     }
   });
   const double seconds_features = timer.Seconds();
-  std::vector<std::pair<int, int>> pairs;
-  for (int i = 0; i < n; ++i)
-    for (int j = i + 1; j < n; ++j) pairs.push_back({i, j});
+  std::vector<std::pair<int, int>> pairs = pairs_in;
+  if (pairs.empty())
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) pairs.push_back({i, j});
   const int num_pairs = static_cast<int>(pairs.size());
   std::vector<std::vector<cv::DMatch>> pair_matches(num_pairs);
   cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
@@ -190,6 +247,19 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       pair_matches[p] = MatchMutualRatio(features[pairs[p].first], features[pairs[p].second], options.ratio);
   });
   const double seconds_matching = timer.Seconds() - seconds_features;
+  if (options.estimate_focal) {
+    std::vector<int> group = camera_group;
+    if (group.empty())
+      for (int k = 0; k < n; ++k) group.push_back(images[k].width * 100003 + images[k].height);
+    EstimateGroupFocals(pairs, pair_matches, pixels, group, options, names, &graph.cameras);
+  }
+  const double seconds_focal = timer.Seconds() - seconds_features - seconds_matching;
+  std::vector<std::vector<cv::Point2d>> normalised(n);
+  for (int k = 0; k < n; ++k)
+    for (const auto& uv : graph.keypoints[k]) {
+      const Eigen::Vector3d d = graph.cameras[k].CamFromImg(uv);
+      normalised[k].push_back({d.x(), d.y()});
+    }
   std::vector<std::optional<ViewGraphEdge>> pair_edges(num_pairs);
   const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
   cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
@@ -203,7 +273,7 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
         pj.push_back(normalised[j][m.trainIdx]);
       }
       // Normalised coordinates: the pixel threshold becomes threshold / focal.
-      const double f = 0.25 * (cameras[i].fx + cameras[i].fy + cameras[j].fx + cameras[j].fy);
+      const double f = 0.25 * (graph.cameras[i].fx + graph.cameras[i].fy + graph.cameras[j].fx + graph.cameras[j].fy);
       cv::Mat mask;
       cv::Mat e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence,
                                        options.ransac_threshold_px / f, mask);
@@ -235,7 +305,8 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   if (times != nullptr) {
     times->Record("features", seconds_features);
     times->Record("matching", seconds_matching);
-    times->Record("geometry", timer.Seconds() - seconds_features - seconds_matching);
+    if (options.estimate_focal) times->Record("focal estimation", seconds_focal);
+    times->Record("geometry", timer.Seconds() - seconds_features - seconds_matching - seconds_focal);
   }
   for (int k : graph.Isolated()) LOG_WARN("{}: no geometric matches to any other image; left out", names[k]);
   return graph;

@@ -17,6 +17,7 @@
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/stage_times.h"
+#include "nerfreg/viewgraph/focal_estimation.h"
 
 namespace nerfreg {
 
@@ -35,6 +36,11 @@ struct ViewGraphOptions {
   // ... but only while the enlarged image's longer side stays within this many pixels (0: always):
   // photo-sized images have features enough, and SIFT's cost grows with the pixel count.
   int upsample_max_side = 0;
+  // Self-calibration: the focal length of each camera group is estimated from the pairs'
+  // fundamental matrices (focal_estimation.h) before the essential matrices are, where the
+  // estimate is distinct; elsewhere the cameras' own (prior) focal length stays.
+  bool estimate_focal = false;
+  FocalEstimationOptions focal_estimation;
   void Check() const;  // throws std::invalid_argument
 };
 
@@ -53,6 +59,9 @@ struct ViewGraphEdge {
 
 struct ViewGraph {
   std::vector<std::string> names;  // one per image
+  // The intrinsics the edges were estimated with, one per image: the given cameras, with the
+  // estimated focal lengths where ViewGraphOptions::estimate_focal found them.
+  std::vector<Camera> cameras;
   std::vector<ViewGraphEdge> edges;
   // Per image, the SIFT keypoints' image coordinates (pixels, centre of pixel (c, r) at
   // (c + 0.5, r + 0.5)), indexed by ViewGraphEdge::inlier_matches.
@@ -68,17 +77,21 @@ struct ViewGraph {
 // The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
 int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 
-// Throws InputError naming the image when an image's size differs from the first image's or from
-// its camera's (what BuildViewGraph checks; callers that may not build a graph check it too).
+// Throws InputError naming the image when an image's size differs from its camera's, or, with
+// `equal_sizes`, from the first image's (the networks stack images; the SfM takes any sizes).
 void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names);
+                     const std::vector<std::string>& names, bool equal_sizes = true);
 
-// Builds the graph over all pairs. images: 8-bit-range float images (grey or colour) of equal size;
-// cameras: one per image (intrinsics only). Throws InputError naming the image when sizes differ
-// from the first image or from the camera. times (optional): the stages "features", "matching"
-// (descriptors) and "geometry" (essential matrices) are recorded there.
+// Builds the graph over all pairs (or the given `pairs`, i < j). images: 8-bit-range float images
+// (grey or colour), any sizes; cameras: one per image (intrinsics only; the focal lengths are
+// priors with options.estimate_focal). camera_group: per image, the camera whose focal length it
+// shares when it is estimated (empty: one group per image size). Throws InputError naming the
+// image when an image's size differs from its camera's. times (optional): the stages "features",
+// "matching" (descriptors), "focal estimation" (when on) and "geometry" (essential matrices) are
+// recorded there.
 ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                          const std::vector<std::string>& names, const ViewGraphOptions& options,
-                         StageTimes* times = nullptr);
+                         StageTimes* times = nullptr, const std::vector<int>& camera_group = {},
+                         const std::vector<std::pair<int, int>>& pairs = {});
 
 }  // namespace nerfreg

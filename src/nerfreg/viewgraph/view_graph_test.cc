@@ -89,12 +89,15 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
   EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
 }
 
-TEST(ViewGraph, ImagesOfDifferentSizesAreNamed) {
+TEST(ViewGraph, ImagesOfDifferentSizesAreTakenAndOneUnlikeItsCameraIsNamed) {
   const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
   const Camera other = Camera::Pinhole(40, 24, 30, 30, 20, 12);
   std::vector<Image> images = {Image(32, 24, 3), Image(40, 24, 3)};
+  const ViewGraph g = BuildViewGraph(images, {cam, other}, {"a.png", "b.png"}, ViewGraphOptions{});
+  EXPECT_EQ(g.cameras.size(), 2u);
+  EXPECT_THROW(CheckImageSizes(images, {cam, other}, {"a.png", "b.png"}), InputError);  // the networks' check
   try {
-    BuildViewGraph(images, {cam, other}, {"a.png", "odd.png"}, ViewGraphOptions{});
+    BuildViewGraph(images, {cam, cam}, {"a.png", "odd.png"}, ViewGraphOptions{});
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("odd.png"), std::string::npos) << e.what();
