@@ -47,6 +47,22 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(ZLIB REQUIRED)
+# libexif (Debian's libexif-dev) reads the camera facts of photos' EXIF blocks (util/exif.cc).
+# pkg-config, where present, only hints the folders: find_path / find_library also search
+# CMAKE_PREFIX_PATH, which is how a GPU machine without the package finds the copy unpacked from
+# scripts/gpu_deps.sh (its libexif.pc names /usr, not the unpacked folder).
+find_package(PkgConfig QUIET)
+if(PKG_CONFIG_FOUND)
+  pkg_check_modules(PC_LIBEXIF QUIET libexif)
+endif()
+find_path(LIBEXIF_INCLUDE_DIR libexif/exif-data.h HINTS ${PC_LIBEXIF_INCLUDE_DIRS})
+find_library(LIBEXIF_LIBRARY exif HINTS ${PC_LIBEXIF_LIBRARY_DIRS})
+if(NOT LIBEXIF_INCLUDE_DIR OR NOT LIBEXIF_LIBRARY)
+  message(FATAL_ERROR "libexif not found: install libexif-dev (scripts/setup.sh)")
+endif()
+add_library(nerfreg_libexif INTERFACE)
+target_include_directories(nerfreg_libexif SYSTEM INTERFACE ${LIBEXIF_INCLUDE_DIR})
+target_link_libraries(nerfreg_libexif INTERFACE ${LIBEXIF_LIBRARY})
 if(NOT NERFREG_LEARNED_CORE_ONLY)
   find_package(embree 3 REQUIRED)
   find_package(Open3D REQUIRED)

@@ -1,4 +1,4 @@
-// Fuzzes PNG/JPEG decoding, including the size check that runs before any allocation.
+// Fuzzes image decoding (PNG, JPEG with its EXIF block, PGM/PPM), including the checks that run before any allocation.
 #include "fuzz_util.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/image.h"

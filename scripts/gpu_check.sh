@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The GPU check, one command on a machine with an NVIDIA GPU and no network (docs/gpu.md). It needs
 # PyTorch with CUDA (its LibTorch is built against), nvcc, CMake >= 3.24, Ninja, and the learned
-# core's header libraries (Eigen, nlohmann-json, spdlog, fmt, GoogleTest, zlib). It
+# core's header libraries (Eigen, nlohmann-json, spdlog, fmt, GoogleTest, zlib, libexif). It
 #   1. builds the learned core with the CUDA kernels from the working tree (build-gpu/),
 #   2. runs the CUDA cases (they must run, not skip) and the 2-process NCCL test (it runs where 2
 #      GPUs are present and skips, reported, on one),
@@ -39,7 +39,7 @@
 #   GPU_BENCH       which timings (default hash,nerf100,nerf800,reg,dbarf)
 #   GPU_QUICK=1     a short smoke run of the timings (not for results)
 #   GPU_DEPS        a folder of Debian packages made by scripts/gpu_deps.sh (header libraries, fmt,
-#                   spdlog, GoogleTest, zlib, Gloo's headers) for a machine that lacks them: unpacked
+#                   spdlog, GoogleTest, zlib, libexif, Gloo's headers) for a machine that lacks them: unpacked
 #                   under /tmp/nerfreg-gpu-deps and put on CMake's and the loader's paths
 set -euo pipefail
 cd "$(dirname "$0")/.."

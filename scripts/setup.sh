@@ -16,6 +16,8 @@ PACKAGES=(
   libembree-dev libopen3d-dev libceres-dev libopencv-dev
   # header-only and small utilities
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
+  # photos' EXIF (focal length, sensor resolution, orientation; util/exif.cc)
+  libexif-dev
   # tests and benchmarks
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   # the HTML report is checked in a real browser; its 3D views inline three.js

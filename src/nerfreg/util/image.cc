@@ -1,7 +1,9 @@
 #include "nerfreg/util/image.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <fstream>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -32,26 +34,228 @@ void CheckPngChunks(const std::string& bytes, const std::string& path) {
   }
 }
 
-Image Decode(const std::string& bytes, const std::string& path, int channels, int* w, int* h, int* c) {
-  if (!stbi_info_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), w, h, c)) {
-    ThrowInputError(path, "", std::string("a PNG or JPEG image (") + stbi_failure_reason() + ")");
+// The formats ReadImage decodes, as its errors name them.
+constexpr const char* kReadFormats = "a PNG, JPEG or binary PGM/PPM image";
+constexpr const char* kDecodableFormats = "a decodable PNG, JPEG or binary PGM/PPM image";
+
+bool IsJpeg(const std::string& bytes) {
+  return bytes.size() >= 3 && static_cast<unsigned char>(bytes[0]) == 0xFF &&
+         static_cast<unsigned char>(bytes[1]) == 0xD8 && static_cast<unsigned char>(bytes[2]) == 0xFF;
+}
+
+// Checks a JPEG's structure before stb_image (2.27) decodes it:
+// - it decodes a JPEG cut short as if the rest were zeros (a half-grey photo, no error): the
+//   end-of-image marker must come before the bytes end;
+// - it decodes a scan with a Huffman or quantisation table the file never defined from
+//   uninitialised memory (a wild read, found by fuzzing): each scan's tables must come before it.
+// Walks the marker segments and the entropy-coded data after each SOS; stray bytes between
+// segments are skipped, as libjpeg does. Malformed tables themselves are left to stb, which checks
+// them.
+void CheckJpegStructure(const std::string& bytes, const std::string& path) {
+  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t n = bytes.size();
+  bool huffman[2][4] = {};  // [DC 0 / AC 1][table id] defined
+  bool quant[4] = {};
+  std::vector<int> frame_quant;  // the frame's components' quantisation table ids
+  bool progressive = false;
+  size_t pos = 2;  // after SOI
+  while (pos < n) {
+    if (u[pos] != 0xFF) {
+      ++pos;
+      continue;
+    }
+    while (pos < n && u[pos] == 0xFF) ++pos;
+    if (pos >= n) break;
+    const unsigned marker = u[pos++];
+    if (marker == 0xD9) return;                                          // EOI
+    if ((marker >= 0xD0 && marker <= 0xD7) || marker == 0x01) continue;  // no length
+    if (pos + 2 > n) break;
+    const size_t length = (size_t(u[pos]) << 8) | u[pos + 1];
+    if (length < 2) ThrowInputError(path, "JPEG segment at byte " + std::to_string(pos - 2), "a length >= 2");
+    if (pos + length > n) break;
+    const size_t body = pos + 2, body_end = pos + length;
+    if (marker == 0xC4) {  // DHT: class/id, 16 counts, the values
+      for (size_t p = body; p + 17 <= body_end;) {
+        const int table_class = u[p] >> 4, id = u[p] & 15;
+        size_t count = 0;
+        for (int k = 1; k <= 16; ++k) count += u[p + k];
+        if (table_class <= 1 && id <= 3) huffman[table_class][id] = true;
+        p += 17 + count;
+      }
+    } else if (marker == 0xDB) {  // DQT: precision/id, 64 values of 8 or 16 bits
+      for (size_t p = body; p < body_end;) {
+        if ((u[p] & 15) <= 3) quant[u[p] & 15] = true;
+        p += 1 + ((u[p] >> 4) ? 128 : 64);
+      }
+    } else if (marker >= 0xC0 && marker <= 0xC2 && length >= 8) {  // SOF0..2: 3 bytes a component
+      progressive = marker == 0xC2;
+      frame_quant.clear();
+      for (size_t p = body + 6; p + 3 <= body_end && frame_quant.size() < u[body + 5]; p += 3) {
+        frame_quant.push_back(u[p + 2] & 15);
+      }
+    } else if (marker == 0xDA && length >= 3) {  // SOS: components (id, DC/AC tables), Ss, Se, A
+      const size_t components = u[body];
+      const size_t ss_at = body + 1 + 2 * components;
+      const int spectral_start = ss_at < body_end ? u[ss_at] : 0;
+      bool defined = true;
+      for (size_t k = 0; k < components && body + 2 + 2 * k < body_end; ++k) {
+        const int dc = u[body + 2 + 2 * k] >> 4, ac = u[body + 2 + 2 * k] & 15;
+        if (dc > 3 || ac > 3) continue;  // stb refuses these itself
+        if (!progressive || spectral_start == 0) defined &= huffman[0][dc];
+        if (!progressive || spectral_start > 0) defined &= huffman[1][ac];
+      }
+      for (int q : frame_quant) defined &= q <= 3 && quant[q];
+      if (!defined) {
+        ThrowInputError(path, "JPEG scan at byte " + std::to_string(pos - 2),
+                        "its Huffman and quantisation tables defined before it");
+      }
+    }
+    pos += length;
+    if (marker != 0xDA) continue;
+    // Entropy-coded data: ends at a marker other than a stuffed 0xFF00 or a restart marker.
+    while (pos + 1 < n) {
+      if (u[pos] == 0xFF && u[pos + 1] != 0x00 && u[pos + 1] != 0xFF && !(u[pos + 1] >= 0xD0 && u[pos + 1] <= 0xD7)) {
+        break;
+      }
+      ++pos;
+    }
   }
-  if (*w <= 0 || *h <= 0 || static_cast<std::int64_t>(*w) * *h > kMaxImagePixels) {
+  ThrowInputError(path, "", "a complete JPEG (the file ends before its end-of-image marker: truncated?)");
+}
+
+void CheckPixelCount(std::int64_t w, std::int64_t h, const std::string& path) {
+  if (w <= 0 || h <= 0 || w > kMaxImagePixels || h > kMaxImagePixels || w * h > kMaxImagePixels) {
     ThrowInputError(path, "size",
-                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*w) + "x" +
-                        std::to_string(*h));
+                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(w) + "x" +
+                        std::to_string(h));
   }
-  if (channels < 0) return Image();  // size only
+}
+
+// Binary PGM / PPM (P5 / P6), read here rather than by stb_image 2.27, which reads 16-bit samples
+// in the machine's byte order (PNM's is big-endian), leaves the pixels of a short file
+// uninitialised, and does not scale a maxval other than 255 or 65535.
+bool IsPnm(const std::string& bytes) {
+  return bytes.size() >= 2 && bytes[0] == 'P' && (bytes[1] == '5' || bytes[1] == '6');
+}
+
+struct PnmHeader {
+  int width = 0, height = 0, channels = 0, maxval = 0;
+  size_t data_offset = 0;  // first sample byte
+};
+
+PnmHeader ParsePnmHeader(const std::string& bytes, const std::string& path) {
+  PnmHeader header;
+  header.channels = bytes[1] == '5' ? 1 : 3;
+  size_t pos = 2;
+  std::int64_t fields[3] = {0, 0, 0};  // width, height, maxval
+  for (auto& field : fields) {
+    // Whitespace and '#' comments up to the end of their line.
+    while (pos < bytes.size() && (std::isspace(static_cast<unsigned char>(bytes[pos])) || bytes[pos] == '#')) {
+      if (bytes[pos] == '#') {
+        while (pos < bytes.size() && bytes[pos] != '\n' && bytes[pos] != '\r') ++pos;
+      } else {
+        ++pos;
+      }
+    }
+    const size_t start = pos;
+    while (pos < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[pos])) && field <= 1'000'000'000) {
+      field = field * 10 + (bytes[pos++] - '0');
+    }
+    if (pos == start || pos >= bytes.size() || !std::isspace(static_cast<unsigned char>(bytes[pos]))) {
+      ThrowInputError(path, "PNM header", "P5/P6, then width, height and maxval as decimal numbers");
+    }
+  }
+  CheckPixelCount(fields[0], fields[1], path);
+  if (fields[2] < 1 || fields[2] > 65535) {
+    ThrowInputError(path, "PNM maxval", "1..65535, got " + std::to_string(fields[2]));
+  }
+  header.width = static_cast<int>(fields[0]);
+  header.height = static_cast<int>(fields[1]);
+  header.maxval = static_cast<int>(fields[2]);
+  header.data_offset = pos + 1;  // one whitespace byte ends the header
+  return header;
+}
+
+Image DecodePnm(const std::string& bytes, const std::string& path, ImageFileFacts* facts) {
+  const PnmHeader h = ParsePnmHeader(bytes, path);
+  const int sample_bytes = h.maxval < 256 ? 1 : 2;
+  Image image(h.width, h.height, h.channels);
+  const size_t needed = image.data.size() * sample_bytes;
+  if (bytes.size() - h.data_offset < needed) {
+    ThrowInputError(
+        path, "PNM data",
+        std::to_string(needed) + " sample bytes, the file has " + std::to_string(bytes.size() - h.data_offset));
+  }
+  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data() + h.data_offset);
+  const float scale = 1.f / h.maxval;
+  for (size_t i = 0; i < image.data.size(); ++i) {
+    const int v = sample_bytes == 1 ? u[i] : (u[2 * i] << 8) | u[2 * i + 1];
+    image.data[i] = std::min(v, h.maxval) * scale;
+  }
+  facts->file_channels = h.channels;
+  facts->bits_per_channel = sample_bytes * 8;
+  return image;
+}
+
+// Converts between 1, 3 and 4 channels as stb_image does (grey from RGB by its weights 77, 150,
+// 29 / 256; alpha 1 when added, dropped when not asked for).
+Image ConvertChannels(const Image& in, int channels) {
+  if (channels == 0 || channels == in.channels) return in;
+  Image out(in.width, in.height, channels);
+  const size_t n = static_cast<size_t>(in.width) * in.height;
+  for (size_t i = 0; i < n; ++i) {
+    const float* p = &in.data[i * in.channels];
+    float rgba[4] = {p[0], p[0], p[0], 1.f};
+    if (in.channels >= 3) rgba[1] = p[1], rgba[2] = p[2];
+    if (in.channels == 4) rgba[3] = p[3];
+    float* q = &out.data[i * channels];
+    if (channels == 1) {
+      q[0] = in.channels == 1 ? p[0] : (77.f * rgba[0] + 150.f * rgba[1] + 29.f * rgba[2]) / 256.f;
+    } else {
+      for (int c = 0; c < channels; ++c) q[c] = rgba[c];
+    }
+  }
+  return out;
+}
+
+// Decodes bytes to floats in [0, 1].
+Image Decode(const std::string& bytes, const std::string& path, int channels, ImageFileFacts* facts) {
+  if (IsPnm(bytes)) {
+    Image image = DecodePnm(bytes, path, facts);
+    facts->stored_width = image.width;
+    facts->stored_height = image.height;
+    return ConvertChannels(image, channels);
+  }
+  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
+  const int size = static_cast<int>(bytes.size());
+  int w = 0, h = 0, c = 0;
+  if (!stbi_info_from_memory(data, size, &w, &h, &c)) {
+    ThrowInputError(path, "", std::string(kReadFormats) + " (" + stbi_failure_reason() + ")");
+  }
+  CheckPixelCount(w, h, path);
   CheckPngChunks(bytes, path);
-  unsigned char* pixels = stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
-                                                static_cast<int>(bytes.size()), w, h, c, channels);
+  if (IsJpeg(bytes)) CheckJpegStructure(bytes, path);
+  // Grey+alpha has no Image layout of its own: RGBA.
+  const int request = channels == 0 && c == 2 ? 4 : channels;
+  const bool sixteen = stbi_is_16_bit_from_memory(data, size) != 0;
+  void* pixels = sixteen ? static_cast<void*>(stbi_load_16_from_memory(data, size, &w, &h, &c, request))
+                         : static_cast<void*>(stbi_load_from_memory(data, size, &w, &h, &c, request));
   if (pixels == nullptr) {
-    ThrowInputError(path, "", std::string("a decodable PNG or JPEG (") + stbi_failure_reason() + ")");
+    ThrowInputError(path, "", std::string(kDecodableFormats) + " (" + stbi_failure_reason() + ")");
   }
-  const int out_c = channels == 0 ? *c : channels;
-  Image image(*w, *h, out_c);
-  for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = pixels[i] / 255.f;
+  Image image(w, h, request == 0 ? c : request);
+  if (sixteen) {
+    const auto* p = static_cast<const std::uint16_t*>(pixels);
+    for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = p[i] / 65535.f;
+  } else {
+    const auto* p = static_cast<const stbi_uc*>(pixels);
+    for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = p[i] / 255.f;
+  }
   stbi_image_free(pixels);
+  facts->stored_width = w;
+  facts->stored_height = h;
+  facts->file_channels = c;
+  facts->bits_per_channel = sixteen ? 16 : 8;
   return image;
 }
 
@@ -60,27 +264,94 @@ constexpr std::int64_t kMaxImageFileBytes = std::int64_t(1) << 30;
 
 }  // namespace
 
-void ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
-  if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
-  // Only the header is needed: stbi_info reads a few hundred bytes from the file.
-  if (!stbi_info(path.c_str(), width, height, channels)) {
-    ThrowInputError(path, "", std::string("a PNG or JPEG image (") + stbi_failure_reason() + ")");
-  }
-  if (*width <= 0 || *height <= 0 || static_cast<std::int64_t>(*width) * *height > kMaxImagePixels) {
-    ThrowInputError(path, "size",
-                    "at most " + std::to_string(kMaxImagePixels) + " pixels, header says " + std::to_string(*width) +
-                        "x" + std::to_string(*height));
-  }
-}
-
-Image ReadImage(const std::string& path, int channels) {
+void ImageReadOptions::Check() const {
   if (channels != 0 && channels != 1 && channels != 3 && channels != 4) {
     throw std::invalid_argument("ReadImage: channels must be 0, 1, 3 or 4");
   }
+}
+
+void ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
+  if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
+  // Only the header is needed: stbi_info reads a few hundred bytes from the file (and ReadExif the
+  // segments before a JPEG's image data); a PNM header is read from the first 64 KiB.
+  std::string head(std::size_t(1) << 16, '\0');
+  {
+    std::ifstream in(path, std::ios::binary);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+  }
+  if (IsPnm(head)) {
+    const PnmHeader h = ParsePnmHeader(head, path);
+    *width = h.width, *height = h.height, *channels = h.channels;
+    return;
+  }
+  if (!stbi_info(path.c_str(), width, height, channels)) {
+    ThrowInputError(path, "", std::string(kReadFormats) + " (" + stbi_failure_reason() + ")");
+  }
+  CheckPixelCount(*width, *height, path);
+  if (IsJpeg(head) && ReadImageOrientation(path) >= 5) std::swap(*width, *height);
+}
+
+int ReadImageOrientation(const std::string& path) { return ReadExif(path).orientation; }
+
+Image ReadImage(const std::string& path, const ImageReadOptions& options, ImageFileFacts* facts) {
+  options.Check();
   if (!FileExists(path)) ThrowInputError(path, "", "an existing image file");
   const std::string bytes = ReadFileToString(path, kMaxImageFileBytes);
-  int w = 0, h = 0, c = 0;
-  return Decode(bytes, path, channels, &w, &h, &c);
+  ImageFileFacts local;
+  ImageFileFacts* f = facts != nullptr ? facts : &local;
+  *f = ImageFileFacts();
+  Image image = Decode(bytes, path, options.channels, f);
+  if (IsJpeg(bytes)) f->exif = ReadExifFromBytes(bytes, path);
+  if (options.apply_exif_orientation && f->exif.orientation != 1) {
+    image = ApplyExifOrientation(image, f->exif.orientation);
+    f->orientation_applied = f->exif.orientation;
+  }
+  return image;
+}
+
+Image ReadImage(const std::string& path, int channels) {
+  ImageReadOptions options;
+  options.channels = channels;
+  return ReadImage(path, options);
+}
+
+Image ApplyExifOrientation(const Image& in, int orientation) {
+  if (orientation < 1 || orientation > 8) throw std::invalid_argument("ApplyExifOrientation: orientation not 1..8");
+  if (orientation == 1) return in;
+  const int W = in.width, H = in.height, C = in.channels;
+  const bool swap = orientation >= 5;
+  Image out(swap ? H : W, swap ? W : H, C);
+  for (int y = 0; y < out.height; ++y) {
+    for (int x = 0; x < out.width; ++x) {
+      int sx = x, sy = y;  // the stored pixel shown at (x, y)
+      switch (orientation) {
+        case 2:
+          sx = W - 1 - x;
+          break;
+        case 3:
+          sx = W - 1 - x, sy = H - 1 - y;
+          break;
+        case 4:
+          sy = H - 1 - y;
+          break;
+        case 5:
+          sx = y, sy = x;
+          break;
+        case 6:
+          sx = y, sy = H - 1 - x;
+          break;
+        case 7:
+          sx = W - 1 - y, sy = H - 1 - x;
+          break;
+        case 8:
+          sx = W - 1 - y, sy = x;
+          break;
+      }
+      for (int c = 0; c < C; ++c) out.at(x, y, c) = in.at(sx, sy, c);
+    }
+  }
+  return out;
 }
 
 std::string EncodeImage(const Image& image, const std::string& ext, const std::string& name, int jpeg_quality) {

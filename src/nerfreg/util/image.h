@@ -1,9 +1,13 @@
 #pragma once
-// 8-bit PNG / JPEG images in and out (stb). In memory an image is float in [0, 1], row-major,
+// Images in and out (stb). Read: PNG (8 or 16 bits; grey, grey+alpha, RGB, RGBA), JPEG (turned
+// upright by its EXIF Orientation), binary PGM / PPM (P5 / P6, 8 or 16 bits). Written: 8-bit PNG
+// and JPEG. In memory an image is float in [0, 1] (16-bit values / 65535, 8-bit / 255), row-major,
 // interleaved channels: data[(y * width + x) * channels + c], y down from the top row.
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "nerfreg/util/exif.h"
 
 namespace nerfreg {
 
@@ -26,12 +30,49 @@ struct Image {
 // could otherwise ask for tens of GB).
 constexpr std::int64_t kMaxImagePixels = std::int64_t(1) << 28;  // 16384 x 16384
 
-// Reads PNG or JPEG. `channels` 0 keeps the file's channel count; 1, 3 or 4 converts.
-// Throws InputError naming the file on a missing, unreadable or oversized image.
+// Reads an image (the formats above, told apart by content, not extension), a JPEG turned upright
+// by its EXIF Orientation. `channels` 0 keeps the file's channel count (grey+alpha becomes RGBA:
+// an Image holds 1, 3 or 4); 1, 3 or 4 converts. Throws InputError naming the file on a missing,
+// unreadable, oversized, corrupt or truncated image.
 Image ReadImage(const std::string& path, int channels = 0);
 
-// Reads only the size. Throws like ReadImage.
+// How the ReadImage overload below decodes.
+struct ImageReadOptions {
+  int channels = 0;                    // 0 keeps the file's (grey+alpha: RGBA); 1, 3 or 4 converts
+  bool apply_exif_orientation = true;  // turn a JPEG upright by its EXIF Orientation; false keeps
+                                       // the stored pixel order (e.g. cameras posed on it)
+  void Check() const;                  // throws std::invalid_argument
+};
+
+// What the ReadImage overload below found in the file besides the pixels.
+struct ImageFileFacts {
+  int stored_width = 0;  // pixels as stored, before any orientation
+  int stored_height = 0;
+  int file_channels = 0;        // the file's channel count (2: grey+alpha)
+  int bits_per_channel = 8;     // 8 or 16
+  int orientation_applied = 1;  // the EXIF Orientation the returned pixels were turned by (1: none)
+  ExifInfo exif;                // a JPEG's EXIF block (empty for other formats or none)
+};
+
+// ReadImage with options, also saying what it found (`facts` may be null). One read of the file
+// gives the pixels and the EXIF for FocalPriorFromExif (exif.h), whose width and height are the
+// returned image's.
+Image ReadImage(const std::string& path, const ImageReadOptions& options, ImageFileFacts* facts = nullptr);
+
+// Reads only the size, as ReadImage returns it: a JPEG whose EXIF Orientation is 5..8 (a quarter
+// turn) has its stored width and height swapped. `channels` is the file's. Throws like ReadImage.
 void ReadImageSize(const std::string& path, int* width, int* height, int* channels);
+
+// The EXIF Orientation ReadImage applies to this file: 1..8, 1 for a file other than a JPEG or one
+// without the tag. Reads only the file's EXIF. Throws InputError for a missing file.
+int ReadImageOrientation(const std::string& path);
+
+// Turns stored pixels upright for an EXIF Orientation (where the stored row 0 / column 0 belong):
+// 1 as is, 2 mirrored left-right, 3 turned 180 degrees, 4 mirrored top-bottom, 5 transposed
+// (mirrored about the main diagonal), 6 turned 90 degrees clockwise, 7 transversed (mirrored about
+// the anti-diagonal), 8 turned 90 degrees counter-clockwise. 5..8 swap width and height. Throws
+// std::invalid_argument for an orientation outside 1..8.
+Image ApplyExifOrientation(const Image& stored, int orientation);
 
 // Writes PNG (by extension .png) or JPEG (.jpg/.jpeg, quality jpeg_quality in 1..100) atomically;
 // values clamped.
