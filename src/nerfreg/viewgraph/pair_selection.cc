@@ -54,12 +54,14 @@ class VocabularyTree {
  public:
   VocabularyTree(const DescriptorsF& sample, const PairSelectionOptions& options);
   int num_words() const { return num_words_; }
-  int Quantize(const Eigen::Matrix<float, 1, 128>& d) const;
+  // The word of every row of d: per tree node, one matrix product of the rows that reach it.
+  std::vector<int> Quantize(const DescriptorsF& d) const;
 
  private:
   struct Node {
-    DescriptorsF centers;
-    std::vector<int> child;  // >= 0: a node; < 0: the word -child - 1
+    Eigen::MatrixXf centers;          // k x 128
+    Eigen::RowVectorXf center_norms;  // squared
+    std::vector<int> child;           // >= 0: a node; < 0: the word -child - 1
   };
   std::vector<Node> nodes_;
   int num_words_ = 0;
@@ -136,7 +138,8 @@ VocabularyTree::VocabularyTree(const DescriptorsF& sample, const PairSelectionOp
     DescriptorsF centers = KMeans(x, k, options.kmeans_iterations, &rng, &labels);
     std::vector<std::vector<int>> members(k);
     for (size_t r = 0; r < labels.size(); ++r) members[labels[r]].push_back(task.rows[r]);
-    nodes_[task.node].centers = std::move(centers);
+    nodes_[task.node].centers = centers;
+    nodes_[task.node].center_norms = centers.rowwise().squaredNorm().transpose();
     nodes_[task.node].child.assign(k, 0);
     for (int c = 0; c < k; ++c) {
       // A child too small to split into `branching` clusters of a few rows each is a word.
@@ -152,15 +155,32 @@ VocabularyTree::VocabularyTree(const DescriptorsF& sample, const PairSelectionOp
   }
 }
 
-int VocabularyTree::Quantize(const Eigen::Matrix<float, 1, 128>& d) const {
-  int node = 0;
-  while (true) {
-    int best;
-    (nodes_[node].centers.rowwise() - d).rowwise().squaredNorm().minCoeff(&best);
-    const int child = nodes_[node].child[best];
-    if (child < 0) return -child - 1;
-    node = child;
+std::vector<int> VocabularyTree::Quantize(const DescriptorsF& d) const {
+  std::vector<int> words(d.rows(), 0);
+  std::vector<std::pair<int, std::vector<int>>> work(1, {0, std::vector<int>(d.rows())});
+  for (int r = 0; r < d.rows(); ++r) work[0].second[r] = r;
+  while (!work.empty()) {
+    const auto [node_id, rows] = std::move(work.back());
+    work.pop_back();
+    if (rows.empty()) continue;
+    const Node& node = nodes_[node_id];
+    Eigen::MatrixXf x(rows.size(), 128);
+    for (size_t r = 0; r < rows.size(); ++r) x.row(r) = d.row(rows[r]);
+    Eigen::MatrixXf dist = x * node.centers.transpose();
+    dist = (-2.f * dist).rowwise() + node.center_norms;
+    std::vector<std::vector<int>> to_child(node.child.size());
+    for (size_t r = 0; r < rows.size(); ++r) {
+      int best;
+      dist.row(r).minCoeff(&best);
+      if (node.child[best] < 0)
+        words[rows[r]] = -node.child[best] - 1;
+      else
+        to_child[best].push_back(rows[r]);
+    }
+    for (size_t c = 0; c < to_child.size(); ++c)
+      if (!to_child[c].empty()) work.push_back({node.child[c], std::move(to_child[c])});
   }
+  return words;
 }
 
 // At most `limit` rows of d, evenly strided, as floats.
@@ -291,8 +311,7 @@ Eigen::MatrixXf RetrievalSimilarity(const std::vector<SiftDescriptors>& descript
   std::vector<std::vector<int>> words(n);
   cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i) {
-      words[i].resize(kept[i].rows());
-      for (int r = 0; r < kept[i].rows(); ++r) words[i][r] = tree.Quantize(kept[i].row(r));
+      words[i] = tree.Quantize(kept[i]);
       std::sort(words[i].begin(), words[i].end());
     }
   });
