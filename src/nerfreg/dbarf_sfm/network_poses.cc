@@ -245,7 +245,10 @@ std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& c
     const Rigid3d j_from_i = cam_from_world[e.j] * cam_from_world[e.i].Inverse();
     const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
     const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    for (int m : {e.i, e.j}) graph_residuals[m].push_back(angle), graph_direction_residuals[m].push_back(direction);
+    for (int m : {e.i, e.j}) {
+      graph_residuals[m].push_back(angle);
+      if (!e.panoramic) graph_direction_residuals[m].push_back(direction);  // photos from one spot: none
+    }
   }
   std::vector<ImagePoseConfidence> out(n);
   for (int k = 0; k < n; ++k) {
@@ -353,7 +356,10 @@ void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, 
     const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
     const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
     const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    for (int k : {e.i, e.j}) residuals[k].push_back(angle), direction_residuals[k].push_back(direction);
+    for (int k : {e.i, e.j}) {
+      residuals[k].push_back(angle);
+      if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none
+    }
   }
   std::vector<int> observations(n, 0);
   std::vector<double> error_sum(n, 0.0);
@@ -368,7 +374,9 @@ void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, 
     ImagePoseConfidence& c = result->confidence[k];
     c.edges = static_cast<int>(residuals[k].size());
     c.rotation_residual_deg = residuals[k].empty() ? 180.0 : Median(residuals[k]);
-    c.direction_residual_deg = direction_residuals[k].empty() ? 180.0 : Median(direction_residuals[k]);
+    // Only panoramic edges: no direction was measured, so none disagrees.
+    c.direction_residual_deg = direction_residuals[k].empty() ? (residuals[k].empty() ? 180.0 : 0.0)
+                                                              : Median(direction_residuals[k]);
     c.observations = observations[k];
     c.reprojection_error_px = observations[k] > 0 ? error_sum[k] / observations[k] : 0.0;
     result->posed[k] = true;
@@ -595,6 +603,20 @@ std::string DescribeLowConfidence(const ImagePosesResult& result, const std::vec
   return out;
 }
 
+std::string NetworkPoseRejection(const ImagePoseConfidence& c, const ImagePosesOptions& options) {
+  if (!c.problem.empty()) return "the network's pose is doubtful: " + c.problem;
+  if (c.edges == 0) return "the network's pose has no edge to the posed images to check it against";
+  if (c.rotation_residual_deg <= options.low_confidence_deg &&
+      c.direction_residual_deg <= options.low_confidence_direction_deg)
+    return "";
+  char buf[200];
+  std::snprintf(buf, sizeof(buf),
+                "the network's pose disagrees with its edges to the posed images (rotation %.1f deg, direction "
+                "%.1f deg over %d edges)",
+                c.rotation_residual_deg, c.direction_residual_deg, c.edges);
+  return buf;
+}
+
 ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                                     const std::vector<std::string>& names, const ImagePosesOptions& options,
                                     const std::string& source) {
@@ -747,18 +769,16 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                            c.direction_residual_deg > options.low_confidence_direction_deg;
     c.low = !c.problem.empty() || c.edges == 0 || disagrees ||
             (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
-    // A camera the network placed beside the SfM's whose own measurements disagree with it, or that
-    // collapsed onto another, is not an answer: it is left out with the reason, never counted.
-    if (options.method == "auto" && result.method_used == "auto" && by_network &&
-        (disagrees || !c.problem.empty() || c.edges == 0)) {
-      result.posed[k] = false;
-      result.posed_by[k] = "";
-      result.cam_from_world[k] = Rigid3d();
-      char buf[200];
-      std::snprintf(buf, sizeof(buf), "the network's pose disagrees with its edges to the posed images (rotation %.1f deg, direction %.1f deg over %d edges)",
-                    c.rotation_residual_deg, c.direction_residual_deg, c.edges);
-      result.not_posed_reason[k] = c.problem.empty() ? std::string(buf) : "the network's pose " + c.problem;
-      continue;
+    // A camera the network placed beside the SfM's that its own measurements contradict is not an
+    // answer: it is left out with the reason, never counted as posed.
+    if (options.method == "auto" && result.method_used == "auto" && by_network) {
+      if (std::string reason = NetworkPoseRejection(c, options); !reason.empty()) {
+        result.posed[k] = false;
+        result.posed_by[k] = "";
+        result.cam_from_world[k] = Rigid3d();
+        result.not_posed_reason[k] = reason;
+        continue;
+      }
     }
     if (c.low) result.low_confidence.push_back(names[k]);
   }

@@ -148,6 +148,13 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                                     const std::vector<std::string>& names, const ImagePosesOptions& options,
                                     const std::string& source = "images");
 
+// Why method auto leaves an image the network placed beside the SfM's cameras unposed ("" to keep
+// it): a problem with the image (textureless, collapsed onto another camera, ...), no edge to the
+// posed images to check it by, or its relative rotations / directions to them disagreeing with
+// its pose beyond low_confidence_deg / low_confidence_direction_deg. A pose the program itself
+// doubts is reported as not posed, never counted.
+std::string NetworkPoseRejection(const ImagePoseConfidence& confidence, const ImagePosesOptions& options);
+
 // One line naming every low-confidence image with its confidence, for the warning of dbarf poses:
 // "r_004.png (network: rotation 7.2 deg, direction 41 deg over 3 edges; textureless), ...". Empty
 // when none is low.

@@ -53,6 +53,39 @@ TEST(NetworkPoses, ANetworkThatPredictsIdentityIsCaughtOnTheSharedEdges) {
   EXPECT_THROW(RegisterFromRelativePoses({}, {}), std::invalid_argument);
 }
 
+// A photo the SfM cannot pose, placed by the network with relative poses 16 deg off on one source
+// (as a view 40 deg below an orbit was): its edges between the posed sources disagree, and auto
+// reports it not posed, with the reason, instead of counting it. Exact edges are kept.
+TEST(NetworkPoses, ANetworkPoseWhoseEdgesDisagreeIsNotPosed) {
+  const Rigid3d target = LookAt({0.3, -2.5, -3}, {0, 0, 0});
+  std::vector<Rigid3d> src_from_world, exact, wrong;
+  for (const Eigen::Vector3d c :
+       {Eigen::Vector3d(-1, 0, -4), Eigen::Vector3d(1, 0.3, -4.2), Eigen::Vector3d(0, -0.8, -3.7)}) {
+    src_from_world.push_back(LookAt(c, {0.1, 0, 0.2}));
+    exact.push_back(src_from_world.back() * target.Inverse());
+    wrong.push_back(exact.back());
+  }
+  wrong[1].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(16 * M_PI / 180, Eigen::Vector3d::UnitX())) * wrong[1].rotation;
+  const ImagePosesOptions options;
+  auto confidence = [](const NetworkRegistration& r) {
+    ImagePoseConfidence c;
+    c.edges = r.pairs;
+    c.rotation_residual_deg = r.pair_rotation_error_deg;
+    c.direction_residual_deg = r.pair_direction_error_deg;
+    return c;
+  };
+  const NetworkRegistration good = RegisterFromRelativePoses(src_from_world, exact);
+  EXPECT_EQ(NetworkPoseRejection(confidence(good), options), "");
+  const NetworkRegistration bad = RegisterFromRelativePoses(src_from_world, wrong);
+  EXPECT_GT(bad.pair_rotation_error_deg, 10.0);
+  const std::string reason = NetworkPoseRejection(confidence(bad), options);
+  EXPECT_NE(reason.find("disagrees"), std::string::npos) << reason;
+  ImagePoseConfidence collapsed = confidence(good);
+  collapsed.problem = "its camera centre coincides with a.png's (a collapsed solution)";
+  EXPECT_NE(NetworkPoseRejection(collapsed, options).find("collapsed"), std::string::npos);
+  EXPECT_NE(NetworkPoseRejection(ImagePoseConfidence(), options), "");  // nothing to check it by
+}
+
 // The network's edges (target -> source, src_from_tgt) go the right way into the averaging: exact
 // relative poses in any unit give the cameras back, and the confidence comes from the view graph
 // where it has edges (the independent check), from the network's own edges elsewhere.

@@ -16,6 +16,7 @@
 #include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/util/error.h"
+#include "nerfreg/util/exif.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
@@ -28,14 +29,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// PNG / JPEG files of a folder, sorted by name.
+// PNG / JPEG / PGM / PPM files of a folder, sorted by name.
 std::vector<std::string> ListImages(const std::string& dir) {
   if (!DirExists(dir)) ThrowInputError(dir, "", "a folder of images");
   std::vector<std::string> names;
   for (const auto& entry : fs::directory_iterator(dir)) {
     if (!entry.is_regular_file()) continue;
     const std::string ext = LowerExtension(entry.path().string());
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") names.push_back(entry.path().filename().string());
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".pgm" || ext == ".ppm")
+      names.push_back(entry.path().filename().string());
   }
   std::sort(names.begin(), names.end());
   return names;
@@ -76,28 +78,20 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
   return cameras;
 }
 
-struct PhotoPrior {
-  double focal_px = 0;
-  std::string source;      // where the focal length came from
-  std::string camera_key;  // make and model, "" when unknown
-};
-PhotoPrior PhotoFocalPrior(const std::string& /*path*/, int width, int height) {
-  return {1.2 * std::max(width, height), "the image size (1.2 x the longer side)", ""};
-}
-
 // Cameras of photos without a calibration file: a focal prior per image from its EXIF (or its size,
 // util/exif.h), principal point at the centre, no distortion; `group` gets one camera group per
 // make / model / size, whose intrinsics the SfM estimates and refines together.
-std::vector<Camera> PriorCameras(const std::string& dir, const std::vector<std::string>& names,
-                                 const std::vector<Image>& images, std::vector<int>* group) {
+std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const std::vector<Image>& images,
+                                 const std::vector<ExifInfo>& exif, const std::string& dir, std::vector<int>* group) {
   std::vector<Camera> cameras;
   std::map<std::string, int> group_of;
   group->clear();
   for (size_t k = 0; k < names.size(); ++k) {
-    const std::string path = JoinPaths(dir, names[k]);
     const Image& im = images[k];
-    const PhotoPrior prior = PhotoFocalPrior(path, im.width, im.height);
-    const std::string key = prior.camera_key + " " + std::to_string(im.width) + "x" + std::to_string(im.height);
+    const FocalPrior prior = FocalPriorFromExif(exif[k], im.width, im.height, JoinPaths(dir, names[k]));
+    const std::string maker = exif[k].make + (exif[k].model.empty() ? "" : " " + exif[k].model);
+    const std::string key = (maker.empty() ? "unknown camera" : maker) + " " + std::to_string(im.width) + "x" +
+                            std::to_string(im.height);
     const auto [it, inserted] = group_of.emplace(key, static_cast<int>(group_of.size()));
     group->push_back(it->second);
     cameras.push_back(
@@ -257,9 +251,14 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
 
   const std::vector<std::string> names = ListImages(o.images_dir);
   if (names.size() < 3)
-    ThrowInputError(o.images_dir, "", "at least 3 PNG / JPEG images, found " + std::to_string(names.size()));
+    ThrowInputError(o.images_dir, "", "at least 3 PNG / JPEG / PGM / PPM images, found " + std::to_string(names.size()));
   std::vector<Image> images;
-  for (const auto& name : names) images.push_back(ReadImage(JoinPaths(o.images_dir, name)));
+  std::vector<ExifInfo> exif;
+  for (const auto& name : names) {
+    ImageFileFacts facts;
+    images.push_back(ReadImage(JoinPaths(o.images_dir, name), ImageReadOptions(), &facts));
+    exif.push_back(facts.exif);
+  }
   std::vector<Camera> cameras;
   std::vector<std::string> splits(names.size(), "train");  // --intrinsics' splits, if given
   const bool calibrated = !o.intrinsics.empty() || o.focal > 0;
@@ -269,7 +268,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     for (const Image& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   } else {
-    cameras = PriorCameras(o.images_dir, names, images, &o.poses.camera_group);
+    cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group);
   }
   if (!calibrated || o.refine_intrinsics) {
     o.poses.sfm.view_graph.estimate_focal = !calibrated;

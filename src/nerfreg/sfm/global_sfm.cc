@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <thread>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
@@ -18,6 +19,18 @@ ViewGraphOptions SfmViewGraphDefaults() {
   // Enlarging helps the small renders (128x96, 320x240) and costs photos most of the time: at
   // 640x480 it made matching ~6x slower for the same rotations (docs/notes/2026-11-25-sift-upsample.md).
   o.upsample_max_side = 1000;
+  return o;
+}
+
+BundleAdjustmentOptions SfmBundleAdjustmentDefaults() {
+  BundleAdjustmentOptions o;
+  o.num_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return o;
+}
+
+GlobalPositioningOptions SfmGlobalPositioningDefaults() {
+  GlobalPositioningOptions o;
+  o.num_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return o;
 }
 
@@ -216,7 +229,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       }
     }
     solution = std::move(s);
-    if (num_collapsed == 0) break;
+    if (num_collapsed == 0 || attempt == options.collapse_retries) break;
     ++result.num_collapse_resolves;
     LOG_INFO("sfm: {} camera centres collapsed onto others; solving again from another start ({}/{})",
              num_collapsed, attempt + 1, options.collapse_retries);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <Eigen/Core>
+#include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -12,6 +13,12 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+
+// The Fortran BLAS's single-precision product (any libblas.so.3; OpenBLAS where setup.sh installed
+// it, threads set by exe/main.cc): C = op(A) op(B), column-major.
+extern "C" void sgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
+                       const float* alpha, const float* a, const int* lda, const float* b, const int* ldb,
+                       const float* beta, float* c, const int* ldc);
 
 namespace nerfreg {
 
@@ -32,6 +39,7 @@ void ViewGraphOptions::Check() const {
   if (upsample < 1 || upsample > 4) ThrowInputError("--sift-upsample", "", "1..4, got " + std::to_string(upsample));
   if (upsample_max_side < 0)
     ThrowInputError("--sift-upsample-max-side", "", ">= 0, got " + std::to_string(upsample_max_side));
+  pairs.Check();
 }
 
 std::vector<int> ViewGraph::Neighbors(int i, int k) const {
@@ -64,6 +72,13 @@ const ViewGraphEdge* ViewGraph::FindEdge(int i, int j) const {
 
 namespace {
 
+// A homography with more than this share of the essential matrix's inliers makes a pair planar or
+// panoramic (COLMAP's max_H_inlier_ratio).
+constexpr double kPlanarInlierRatio = 0.8;
+// ... and panoramic (no translation direction) when its inlier rays, rotated by the homography's
+// rotation, differ by less than this median angle.
+constexpr double kPanoramicParallaxDeg = 0.5;
+
 cv::Mat ToGray8(const Image& im) {
   cv::Mat gray(im.height, im.width, CV_8UC1);
   for (int y = 0; y < im.height; ++y)
@@ -82,52 +97,73 @@ cv::Mat ToGray8(const Image& im) {
 
 struct Features {
   std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> eigen;  // descriptors, one per row
-  Eigen::VectorXf norms;                                                        // squared row norms
+  SiftDescriptors descriptors;  // one row per keypoint: 128 bytes a keypoint (OpenCV's are integers)
 };
 
 // Mutual nearest neighbours passing the ratio test in both directions, from one matrix of
-// descriptor dot products (one GEMM instead of two brute-force passes):
-// |a - b|^2 = |a|^2 + |b|^2 - 2 a.b.
-std::vector<cv::DMatch> MatchMutualRatio(const Features& a, const Features& b, double ratio) {
-  const int na = static_cast<int>(a.eigen.rows()), nb = static_cast<int>(b.eigen.rows());
+// descriptor dot products (one BLAS GEMM instead of two brute-force passes):
+// |a - b|^2 = |a|^2 + |b|^2 - 2 a.b. The product is column-major, so each column (one keypoint
+// of b against every keypoint of a) is contiguous: a's running best two are updated without
+// branches (the compiler vectorises it), and b's best two are one pass over the column.
+}  // namespace
+
+std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
+                                                  double ratio) {
+  const int na = static_cast<int>(a_bytes.rows()), nb = static_cast<int>(b_bytes.rows());
   if (na < 2 || nb < 2) return {};
-  const Eigen::MatrixXf dot = a.eigen * b.eigen.transpose();
+  const Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> a = a_bytes.cast<float>(), b = b_bytes.cast<float>();
+  const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
+  // dot = a b^T (na x nb, column-major) through the BLAS: OpenBLAS's kernels use the CPU's widest
+  // vectors (the build targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here.
+  Eigen::MatrixXf dot(na, nb);
+  const char transpose = 'T', keep = 'N';
+  const int depth = 128;
+  const float one = 1, zero = 0;
+  sgemm_(&transpose, &keep, &na, &nb, &depth, &one, a.data(), &depth, b.data(), &depth, &zero, dot.data(), &na);
   const float r2 = static_cast<float>(ratio * ratio);
-  std::vector<int> best_ab(na, -1), best_ba(nb, -1);
-  std::vector<float> d1b(nb, INFINITY), d2b(nb, INFINITY);
-  std::vector<int> i1b(nb, -1);
-  std::vector<float> d1a(na), distance(na);
-  for (int i = 0; i < na; ++i) {
-    float d1 = INFINITY, d2 = INFINITY;
-    int j1 = -1;
-    for (int j = 0; j < nb; ++j) {
-      const float d = a.norms(i) + b.norms(j) - 2 * dot(i, j);
-      if (d < d1)
-        d2 = d1, d1 = d, j1 = j;
-      else if (d < d2)
-        d2 = d;
-      if (d < d1b[j])
-        d2b[j] = d1b[j], d1b[j] = d, i1b[j] = i;
-      else if (d < d2b[j])
-        d2b[j] = d;
+  std::vector<float> d1a(na, INFINITY), d2a(na, INFINITY);
+  std::vector<int> j1a(na, -1), best_ba(nb, -1);
+  const float* norms_a = norms_a_vector.data();
+  for (int j = 0; j < nb; ++j) {
+    const float* column = dot.col(j).data();
+    const float norm_b = norms_b(j);
+    float* d1 = d1a.data();
+    float* d2 = d2a.data();
+    int* j1 = j1a.data();
+    for (int i = 0; i < na; ++i) {
+      const float d = norms_a[i] + norm_b - 2 * column[i];
+      const bool better = d < d1[i];
+      d2[i] = better ? d1[i] : std::min(d2[i], d);
+      j1[i] = better ? j : j1[i];
+      d1[i] = better ? d : d1[i];
     }
-    if (d1 < r2 * d2) best_ab[i] = j1;
-    distance[i] = std::sqrt(std::max(d1, 0.f));
+    float c1 = INFINITY, c2 = INFINITY;
+    int i1 = -1;
+    for (int i = 0; i < na; ++i) {
+      const float d = norms_a[i] + norm_b - 2 * column[i];
+      if (d < c2) {
+        if (d < c1)
+          c2 = c1, c1 = d, i1 = i;
+        else
+          c2 = d;
+      }
+    }
+    if (c1 < r2 * c2) best_ba[j] = i1;
   }
-  for (int j = 0; j < nb; ++j)
-    if (d1b[j] < r2 * d2b[j]) best_ba[j] = i1b[j];
-  std::vector<cv::DMatch> out;
-  for (int i = 0; i < na; ++i)
-    if (best_ab[i] >= 0 && best_ba[best_ab[i]] == i) out.emplace_back(i, best_ab[i], distance[i]);
+  std::vector<std::pair<int, int>> out;
+  for (int i = 0; i < na; ++i) {
+    const int j = j1a[i];
+    if (j >= 0 && d1a[i] < r2 * d2a[i] && best_ba[j] == i) out.push_back({i, j});
+  }
   return out;
 }
+
+namespace {
 
 // Per camera group with pairs inside it, the focal length from the pairs' fundamental matrices
 // (pixels, USAC MAGSAC++), written into every camera of the group where the estimate is distinct.
 void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
-                         const std::vector<std::vector<cv::DMatch>>& pair_matches,
+                         const std::vector<std::vector<std::pair<int, int>>>& pair_matches,
                          const std::vector<std::vector<cv::Point2d>>& pixels, const std::vector<int>& group,
                          const ViewGraphOptions& options, const std::vector<std::string>& names,
                          std::vector<Camera>* cameras) {
@@ -138,9 +174,9 @@ void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
       const auto [i, j] = pairs[p];
       if (group[i] != group[j] || static_cast<int>(pair_matches[p].size()) < options.min_inliers) continue;
       std::vector<cv::Point2d> pi, pj;
-      for (const auto& m : pair_matches[p]) pi.push_back(pixels[i][m.queryIdx]), pj.push_back(pixels[j][m.trainIdx]);
+      for (const auto& [a, b] : pair_matches[p]) pi.push_back(pixels[i][a]), pj.push_back(pixels[j][b]);
       cv::Mat mask;
-      const cv::Mat f = cv::findFundamentalMat(pi, pj, cv::USAC_MAGSAC, 2.0 * options.ransac_threshold_px,
+      const cv::Mat f = cv::findFundamentalMat(pi, pj, cv::USAC_MAGSAC, options.ransac_threshold_px,
                                                options.ransac_confidence, mask);
       if (f.rows != 3 || f.cols != 3 || cv::countNonZero(mask) < options.min_inliers) continue;
       Eigen::Matrix3d e;
@@ -154,11 +190,9 @@ void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
   group_ids.erase(std::unique(group_ids.begin(), group_ids.end()), group_ids.end());
   for (int g : group_ids) {
     std::vector<Eigen::Matrix3d> f;
-    int first = -1;
     for (int p = 0; p < num_pairs; ++p)
       if (fundamentals[p] && group[pairs[p].first] == g) f.push_back(*fundamentals[p]);
-    for (size_t k = 0; k < group.size() && first < 0; ++k)
-      if (group[k] == g) first = static_cast<int>(k);
+    const int first = static_cast<int>(std::find(group.begin(), group.end(), g) - group.begin());
     const Camera& c = (*cameras)[first];
     const FocalEstimate e = EstimateFocalFromFundamentals(f, c.width, c.height, options.focal_estimation);
     if (!e.distinct) {
@@ -220,12 +254,12 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       const int up = EffectiveUpsample(options, std::max(images[k].width, images[k].height));
       cv::Mat gray = ToGray8(images[k]);
       if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
-      sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, features[k].descriptors);
-      const cv::Mat& desc = features[k].descriptors;
-      features[k].eigen.resize(desc.rows, desc.cols);
-      for (int r = 0; r < desc.rows; ++r)
-        for (int c = 0; c < desc.cols; ++c) features[k].eigen(r, c) = desc.at<float>(r, c);
-      features[k].norms = features[k].eigen.rowwise().squaredNorm();
+      cv::Mat desc;
+      sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, desc);
+      features[k].descriptors.resize(desc.rows, 128);
+      for (int r = 0; r < desc.rows && desc.cols == 128; ++r)
+        for (int c = 0; c < 128; ++c)
+          features[k].descriptors(r, c) = static_cast<uint8_t>(std::clamp(desc.at<float>(r, c), 0.f, 255.f) + 0.5f);
       for (const auto& kp : features[k].keypoints) {
         // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
         // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
@@ -237,14 +271,17 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   });
   const double seconds_features = timer.Seconds();
   std::vector<std::pair<int, int>> pairs = pairs_in;
-  if (pairs.empty())
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) pairs.push_back({i, j});
+  if (pairs.empty()) {
+    std::vector<SiftDescriptors> descriptors(n);
+    for (int k = 0; k < n; ++k) descriptors[k] = features[k].descriptors;
+    pairs = SelectPairs(descriptors, names, options.pairs);
+  }
   const int num_pairs = static_cast<int>(pairs.size());
-  std::vector<std::vector<cv::DMatch>> pair_matches(num_pairs);
+  std::vector<std::vector<std::pair<int, int>>> pair_matches(num_pairs);
   cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
     for (int p = range.start; p < range.end; ++p)
-      pair_matches[p] = MatchMutualRatio(features[pairs[p].first], features[pairs[p].second], options.ratio);
+      pair_matches[p] =
+          MatchDescriptors(features[pairs[p].first].descriptors, features[pairs[p].second].descriptors, options.ratio);
   });
   const double seconds_matching = timer.Seconds() - seconds_features;
   if (options.estimate_focal) {
@@ -265,37 +302,71 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
     for (int p = range.start; p < range.end; ++p) {
       const auto [i, j] = pairs[p];
-      const std::vector<cv::DMatch>& matches = pair_matches[p];
+      const std::vector<std::pair<int, int>>& matches = pair_matches[p];
       if (static_cast<int>(matches.size()) < options.min_inliers) continue;
       std::vector<cv::Point2d> pi, pj;
       for (const auto& m : matches) {
-        pi.push_back(normalised[i][m.queryIdx]);
-        pj.push_back(normalised[j][m.trainIdx]);
+        pi.push_back(normalised[i][m.first]);
+        pj.push_back(normalised[j][m.second]);
       }
       // Normalised coordinates: the pixel threshold becomes threshold / focal.
       const double f = 0.25 * (graph.cameras[i].fx + graph.cameras[i].fy + graph.cameras[j].fx + graph.cameras[j].fy);
+      const double threshold = options.ransac_threshold_px / f;
       cv::Mat mask;
-      cv::Mat e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence,
-                                       options.ransac_threshold_px / f, mask);
-      if (e.rows != 3 || e.cols != 3) continue;  // degenerate, or several solutions stacked
-      cv::Mat r, t;
-      const int inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
-      if (inliers < options.min_inliers) continue;
-      Eigen::Matrix3d rot;
-      Eigen::Vector3d trans;
-      for (int a = 0; a < 3; ++a) {
-        trans(a) = t.at<double>(a);
-        for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
+      int inliers = 0;
+      Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+      Eigen::Vector3d trans = Eigen::Vector3d::Zero();
+      cv::Mat e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence, threshold, mask);
+      if (e.rows == 3 && e.cols == 3) {  // else degenerate, or several solutions stacked
+        cv::Mat r, t;
+        inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
+        for (int a = 0; a < 3; ++a) {
+          trans(a) = t.at<double>(a);
+          for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
+        }
       }
+      // A homography on the same matches that explains them about as well (COLMAP's ratio 0.8) is
+      // a planar scene or photos from one spot. Seen from one spot (the rays agree once the
+      // homography's rotation is taken out), the essential matrix is degenerate: the rotation comes
+      // from the homography and the edge has no translation direction.
+      cv::Mat h_mask;
+      const cv::Mat h = cv::findHomography(pi, pj, cv::RANSAC, threshold, h_mask, 2000, options.ransac_confidence);
+      const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
+      bool panoramic = false;
+      if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
+        Eigen::Matrix3d hm;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
+        if (r_h.determinant() < 0) r_h = -r_h;
+        std::vector<double> parallax;
+        for (size_t m = 0; m < matches.size(); ++m) {
+          if (h_mask.at<uint8_t>(static_cast<int>(m)) == 0) continue;
+          const Eigen::Vector3d a = r_h * Eigen::Vector3d(pi[m].x, pi[m].y, 1), b(pj[m].x, pj[m].y, 1);
+          parallax.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
+        }
+        std::nth_element(parallax.begin(), parallax.begin() + parallax.size() / 2, parallax.end());
+        if (parallax[parallax.size() / 2] < kPanoramicParallaxDeg) {
+          panoramic = true;
+          rot = r_h;
+          trans.setZero();
+          mask = h_mask;
+          inliers = h_inliers;
+        }
+      }
+      if (inliers < options.min_inliers) continue;
       ViewGraphEdge edge;
       edge.i = i;
       edge.j = j;
       edge.num_matches = static_cast<int>(matches.size());
       edge.num_inliers = inliers;
-      edge.j_from_i = Rigid3d(rot, trans.normalized());
+      edge.num_homography_inliers = h_inliers;
+      edge.panoramic = panoramic;
+      edge.j_from_i = Rigid3d(rot, panoramic ? Eigen::Vector3d::Zero() : Eigen::Vector3d(trans.normalized()));
       for (size_t m = 0; m < matches.size(); ++m) {
         if (mask.at<uint8_t>(static_cast<int>(m)) != 0)
-          edge.inlier_matches.push_back({matches[m].queryIdx, matches[m].trainIdx});
+          edge.inlier_matches.push_back(matches[m]);
       }
       pair_edges[p] = std::move(edge);
     }

@@ -18,6 +18,7 @@
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/stage_times.h"
 #include "nerfreg/viewgraph/focal_estimation.h"
+#include "nerfreg/viewgraph/pair_selection.h"
 
 namespace nerfreg {
 
@@ -41,20 +42,25 @@ struct ViewGraphOptions {
   // estimate is distinct; elsewhere the cameras' own (prior) focal length stays.
   bool estimate_focal = false;
   FocalEstimationOptions focal_estimation;
+  // Which pairs are matched (pair_selection.h: --pairs exhaustive|sequential|retrieval|auto).
+  PairSelectionOptions pairs;
   void Check() const;  // throws std::invalid_argument
 };
 
 // Two views related by an essential matrix: x_in_j = j_from_i * x_in_i with |t| = 1 (the scale
-// of a two-view translation is unknown).
+// of a two-view translation is unknown), or, for photos taken from one spot (panoramic), by a
+// rotation alone: then t = 0 (no direction; averaging and positioning use only the rotation).
 struct ViewGraphEdge {
   int i = 0;
   int j = 0;
   int num_matches = 0;  // after the ratio and mutual tests
-  int num_inliers = 0;  // essential-matrix inliers in front of both cameras
+  int num_inliers = 0;  // essential-matrix inliers in front of both cameras (homography's if panoramic)
   Rigid3d j_from_i;
   // The inlier correspondences (keypoint index in image i, keypoint index in image j), indices
   // into ViewGraph::keypoints[i] and [j]: what tracks are built from (sfm/tracks.h).
   std::vector<std::pair<int, int>> inlier_matches;
+  int num_homography_inliers = 0;
+  bool panoramic = false;  // a pure rotation: the rotation from the homography, no translation
 };
 
 struct ViewGraph {
@@ -77,12 +83,16 @@ struct ViewGraph {
 // The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
 int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 
+// Mutual nearest neighbours (Euclidean) passing Lowe's ratio test in both directions: pairs
+// (row of a, row of b). One float GEMM of the descriptor dot products per pair.
+std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a, const SiftDescriptors& b, double ratio);
+
 // Throws InputError naming the image when an image's size differs from its camera's, or, with
 // `equal_sizes`, from the first image's (the networks stack images; the SfM takes any sizes).
 void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, bool equal_sizes = true);
 
-// Builds the graph over all pairs (or the given `pairs`, i < j). images: 8-bit-range float images
+// Builds the graph over the pairs options.pairs selects (or the given `pairs`, i < j). images: 8-bit-range float images
 // (grey or colour), any sizes; cameras: one per image (intrinsics only; the focal lengths are
 // priors with options.estimate_focal). camera_group: per image, the camera whose focal length it
 // shares when it is estimated (empty: one group per image size). Throws InputError naming the

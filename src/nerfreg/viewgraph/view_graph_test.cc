@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <numeric>
+#include <opencv2/features2d.hpp>
+#include <random>
+
 #include <cmath>
 
 #include "nerfreg/geometry/conventions.h"
@@ -102,6 +107,45 @@ TEST(ViewGraph, ImagesOfDifferentSizesAreTakenAndOneUnlikeItsCameraIsNamed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("odd.png"), std::string::npos) << e.what();
   }
+}
+
+// The GEMM matcher returns exactly the matches of OpenCV's brute force (two-nearest both ways,
+// ratio test, mutual): half of b is a's rows shuffled with noise, half unrelated.
+TEST(ViewGraph, MatchDescriptorsEqualsBruteForceKnnWithRatioAndMutualChecks) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> byte(0, 120), noise(-6, 6);
+  SiftDescriptors a(400, 128), b(500, 128);
+  for (int r = 0; r < a.rows(); ++r)
+    for (int c = 0; c < 128; ++c) a(r, c) = static_cast<uint8_t>(byte(rng));
+  std::vector<int> perm(a.rows());
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), rng);
+  for (int r = 0; r < b.rows(); ++r)
+    for (int c = 0; c < 128; ++c)
+      b(r, c) = r < 250 ? static_cast<uint8_t>(std::clamp(a(perm[r], c) + noise(rng), 0, 255))
+                        : static_cast<uint8_t>(byte(rng));
+  const double ratio = 0.8;
+  std::vector<std::pair<int, int>> fast = MatchDescriptors(a, b, ratio);
+  cv::Mat ma(a.rows(), 128, CV_32F), mb(b.rows(), 128, CV_32F);
+  for (int r = 0; r < a.rows(); ++r)
+    for (int c = 0; c < 128; ++c) ma.at<float>(r, c) = a(r, c);
+  for (int r = 0; r < b.rows(); ++r)
+    for (int c = 0; c < 128; ++c) mb.at<float>(r, c) = b(r, c);
+  cv::BFMatcher bf(cv::NORM_L2);
+  std::vector<std::vector<cv::DMatch>> ab, ba;
+  bf.knnMatch(ma, mb, ab, 2);
+  bf.knnMatch(mb, ma, ba, 2);
+  auto passes = [&](const std::vector<cv::DMatch>& m) {
+    return m.size() == 2 && m[0].distance * m[0].distance < ratio * ratio * m[1].distance * m[1].distance;
+  };
+  std::vector<std::pair<int, int>> reference;
+  for (const auto& m : ab)
+    if (passes(m) && passes(ba[m[0].trainIdx]) && ba[m[0].trainIdx][0].trainIdx == m[0].queryIdx)
+      reference.push_back({m[0].queryIdx, m[0].trainIdx});
+  std::sort(fast.begin(), fast.end());
+  std::sort(reference.begin(), reference.end());
+  EXPECT_GT(reference.size(), 200u);
+  EXPECT_EQ(fast, reference);
 }
 
 // Small renders are enlarged before SIFT, photo-sized images are not (upsample_max_side), and the
