@@ -1,9 +1,9 @@
-// Registration timings on 2 CPU threads, through the code the pipeline runs: the DReg-NeRF network
-// on a grid pair as `reg eval --pairs --methods dreg --refine none` runs it (RegisterGrids, what
-// EvaluatePairs calls per row; Cpu() configuration, D = 64 and 32), one training step, and the
-// field refinement as `reg register --refine field` runs it (RefineOnFields of RegisterBlocks; two
-// blocks of `nerf train`'s fast preset). Untrained weights and fields: the cost does not depend on
-// them.
+// Registration timings on 2 CPU threads, through the chain every job runs
+// (registration/registration_chain.h): the DReg-NeRF network on a grid pair as `reg eval --pairs
+// --methods dreg --refine none` and `reg register --refine none` run it (RunChain; Cpu()
+// configuration, D = 64 and 32), one training step, and the chain's field stage as `reg register
+// --refine field` runs it (RefineOnFields; two blocks of `nerf train`'s fast preset). Untrained
+// weights and fields: the cost does not depend on them.
 //   build/bench/nerfreg_reg_bench --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
@@ -12,12 +12,11 @@
 
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/nerf/trainer.h"
-#include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/reg/dreg_loss.h"
 #include "nerfreg/reg/dreg_model.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg/test_grids.h"
+#include "nerfreg/registration/registration_chain.h"
 
 namespace nerfreg {
 namespace {
@@ -39,12 +38,13 @@ void BM_DregRegisterCpu(benchmark::State& state) {
   torch::manual_seed(1);
   const Pair pair = MakePair(static_cast<int>(state.range(0)));
   DregNet net(DregModelOptions::Cpu());
-  GridRegistrationOptions o;
-  o.method = "dreg";
-  o.icp = false;
+  BlockRegistrationOptions o;
+  o.method = RegistrationMethod::kDreg;
+  o.refine = RegistrationRefinement::kNone;
+  RegistrationPair grids(pair.src, pair.tgt, nullptr, nullptr, o);
   int points = 0;
   for (auto _ : state) {
-    const GridRegistrationResult reg = RegisterGrids(pair.src, pair.tgt, o, &net);
+    const RegistrationResult reg = RunChain(grids, o.method, RegistrationCloud::kGridMask, o, &net);
     points = reg.source_points + reg.target_points;
   }
   state.counters["keypoints"] = points;
@@ -68,7 +68,7 @@ void BM_DregTrainStepCpu(benchmark::State& state) {
 }
 BENCHMARK(BM_DregTrainStepCpu)->Arg(64)->Arg(32)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// One field refinement (RefineOnFields: AlignFields on the blocks' density fields) between two
+// The chain's field stage (RefineOnFields: AlignFields on the blocks' density fields) between two
 // fast-preset blocks, state.range(0) samples per block (the default is 6000): every LM iteration
 // queries 7 densities per sample. Reports the time per iteration (a refinement takes 5-33 on real
 // pairs).
@@ -79,19 +79,25 @@ void BM_FieldAlignment(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0)) / 2;
   Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Random(3, n);
   points.colwise().normalize();  // a unit sphere's surface
-  FieldAlignmentOptions o;
-  o.max_samples = static_cast<int>(state.range(0));
-  o.iterations = 10;
-  o.tolerance_deg = 0;
-  const Sim3d start(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())),
-                    Eigen::Vector3d::Zero());
+  BlockRegistrationOptions o;
+  o.field.max_samples = static_cast<int>(state.range(0));
+  o.field.iterations = 10;
+  o.field.tolerance_deg = 0;
+  o.grid.resolution = 32;
+  o.grid.side = 32 * o.field.sample_spread;  // the pair's cell: the samples' spread
+  NerfBlockInput source(a), target(b);
+  RegistrationPair blocks(points, points, &source, &target, o);
+  RegistrationResult start;
+  start.target_from_source =
+      Sim3d(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero());
+  start.cloud = RegistrationCloud::kOccupied;
   int iterations = 0;
   double seconds = 0;
   for (auto _ : state) {
-    Json record;
-    RefineOnFields(a, b, points, points, start, o, o.sample_spread, &record);
-    iterations += record["iterations"].get<int>() + 1;  // + the first linearisation
-    seconds += record["seconds"].get<double>();
+    RegistrationResult r = start;
+    RefineOnFields(blocks, o, &r);
+    iterations += r.field["iterations"].get<int>() + 1;  // + the first linearisation
+    seconds += r.field["seconds"].get<double>();
   }
   state.counters["ms_per_iteration"] = 1e3 * seconds / std::max(iterations, 1);
 }

@@ -8,8 +8,8 @@
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg/registration_success.h"
+#include "nerfreg/registration/registration_options.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -21,7 +21,8 @@ using namespace nerfreg;
 
 namespace {
 
-// ICP on the grids: its points and the half-turn check (GridRegistrationOptions).
+// ICP on the grids: its points and the half-turn check (GridRegistrationOptions); the points as
+// typed, parsed by IcpPointsFromName after CLI11 has checked the name.
 void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, double* icp_distance) {
   app.add_option("--icp-points", *icp_points,
                  "Grids: the points ICP aligns, occupied (every voxel over the density threshold; default) or mask "
@@ -32,7 +33,7 @@ void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, doubl
                "best in place and colour is kept)");
   app.add_option("--icp-distance", *icp_distance,
                  "Grids: ICP's correspondence distance in ICP voxels (max(--voxel, 1.1 grid cells); default " +
-                     fmt::format("{:g}", GridRegistrationOptions::kDefaultIcpDistance) + ")")
+                     fmt::format("{:g}", kDefaultIcpDistance) + ")")
       ->check(CLI::PositiveNumber);
 }
 
@@ -62,7 +63,8 @@ namespace {
 
 // reg register's flags, as typed: the enums are parsed after CLI11 has checked the names.
 struct RegisterFlags {
-  std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes";
+  std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes",
+                                   icp_points = "occupied";
   bool no_flips = false, no_block_icp = false;
   std::string device = "cpu";
   BlockRegistrationOptions options;
@@ -100,7 +102,7 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
   app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
   AddMaxPointsOption(app, &o.max_points);
-  AddIcpOptions(app, &o.icp_points, &f->no_flips, &o.icp_distance);
+  AddIcpOptions(app, &f->icp_points, &f->no_flips, &o.icp_distance);
   app.add_option("--seed", o.seed, "Random seed");
   app.add_option("--dreg-solver", f->dreg_solver,
                  "dreg: pose from the network's correspondences by procrustes (default: the paper's weighted Kabsch "
@@ -143,6 +145,7 @@ int RunRegRegister(int argc, char** argv) {
   o.method = RegistrationMethodFromName(f.method);
   o.refine = RegistrationRefinementFromName(f.refine);
   o.dreg_solver = DregSolverFromName(f.dreg_solver);
+  o.icp_points = IcpPointsFromName(f.icp_points);
   o.flips = !f.no_flips;
   o.block_icp = !f.no_block_icp;
   o.Check();
@@ -151,7 +154,7 @@ int RunRegRegister(int argc, char** argv) {
   const auto target = LoadRegistrationInput(f.target, o.splats, o.device);
   std::unique_ptr<DregNet> net;
   if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
-  RegistrationResult r = RegisterBlocks(*source, *target, o, net.get());
+  BlockRegistrationResult r = RegisterBlocks(*source, *target, o, net.get());
   r.seconds = timer.Seconds();  // T.json's seconds: the whole command, loading included
   Json json = r.ToJson();
   json["source"] = f.source;  // the report finds the blocks' points by these names
@@ -236,22 +239,28 @@ int RunRegEval(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
   app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
-  FieldAlignmentOptions eval_field_options;
-  app.add_flag("--field-overlap-only", eval_field_options.overlap_only,
+  PairEvaluationOptions eo;
+  app.add_flag("--field-overlap-only", eo.base.field.overlap_only,
                "With --refine field: count only samples where the other block's cameras saw the surface (its grid's "
                "mask; an experiment: no gain on the held-out real pairs, "
                "docs/notes/2026-11-24-experiments-not-kept.md)");
-  GridRegistrationOptions base;
+  std::string icp_points = "occupied";
   bool no_flips = false;
-  AddIcpOptions(app, &base.icp_points, &no_flips, &base.icp_distance);
+  AddIcpOptions(app, &icp_points, &no_flips, &eo.base.icp_distance);
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   const torch::Device dev = ParseDevice(device);
   if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
   if (!pairs_path.empty()) {
-    base.voxel = voxel;
-    base.flips = !no_flips;
-    const PairEvaluationOptions eo{methods, refines, dreg_solvers, dreg_passes, base, eval_field_options, dev};
+    eo.base.voxel = voxel;
+    eo.base.flips = !no_flips;
+    eo.base.icp_points = IcpPointsFromName(icp_points);
+    eo.methods.clear(), eo.refines.clear(), eo.dreg_solvers.clear();
+    for (const auto& m : methods) eo.methods.push_back(PairMethodFromName(m));
+    for (const auto& r : refines) eo.refines.push_back(PairRefinementFromName(r));
+    for (const auto& d : dreg_solvers) eo.dreg_solvers.push_back(DregSolverFromName(d));
+    eo.dreg_passes = dreg_passes;
+    eo.device = dev;
     eo.Check();
     return EvalPairs({pairs_path, split, weights, out, max_pairs, overlap_threshold, eo});
   }

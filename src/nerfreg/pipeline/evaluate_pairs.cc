@@ -9,8 +9,10 @@
 #include "nerfreg/data/ground_truth.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/nerf_block.h"
-#include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/reg/registration_input.h"
 #include "nerfreg/reg/registration_success.h"
+#include "nerfreg/registration/grid_registration.h"
+#include "nerfreg/registration/registration_chain.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/stats.h"
@@ -19,15 +21,74 @@
 
 namespace nerfreg {
 
+namespace {
+
+const EnumNames<PairMethod> kPairMethodNames{{{PairMethod::kDreg, "dreg"},
+                                              {PairMethod::kRansac, "ransac"},
+                                              {PairMethod::kFgr, "fgr"},
+                                              {PairMethod::kTruth, "truth"}}};
+const EnumNames<PairRefinement> kPairRefinementNames{{{PairRefinement::kNone, "none"},
+                                                      {PairRefinement::kIcp, "icp"},
+                                                      {PairRefinement::kBlockIcp, "block-icp"},
+                                                      {PairRefinement::kField, "field"}}};
+
+RegistrationMethod MethodOf(PairMethod m) {
+  return m == PairMethod::kDreg  ? RegistrationMethod::kDreg
+         : m == PairMethod::kFgr ? RegistrationMethod::kFgr
+                                 : RegistrationMethod::kRansac;
+}
+
+bool NeedsBlocks(PairRefinement r) { return r == PairRefinement::kBlockIcp || r == PairRefinement::kField; }
+
+// The chain's options for one row.
+BlockRegistrationOptions RowOptions(const PairEvaluationOptions& options, DregSolver solver, int passes,
+                                    PairRefinement refine) {
+  BlockRegistrationOptions o = options.base;
+  o.dreg_solver = solver;
+  o.dreg_passes = passes;
+  o.refine = refine == PairRefinement::kNone    ? RegistrationRefinement::kNone
+             : refine == PairRefinement::kField ? RegistrationRefinement::kField
+                                                : RegistrationRefinement::kIcp;
+  o.block_icp = NeedsBlocks(refine);
+  return o;
+}
+
+// The refinement floor's start: the ground truth, refined by ICP on the grids (without its
+// half-turns) unless refine is kNone.
+RegistrationResult TruthStart(RegistrationPair& pair, const Eigen::Matrix4d& truth, const BlockRegistrationOptions& o) {
+  Timer timer;
+  RegistrationResult r;
+  r.method = "truth";
+  r.target_from_source = Sim3d::FromMatrix(truth, 1e-3);
+  r.method_score = 1;
+  r.cloud = RegistrationCloud::kGridMask;
+  if (o.refine != RegistrationRefinement::kNone) {
+    GridRegistrationOptions g = GridOptionsFor(o, RegistrationMethod::kRansac);
+    const std::string name = g.Name();  // "ransac+icp[mask]...": the ICP's part names the row
+    g.flips = false;                    // no half-turns of the truth
+    r.target_from_source = RefineGridPose(pair.SourceGrid(), pair.TargetGrid(), r.target_from_source, g);
+    r.method = "truth" + name.substr(name.find("+icp"));
+  }
+  r.seconds = timer.Seconds();
+  return r;
+}
+
+}  // namespace
+
+std::string PairMethodName(PairMethod m) { return kPairMethodNames.Name(m); }
+std::string PairRefinementName(PairRefinement r) { return kPairRefinementNames.Name(r); }
+PairMethod PairMethodFromName(const std::string& name, const std::string& option) {
+  return kPairMethodNames.FromName(name, option);
+}
+PairRefinement PairRefinementFromName(const std::string& name, const std::string& option) {
+  return kPairRefinementNames.FromName(name, option);
+}
+
 void PairEvaluationOptions::Check() const {
-  for (const auto& m : methods)
-    if (m != "dreg" && m != "ransac" && m != "fgr" && m != "truth")
-      ThrowInputError("--methods", "", "dreg, ransac, fgr or truth, got " + m);
-  for (const auto& r : refines)
-    if (r != "none" && r != "icp" && r != "block-icp" && r != "field")
-      ThrowInputError("--refine", "", "none, icp, block-icp or field, got " + r);
-  for (const auto& s : dreg_solvers)
-    if (s != "ransac" && s != "procrustes") ThrowInputError("--dreg-solver", "", "ransac or procrustes, got " + s);
+  for (const int passes : dreg_passes)
+    if (passes < 1 || passes > 10) ThrowInputError("--dreg-passes", "", "1..10");
+  if (!(base.voxel > 0)) ThrowInputError("--voxel", "", "> 0");
+  if (!(base.icp_distance > 0)) ThrowInputError("--icp-distance", "", "> 0 (ICP voxels)");
 }
 
 std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, const PairEvaluationOptions& options,
@@ -36,82 +97,47 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
   std::vector<PairEvaluation> rows;
   bool warned_field = false;
   for (const auto& p : pairs) {
-    const RegGrid src = LoadRegGrid(p.source), tgt = LoadRegGrid(p.target);
-    // --refine field needs the blocks themselves: real pairs keep block_K.ckpt beside block_K.grid.
-    std::unique_ptr<NerfBlock> src_block, tgt_block;
-    std::unique_ptr<OccupiedPoints> occupied;  // block ICP's points, extracted once per pair
-    for (const auto& rf : options.refines) {
-      if ((rf != "field" && rf != "block-icp") || src_block) continue;
+    // --refine block-icp and field need the blocks themselves: real pairs keep block_K.ckpt beside
+    // block_K.grid.
+    std::unique_ptr<RegistrationInput> src_block, tgt_block;
+    for (const PairRefinement rf : options.refines) {
+      if (!NeedsBlocks(rf) || src_block) continue;
       if (p.kind != "nerf") {
-        if (!warned_field) LOG_WARN("--refine {}: skipped on synthesised pairs (no NeRF blocks), e.g. {}", rf, p.name);
+        if (!warned_field) {
+          LOG_WARN("--refine {}: skipped on synthesised pairs (no NeRF blocks), e.g. {}", PairRefinementName(rf),
+                   p.name);
+        }
         warned_field = true;
         continue;
       }
       auto ckpt = [](const std::string& grid) {
         return grid.substr(0, grid.size() - std::string(".grid").size()) + ".ckpt";
       };
-      src_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.source), nullptr, options.device));
-      tgt_block = std::make_unique<NerfBlock>(LoadNerfBlock(ckpt(p.target), nullptr, options.device));
-      occupied = std::make_unique<OccupiedPoints>(*src_block, *tgt_block, BlockRegistrationOptions{}.min_density, 0);
+      src_block = std::make_unique<NerfBlockInput>(LoadNerfBlock(ckpt(p.source), nullptr, options.device));
+      tgt_block = std::make_unique<NerfBlockInput>(LoadNerfBlock(ckpt(p.target), nullptr, options.device));
     }
-    for (const auto& m : options.methods) {
-      for (const auto& solver : m == "dreg" ? options.dreg_solvers : std::vector<std::string>{"ransac"})
-        for (const int passes : m == "dreg" ? options.dreg_passes : std::vector<int>{1})
-          for (const auto& rf : options.refines) {
-            if ((rf == "field" || rf == "block-icp") && !src_block) continue;
-            GridRegistrationOptions o = options.base;  // the ICP's points, distance, half-turns and the voxel
-            o.method = m;
-            o.dreg_solver = solver;
-            o.dreg_passes = passes;
-            o.icp = rf != "none";
-            GridRegistrationResult r;
-            if (m == "truth") {
-              // The refinement floor: each refinement started at the ground truth; where it ends is
-              // what the two blocks' own disagreement costs, whatever found the coarse pose.
-              Timer timer;
-              r.method = "truth";
-              r.target_from_source = p.target_from_source;
-              r.confidence = 1;
-              if (o.icp) {
-                o.method = options.base.method;     // the coarse method's name is all RefineGridPose checks; none runs
-                const std::string name = o.Name();  // "dreg+icp[mask]...": the ICP's part names the row
-                o.flips = false;                    // no half-turns of the truth
-                r.target_from_source = RefineGridPose(src, tgt, p.target_from_source, o);
-                r.method = "truth" + name.substr(name.find("+icp"));
-              }
-              r.seconds = timer.Seconds();
-            } else {
-              r = RegisterGrids(src, tgt, o, net);
-            }
-            if (rf == "block-icp" || rf == "field") {  // as reg register: ICP on the grids, then on the blocks
-              Json block_icp;
-              r.target_from_source =
-                  RefineOnBlockPoints(occupied->Source(), occupied->Target(),
-                                      Sim3d::FromMatrix(r.target_from_source, 1e-3), options.base.voxel, &block_icp)
-                      .ToMatrix();
-              r.seconds += block_icp["seconds"].get<double>();
-              r.method += "+block";
-            }
-            if (rf == "field") {
-              Json field;
-              r.target_from_source =
-                  RefineOnFields(*src_block, *tgt_block, PointsToEigen(src.MaskedXyz()), PointsToEigen(tgt.MaskedXyz()),
-                                 Sim3d::FromMatrix(r.target_from_source, 1e-3), options.field, src.CellSize(), &field,
-                                 &src, &tgt)
-                      .ToMatrix();
-              r.seconds += field["seconds"].get<double>();
-              r.method += "+field";
-            }
+    RegistrationPair pair(LoadRegGrid(p.source), LoadRegGrid(p.target), src_block.get(), tgt_block.get(), options.base);
+    const Sim3d truth = Sim3d::FromMatrix(p.target_from_source, 1e-3);
+    for (const PairMethod m : options.methods) {
+      const bool dreg = m == PairMethod::kDreg;
+      for (const DregSolver solver : dreg ? options.dreg_solvers : std::vector<DregSolver>{DregSolver::kRansac})
+        for (const int passes : dreg ? options.dreg_passes : std::vector<int>{1})
+          for (const PairRefinement rf : options.refines) {
+            if (NeedsBlocks(rf) && !pair.HasInputs()) continue;
+            // reg register's chain: the method on the grids, then as far as `rf` asks.
+            const BlockRegistrationOptions o = RowOptions(options, solver, passes, rf);
+            RegistrationResult r = m == PairMethod::kTruth
+                                       ? TruthStart(pair, p.target_from_source, o)
+                                       : RegisterCoarse(pair, MethodOf(m), RegistrationCloud::kGridMask, o, net);
+            ContinueChain(pair, o, &r);
             PairEvaluation row;
             row.pair = p.name;
             row.method = r.method;
             row.seconds = r.seconds;
-            row.confidence = r.confidence;
+            row.confidence = r.method_score;
             row.overlap = p.overlap;
-            const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3),
-                        truth = Sim3d::FromMatrix(p.target_from_source, 1e-3);
-            row.rotation_deg = RotationErrorDeg(est.rotation, truth.rotation);
-            row.translation = TranslationError(est.translation, truth.translation);
+            row.rotation_deg = RotationErrorDeg(r.target_from_source.rotation, truth.rotation);
+            row.translation = TranslationError(r.target_from_source.translation, truth.translation);
             rows.push_back(row);
             if (on_row) on_row(row);
           }
@@ -215,7 +241,7 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
   if (pairs.empty()) ThrowInputError(o.pairs_path, "pairs", "at least one pair of split " + o.split);
   std::unique_ptr<DregNet> net;
   for (const auto& m : o.evaluation.methods) {
-    if (m == "dreg" && !net) {
+    if (m == PairMethod::kDreg && !net) {
       if (!FileExists(o.weights)) ThrowInputError(o.weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
       DregModelOptions mo;
       net = std::make_unique<DregNet>(LoadDregWeights(o.weights, &mo));

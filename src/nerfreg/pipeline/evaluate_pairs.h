@@ -1,29 +1,43 @@
 #pragma once
 // `reg eval --pairs`'s job: every method, solver, pass count and refinement on every pair of a
-// reg make-data folder, each row's errors against the pair's truth. The refinements are reg
-// register's (pipeline/register_blocks.h): ICP on the grids, then on the blocks' occupied points
-// (block-icp), then the fields aligned (field); the last two need the blocks (real pairs keep
-// block_K.ckpt beside block_K.grid) and are skipped, with one warning, on synthesised pairs.
+// reg make-data folder, each row's errors against the pair's truth. Each row runs reg register's
+// chain (registration/registration_chain.h) on the pair's grids: the method, ICP on the grids,
+// then on the blocks' occupied points (block-icp), then the fields aligned (field); the last two
+// need the blocks (real pairs keep block_K.ckpt beside block_K.grid) and are skipped, with one
+// warning, on synthesised pairs.
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "nerfreg/reg/dreg_model.h"
-#include "nerfreg/reg/field_alignment.h"
-#include "nerfreg/reg_data/register_grids.h"
 #include "nerfreg/reg_train/pairs.h"
+#include "nerfreg/registration/registration_options.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {
 
+// A row's method: a registration method on the grids, or kTruth (each refinement started at the
+// ground truth: where it ends is the floor the two blocks' own disagreement sets).
+enum class PairMethod { kDreg, kRansac, kFgr, kTruth };
+// How far along the chain a row goes: kNone (the method alone), kIcp (ICP on the grids), kBlockIcp
+// (then on the blocks' occupied points), kField (then the fields aligned).
+enum class PairRefinement { kNone, kIcp, kBlockIcp, kField };
+// As --methods and --refine spell them ("dreg", ..., "truth"; "none", "icp", "block-icp",
+// "field"); FromName throws InputError naming `option`.
+std::string PairMethodName(PairMethod method);
+std::string PairRefinementName(PairRefinement refinement);
+PairMethod PairMethodFromName(const std::string& name, const std::string& option = "--methods");
+PairRefinement PairRefinementFromName(const std::string& name, const std::string& option = "--refine");
+
 struct PairEvaluationOptions {
-  std::vector<std::string> methods = {
-      "ransac"};                               // --methods: dreg, ransac, fgr, truth (each refinement from the truth)
-  std::vector<std::string> refines = {"icp"};  // --refine: none, icp, block-icp, field
-  std::vector<std::string> dreg_solvers = {"procrustes"};  // --dreg-solver (dreg rows only)
-  std::vector<int> dreg_passes = {1};                      // --dreg-passes (dreg rows only)
-  GridRegistrationOptions base;                            // the grid ICP's points, distance, half-turns and the voxel
-  FieldAlignmentOptions field;                             // --refine field (--field-overlap-only)
+  std::vector<PairMethod> methods = {PairMethod::kRansac};           // --methods
+  std::vector<PairRefinement> refines = {PairRefinement::kIcp};      // --refine
+  std::vector<DregSolver> dreg_solvers = {DregSolver::kProcrustes};  // --dreg-solver (dreg rows only)
+  std::vector<int> dreg_passes = {1};                                // --dreg-passes (dreg rows only)
+  // The chain's options every row starts from: the grid ICP's points, distance and half-turns
+  // (--icp-points, --icp-distance, --no-flips), --voxel, the field refinement's
+  // (--field-overlap-only); method, refine and the dreg solve are set per row.
+  BlockRegistrationOptions base;
   torch::Device device = torch::kCPU;  // --device: the blocks' fields (the caller moves the network)
   void Check() const;                  // throws InputError naming the flag
 };

@@ -12,10 +12,8 @@
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
 #include "nerfreg/posegraph/pose_graph.h"
-#include "nerfreg/reg_baselines/baselines.h"
-#include "nerfreg/reg/grid_extraction.h"
-#include "nerfreg/reg/reg_grid.h"
 #include "nerfreg/reg/registration_input.h"
+#include "nerfreg/registration/registration_chain.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
@@ -63,39 +61,39 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     if (clouds.back().cols() < 100) warn("{}: only {} occupied points", p, clouds.back().cols());
     if (options.refine == RegistrationRefinement::kField) blocks.push_back(std::move(b));
   }
-  const GridExtractionOptions grid_defaults;
-  ClassicalRegistrationOptions co;
-  co.voxel_size = options.voxel;
-  co.normal_radius = 2 * options.voxel;
-  co.feature_radius = 5 * options.voxel;
-  co.seed = options.seed;
-  co.max_points = options.max_points;
+  // Each pair through reg register's chain: FPFH + RANSAC + ICP on the occupied points, then, for
+  // the pairs confident enough to be edges, the fields aligned.
+  BlockRegistrationOptions chain;
+  chain.method = RegistrationMethod::kRansac;
+  chain.refine = RegistrationRefinement::kIcp;
+  chain.min_density = options.min_density;
+  chain.voxel = options.voxel;
+  chain.max_points = options.max_points;
+  chain.seed = options.seed;
+  chain.splats = options.splats;
+  const bool field = options.refine == RegistrationRefinement::kField;
   std::vector<PoseGraphEdge> edges;
   Json edges_json = Json::array();
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
       if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
-      ClassicalRegistrationResult r = RegisterPointClouds(clouds[i], clouds[j], co);
-      const bool used = r.fitness >= options.min_confidence;
-      Json field = nullptr;
-      if (used && options.refine == RegistrationRefinement::kField) {
-        r.target_from_source =
-            RefineOnFields(blocks[i]->Field(), blocks[j]->Field(), clouds[i], clouds[j], Sim3d(r.target_from_source),
-                           FieldAlignmentOptions{}, grid_defaults.side / grid_defaults.resolution, &field)
-                .ToRigid();
-      }
+      RegistrationPair pair(clouds[i], clouds[j], field ? blocks[i].get() : nullptr, field ? blocks[j].get() : nullptr,
+                            chain);
+      RegistrationResult r = RunChain(pair, RegistrationMethod::kRansac, RegistrationCloud::kOccupied, chain, nullptr);
+      const bool used = r.method_score >= options.min_confidence;
+      if (used && field) RefineOnFields(pair, chain, &r);
       edges_json.push_back({{"source", i},
                             {"target", j},
                             {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
-                            {"confidence", r.fitness},
+                            {"confidence", r.method_score},
                             {"used", used},
-                            {"field", field}});
+                            {"field", r.field}});
       if (!used) continue;
       PoseGraphEdge e;
       e.i = i;
       e.j = j;
-      e.j_from_i = r.target_from_source;
-      e.weight = r.fitness;
+      e.j_from_i = r.target_from_source.ToRigid();
+      e.weight = r.method_score;
       edges.push_back(e);
     }
   }

@@ -1,15 +1,17 @@
 #pragma once
 // Many NeRF blocks into one frame (block 0's), `reg register-many`'s job: every pair registered
-// by FPFH + RANSAC + ICP on the blocks' occupied points (then, with kField, refined on the two
-// fields); pairs whose fitness reaches min_confidence become edges of a pose graph, solved with a
-// robust loss from a cycle-consistent spanning tree; edges that disagree with their loops are
-// dropped and named (a block of another object, a wrong registration).
+// by reg register's chain (registration/registration_chain.h), FPFH + RANSAC + ICP on the blocks'
+// occupied points (then, with kField, refined on the two fields); pairs whose fitness reaches
+// min_confidence become edges of a pose graph, solved with a robust loss from a cycle-consistent
+// spanning tree; edges that disagree with their loops are dropped and named (a block of another
+// object, a wrong registration).
 #include <string>
 #include <vector>
 
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/geometry/rigid3.h"
-#include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/reg/splat_field.h"
+#include "nerfreg/registration/registration_options.h"
 #include "nerfreg/util/json_util.h"
 
 namespace nerfreg {

@@ -31,7 +31,7 @@ TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
   BlockRegistrationOptions o;
   o.method = RegistrationMethod::kRansac;
   o.refine = RegistrationRefinement::kField;
-  const RegistrationResult r = RegisterBlocks(source, target, o, nullptr);
+  const BlockRegistrationResult r = RegisterBlocks(source, target, o, nullptr);
   const double rot = RotationErrorDeg(r.target_from_source.rotation, truth.rotation);
   const double trans = TranslationError(r.target_from_source.translation, truth.translation);
   EXPECT_TRUE(RegistrationSucceeded(rot, trans)) << rot << " deg, " << trans << "\n" << r.ToJson().dump();

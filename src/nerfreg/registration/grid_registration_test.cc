@@ -1,4 +1,4 @@
-#include "nerfreg/reg_data/register_grids.h"
+#include "nerfreg/registration/grid_registration.h"
 
 #include <gtest/gtest.h>
 
@@ -40,8 +40,9 @@ KnownPair SameGridMoved() {
   return k;
 }
 
-void ExpectRecovered(const GridRegistrationResult& r, const Eigen::Matrix4d& gt, double max_deg, double max_trans) {
-  const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3), truth = Sim3d::FromMatrix(gt, 1e-3);
+void ExpectRecovered(const RegistrationResult& r, const Eigen::Matrix4d& gt, double max_deg, double max_trans) {
+  const Sim3d& est = r.target_from_source;
+  const Sim3d truth = Sim3d::FromMatrix(gt, 1e-3);
   EXPECT_LT(RotationErrorDeg(est.rotation, truth.rotation), max_deg) << r.method;
   EXPECT_LT(TranslationError(est.translation, truth.translation), max_trans) << r.method;
 }
@@ -50,10 +51,10 @@ TEST(RegisterGrids, ClassicalRecoversAKnownTransformOfTheSameGrid) {
   torch::set_num_threads(2);
   const KnownPair k = SameGridMoved();
   GridRegistrationOptions o;
-  o.method = "ransac";
-  const GridRegistrationResult r = RegisterGrids(k.source, k.target, o, nullptr);
+  o.method = RegistrationMethod::kRansac;
+  const RegistrationResult r = RegisterGrids(k.source, k.target, o, nullptr);
   ExpectRecovered(r, k.target_from_source, 2.0, 0.05);
-  EXPECT_GT(r.confidence, 0.5);
+  EXPECT_GT(r.method_score, 0.5);
   EXPECT_EQ(r.method, "ransac+icp");
 }
 
@@ -67,16 +68,15 @@ TEST(RegisterGrids, IcpOnTheOccupiedVoxelsOrOnTheMask) {
   k.target.mask = k.target.mask & (torch::rand(k.target.mask.sizes()) > 0.33);
   ASSERT_GT(k.target.OccupiedXyz().size(0), k.target.MaskedXyz().size(0) * 4 / 3);
   GridRegistrationOptions o;
-  o.method = "ransac";
-  const GridRegistrationResult occupied = RegisterGrids(k.source, k.target, o, nullptr);
+  o.method = RegistrationMethod::kRansac;
+  const RegistrationResult occupied = RegisterGrids(k.source, k.target, o, nullptr);
   EXPECT_EQ(occupied.method, "ransac+icp");
   ExpectRecovered(occupied, k.target_from_source, 2.0, 0.05);
-  o.icp_points = "mask";
-  const GridRegistrationResult mask = RegisterGrids(k.source, k.target, o, nullptr);
+  o.icp_points = IcpPoints::kMask;
+  const RegistrationResult mask = RegisterGrids(k.source, k.target, o, nullptr);
   EXPECT_EQ(mask.method, "ransac+icp[mask]");
   ExpectRecovered(mask, k.target_from_source, 2.0, 0.05);
-  o.icp_points = "all";
-  EXPECT_THROW(RegisterGrids(k.source, k.target, o, nullptr), InputError);
+  EXPECT_THROW(IcpPointsFromName("all"), InputError);
 }
 
 // ICP's correspondence distance (in ICP voxels) is the one asked for: from a pose 6 deg off, the
@@ -85,21 +85,20 @@ TEST(RegisterGrids, IcpOnTheOccupiedVoxelsOrOnTheMask) {
 TEST(RegisterGrids, IcpDistanceIsTheOneAskedFor) {
   torch::set_num_threads(2);
   const KnownPair k = SameGridMoved();
-  Eigen::Matrix4d start = k.target_from_source;
-  start.topLeftCorner<3, 3>() =
+  Eigen::Matrix4d start_matrix = k.target_from_source;
+  start_matrix.topLeftCorner<3, 3>() =
       Eigen::AngleAxisd(6 * M_PI / 180, Eigen::Vector3d(0.3, 1, -0.2).normalized()).toRotationMatrix() *
-      start.topLeftCorner<3, 3>();
+      start_matrix.topLeftCorner<3, 3>();
+  const Sim3d start = Sim3d::FromMatrix(start_matrix, 1e-3);
   const Sim3d truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
-  auto error_deg = [&](const Eigen::Matrix4d& m) {
-    return RotationErrorDeg(Sim3d::FromMatrix(m, 1e-3).rotation, truth.rotation);
-  };
+  auto error_deg = [&](const Sim3d& m) { return RotationErrorDeg(m.rotation, truth.rotation); };
   ASSERT_NEAR(error_deg(start), 6.0, 0.01);
   GridRegistrationOptions o;
   o.flips = false;
   EXPECT_LT(error_deg(RefineGridPose(k.source, k.target, start, o)), 2.0);
   o.icp_distance = 0.01;
   EXPECT_NEAR(error_deg(RefineGridPose(k.source, k.target, start, o)), 6.0, 0.05);
-  o.method = "ransac";
+  o.method = RegistrationMethod::kRansac;
   EXPECT_EQ(o.Name(), "ransac+icp[noflips][d0.01]");
   o.icp_distance = 0;
   EXPECT_THROW(o.Check(), InputError);
@@ -124,15 +123,15 @@ TEST(RegisterGrids, ShippedWeightsWithIcpRegisterMostHeldOutPairs) {
     const GridPair p = SyntheticGridPair(mesh, SyntheticPairOptions{}, seed);
     const Sim3d truth = Sim3d::FromMatrix(p.target_from_source, 1e-3);
     GridRegistrationOptions o;
-    o.method = "dreg";
-    const GridRegistrationResult r = RegisterGrids(p.source, p.target, o, &net);
-    const Sim3d est = Sim3d::FromMatrix(r.target_from_source, 1e-3);
+    o.method = RegistrationMethod::kDreg;
+    const RegistrationResult r = RegisterGrids(p.source, p.target, o, &net);
+    const Sim3d& est = r.target_from_source;
     success += RotationErrorDeg(est.rotation, truth.rotation) < 5 &&
                TranslationError(est.translation, truth.translation) < 0.125;
     ++n;
     o.icp = false;
-    const GridRegistrationResult coarse = RegisterGrids(p.source, p.target, o, &net);
-    alone_deg.push_back(RotationErrorDeg(Sim3d::FromMatrix(coarse.target_from_source, 1e-3).rotation, truth.rotation));
+    const RegistrationResult coarse = RegisterGrids(p.source, p.target, o, &net);
+    alone_deg.push_back(RotationErrorDeg(coarse.target_from_source.rotation, truth.rotation));
   }
   EXPECT_GE(success, 4) << success << " of " << n;
   std::sort(alone_deg.begin(), alone_deg.end());
@@ -158,13 +157,14 @@ TEST(RegisterGrids, HalfTurnedPoseIsFoundBackByItsColouredVoxels) {
   nudge.topLeftCorner<3, 3>() =
       Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
   nudge.topRightCorner<3, 1>() = Eigen::Vector3d(0.03, 0, -0.01);
-  const Eigen::Matrix4d start = nudge * k.target_from_source * turn;
-  EXPECT_GT(GridAgreement(k.source, k.target, k.target_from_source), GridAgreement(k.source, k.target, start) + 0.1);
+  const Sim3d start = Sim3d::FromMatrix(nudge * k.target_from_source * turn, 1e-3);
+  const Sim3d truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
+  EXPECT_GT(GridAgreement(k.source, k.target, truth), GridAgreement(k.source, k.target, start) + 0.1);
 
   GridRegistrationOptions o;
   int flip = -2;
-  const Eigen::Matrix4d found = RefineGridPose(k.source, k.target, start, o, &flip);
-  GridRegistrationResult r;
+  const Sim3d found = RefineGridPose(k.source, k.target, start, o, &flip);
+  RegistrationResult r;
   r.target_from_source = found;
   r.method = "half-turns";
   ExpectRecovered(r, k.target_from_source, 2.0, 0.05);
@@ -172,12 +172,11 @@ TEST(RegisterGrids, HalfTurnedPoseIsFoundBackByItsColouredVoxels) {
   o.flips = false;
   r.target_from_source = RefineGridPose(k.source, k.target, start, o, &flip);
   EXPECT_EQ(flip, -1);
-  const Sim3d kept = Sim3d::FromMatrix(r.target_from_source, 1e-3),
-              truth = Sim3d::FromMatrix(k.target_from_source, 1e-3);
+  const Sim3d& kept = r.target_from_source;
   EXPECT_GT(RotationErrorDeg(kept.rotation, truth.rotation), 90.0);
   // From the true pose, no half-turn replaces it.
   o.flips = true;
-  RefineGridPose(k.source, k.target, k.target_from_source, o, &flip);
+  RefineGridPose(k.source, k.target, truth, o, &flip);
   EXPECT_EQ(flip, -1);
 }
 
@@ -186,10 +185,10 @@ TEST(RegisterGrids, EmptyGridIsIdentityWithZeroConfidence) {
   RegGrid empty = k.target;
   empty.mask.zero_();
   GridRegistrationOptions o;
-  o.method = "ransac";
-  const GridRegistrationResult r = RegisterGrids(k.source, empty, o, nullptr);
-  EXPECT_EQ(r.confidence, 0);
-  EXPECT_TRUE(r.target_from_source.isIdentity());
+  o.method = RegistrationMethod::kRansac;
+  const RegistrationResult r = RegisterGrids(k.source, empty, o, nullptr);
+  EXPECT_EQ(r.method_score, 0);
+  EXPECT_TRUE(r.target_from_source.ToMatrix().isIdentity());
   EXPECT_EQ(r.target_points, 0);
 }
 

@@ -1,4 +1,4 @@
-#include "nerfreg/reg_data/register_grids.h"
+#include "nerfreg/registration/grid_registration.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -7,29 +7,44 @@
 #include <vector>
 
 #include "nerfreg/reg_baselines/baselines.h"
+#include "nerfreg/registration/point_registration.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {
 
 void GridRegistrationOptions::Check() const {
-  if (method != "dreg" && method != "ransac" && method != "fgr") ThrowInputError("--method", "", "dreg, ransac or fgr");
+  if (method == RegistrationMethod::kAuto) ThrowInputError("--method", "", "dreg, ransac or fgr");
   if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
   if (!(inlier_radius > 0)) ThrowInputError("--inlier-radius", "", "> 0");
-  if (icp_points != "occupied" && icp_points != "mask") ThrowInputError("--icp-points", "", "occupied or mask");
   if (!(icp_distance > 0)) ThrowInputError("--icp-distance", "", "> 0 (ICP voxels)");
   DregSolveOptions solve;
-  solve.solver = dreg_solver;
+  solve.solver = DregSolverName(dreg_solver);
   solve.passes = dreg_passes;
   solve.inlier_radius = inlier_radius;
   solve.Check();
 }
 
+GridRegistrationOptions GridOptionsFor(const BlockRegistrationOptions& o, RegistrationMethod method) {
+  GridRegistrationOptions g;
+  g.method = method;
+  g.dreg_solver = o.dreg_solver;
+  g.dreg_passes = o.dreg_passes;
+  g.icp = o.refine != RegistrationRefinement::kNone;
+  g.icp_points = o.icp_points;
+  g.flips = o.flips;
+  g.icp_distance = o.icp_distance;
+  g.voxel = o.voxel;
+  g.seed = o.seed;
+  return g;
+}
+
 std::string GridRegistrationOptions::Name() const {
-  std::string name = method + (method == "dreg" && dreg_solver == "ransac" ? "/ransac" : "") +
-                     (method == "dreg" && dreg_passes > 1 ? "/" + std::to_string(dreg_passes) + "passes" : "");
+  const bool dreg = method == RegistrationMethod::kDreg;
+  std::string name = RegistrationMethodName(method) + (dreg && dreg_solver == DregSolver::kRansac ? "/ransac" : "") +
+                     (dreg && dreg_passes > 1 ? "/" + std::to_string(dreg_passes) + "passes" : "");
   if (!icp) return name;
-  name += std::string("+icp") + (icp_points == "mask" ? "[mask]" : "") + (flips ? "" : "[noflips]");
+  name += std::string("+icp") + (icp_points == IcpPoints::kMask ? "[mask]" : "") + (flips ? "" : "[noflips]");
   if (icp_distance != kDefaultIcpDistance) {
     char d[32];
     std::snprintf(d, sizeof d, "[d%g]", icp_distance);
@@ -38,13 +53,13 @@ std::string GridRegistrationOptions::Name() const {
   return name;
 }
 
-double GridAgreement(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& target_from_source) {
+double GridAgreement(const RegGrid& source, const RegGrid& target, const Sim3d& target_from_source) {
   torch::NoGradGuard no_grad;
   const torch::Tensor occupied = source.Occupied();                                              // [D, D, D]
   const torch::Tensor xyz = source.xyz.index({occupied}).to(torch::kDouble);                     // [K, 3]
   const torch::Tensor rgb = source.rgba.slice(0, 0, 3).permute({1, 2, 3, 0}).index({occupied});  // [K, 3]
   if (xyz.size(0) == 0) return 0;
-  const Eigen::Matrix4d& m = target_from_source;
+  const Eigen::Matrix4d m = target_from_source.ToMatrix();
   const torch::Tensor r =
       torch::tensor({m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)}, torch::kDouble)
           .view({3, 3});
@@ -78,34 +93,29 @@ ClassicalRegistrationOptions ClassicalOptionsFor(const RegGrid& source, const Re
   // The classical pipeline's voxel is at least the grid's cell: finer, the normals (2 voxels) and
   // FPFH (5 voxels) find no neighbours among one point per cell
   // (docs/notes/2026-11-22-nerf-and-classical-defaults.md).
-  const double voxel = std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize()));
-  ClassicalRegistrationOptions c;
-  c.voxel_size = voxel;
-  c.normal_radius = 2 * voxel;
-  c.feature_radius = 5 * voxel;
-  c.icp_distance = o.icp_distance * voxel;
+  ClassicalRegistrationOptions c = FpfhOptions(std::max(o.voxel, 1.1 * std::max(source.CellSize(), target.CellSize())));
+  c.icp_distance = o.icp_distance * c.voxel_size;
   c.seed = o.seed;
   return c;
 }
 
-Eigen::Matrix3Xd IcpPoints(const RegGrid& grid, const GridRegistrationOptions& o) {
-  return PointsToEigen(o.icp_points == "occupied" ? grid.OccupiedXyz() : grid.MaskedXyz());
+Eigen::Matrix3Xd GridIcpPoints(const RegGrid& grid, const GridRegistrationOptions& o) {
+  return PointsToEigen(o.icp_points == IcpPoints::kOccupied ? grid.OccupiedXyz() : grid.MaskedXyz());
 }
 
 }  // namespace
 
-Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, const Eigen::Matrix4d& start,
-                               const GridRegistrationOptions& o, int* flip) {
+Sim3d RefineGridPose(const RegGrid& source, const RegGrid& target, const Sim3d& start, const GridRegistrationOptions& o,
+                     int* flip) {
   o.Check();
   if (flip) *flip = -1;
   const ClassicalRegistrationOptions c = ClassicalOptionsFor(source, target, o);
-  const Eigen::Matrix3Xd tgt_icp = IcpPoints(target, o);
-  const double scale =
-      start.topLeftCorner<3, 3>().determinant() > 0 ? std::cbrt(start.topLeftCorner<3, 3>().determinant()) : 1.0;
+  const Eigen::Matrix3Xd tgt_icp = GridIcpPoints(target, o);
+  const double scale = start.scale;
   // ICP refines a rigid pose: with a scale, refine in the scaled source frame.
-  const Eigen::Matrix3Xd scaled = IcpPoints(source, o) * scale;
+  const Eigen::Matrix3Xd scaled = GridIcpPoints(source, o) * scale;
   if (scaled.cols() < 3 || tgt_icp.cols() < 3) return start;
-  const Rigid3d estimate(start.topLeftCorner<3, 3>() / scale, start.topRightCorner<3, 1>());
+  const Rigid3d estimate = start.ToRigid();
   std::vector<Rigid3d> starts = {estimate};
   if (o.flips) {
     // Half-turns through the (scaled) source's centroid about its principal axes and the
@@ -129,18 +139,16 @@ Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, con
   }
   const std::vector<ClassicalRegistrationResult> refined = RefineWithIcp(scaled, tgt_icp, starts, c);
   auto pose = [&](size_t k) {
-    Eigen::Matrix4d m = refined[k].target_from_source.ToMatrix();
-    m.topLeftCorner<3, 3>() *= scale;
-    return m;
+    return Sim3d(scale, refined[k].target_from_source.rotation, refined[k].target_from_source.translation);
   };
-  Eigen::Matrix4d best_pose = pose(0);
+  Sim3d best_pose = pose(0);
   if (refined.size() > 1) {
     // The first pose is kept unless a half-turn agrees clearly better (a margin against noise
     // where an object is truly symmetric).
     const double kMargin = 0.03;
     double best = GridAgreement(source, target, best_pose) + kMargin;
     for (size_t k = 1; k < refined.size(); ++k) {
-      const Eigen::Matrix4d m = pose(k);
+      const Sim3d m = pose(k);
       const double agreement = GridAgreement(source, target, m);
       if (agreement > best) {
         best = agreement;
@@ -152,44 +160,40 @@ Eigen::Matrix4d RefineGridPose(const RegGrid& source, const RegGrid& target, con
   return best_pose;
 }
 
-GridRegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
-                                     DregNet* net) {
+RegistrationResult RegisterGrids(const RegGrid& source, const RegGrid& target, const GridRegistrationOptions& o,
+                                 DregNet* net) {
   o.Check();
   Timer timer;
-  GridRegistrationResult r;
+  RegistrationResult r;
   r.method = o.Name();
+  r.cloud = RegistrationCloud::kGridMask;
   const Eigen::Matrix3Xd src = PointsToEigen(source.MaskedXyz()), tgt = PointsToEigen(target.MaskedXyz());
   r.source_points = static_cast<int>(src.cols());
   r.target_points = static_cast<int>(tgt.cols());
   if (src.cols() < 8 || tgt.cols() < 8) {
     r.seconds = timer.Seconds();
-    return r;  // nothing to register: identity, confidence 0
+    return r;  // nothing to register: identity, method_score 0
   }
   ClassicalRegistrationOptions c = ClassicalOptionsFor(source, target, o);
-  if (o.method == "dreg") {
+  if (o.method == RegistrationMethod::kDreg) {
     if (!net) throw std::logic_error("RegisterGrids: method dreg needs the network");
     DregSolveOptions solve;
-    solve.solver = o.dreg_solver;
+    solve.solver = DregSolverName(o.dreg_solver);
     solve.passes = o.dreg_passes;
     solve.inlier_radius = o.inlier_radius;
     solve.seed = o.seed;
     const DregRegistration d = Register(*net, source, target, solve);
-    r.scale = d.scale;
-    r.confidence = d.confidence;
-    if (o.icp) {
-      r.target_from_source = RefineGridPose(source, target, d.target_from_source, o, &r.flip);
-    } else {
-      r.target_from_source = d.target_from_source;
-    }
+    r.target_from_source = Sim3d::FromMatrix(d.target_from_source, 1e-3);
+    r.method_score = d.confidence;
   } else {
     // The global search on the mask; the refinement as dreg's (the same points and half-turns).
-    c.method = o.method;
+    c.method = RegistrationMethodName(o.method);
     c.icp = false;
     const ClassicalRegistrationResult cr = RegisterPointClouds(src, tgt, c);
-    r.target_from_source = cr.target_from_source.ToMatrix();
-    r.confidence = cr.fitness;
-    if (o.icp) r.target_from_source = RefineGridPose(source, target, r.target_from_source, o, &r.flip);
+    r.target_from_source = Sim3d(cr.target_from_source);
+    r.method_score = cr.fitness;
   }
+  if (o.icp) r.target_from_source = RefineGridPose(source, target, r.target_from_source, o, &r.half_turn);
   r.seconds = timer.Seconds();
   return r;
 }

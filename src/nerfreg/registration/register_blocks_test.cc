@@ -1,4 +1,4 @@
-#include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/registration/register_blocks.h"
 
 #include <gtest/gtest.h>
 
@@ -164,7 +164,7 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   o.min_density = 3.5;
   o.voxel = 0.04;
   o.max_points = 0;
-  o.icp_points = "mask";
+  o.icp_points = IcpPoints::kMask;
   o.flips = false;
   o.icp_distance = 1.5;
   o.seed = 4000000000u;

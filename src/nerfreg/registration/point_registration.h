@@ -1,0 +1,33 @@
+#pragma once
+// The classical method on point sets (Open3D FPFH + RANSAC / FGR, point-to-plane ICP;
+// reg_baselines/baselines.h) as the chain runs it: its parameters from one voxel (FpfhOptions, the
+// only place the rule is written), the coarse stage on the inputs' occupied points, and ICP on
+// those points after a grid method ("block ICP").
+#include <Eigen/Core>
+
+#include "nerfreg/reg_baselines/baselines.h"
+#include "nerfreg/registration/registration_options.h"
+#include "nerfreg/registration/registration_result.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+// The spec's FPFH parameters at downsampling voxel `voxel` (scene units): normals within 2 voxels,
+// FPFH within 5, ICP correspondences within 2 (ClassicalRegistrationOptions' default).
+ClassicalRegistrationOptions FpfhOptions(double voxel);
+
+// FPFH + RANSAC (kRansac) or FGR (kFgr) on occupied points `source`, `target` ([3, N], each input's
+// frame) at options.voxel, capped at options.max_points, then point-to-plane ICP unless
+// options.refine is kNone. method "ransac+icp", ...; method_score the fitness; details the record
+// T.json keeps (inlier_rmse, register_seconds, source_points, target_points, feature_voxel,
+// feature_points). Fewer than 3 points in a cloud: identity with method_score 0.
+RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                  RegistrationMethod method, const BlockRegistrationOptions& options);
+
+// ICP on the blocks' occupied points (`src`, `tgt`: [3, N]) from `start`, after ICP on the grids:
+// point-to-plane at `voxel`, correspondences within 2 voxels; the start's scale is kept. `json`
+// records it (fitness, inlier_rmse, seconds, before).
+Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
+                          Json* json);
+
+}  // namespace nerfreg

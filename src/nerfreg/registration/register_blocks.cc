@@ -1,0 +1,246 @@
+#include "nerfreg/registration/register_blocks.h"
+
+#include <fmt/format.h>
+
+#include <stdexcept>
+
+#include "nerfreg/geometry/alignment.h"
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/util/error.h"
+#include "nerfreg/util/file_util.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+namespace {
+
+// Two poses within 2 deg and `cell` of each other converge to the same place under the field
+// refinement (its basin is a few degrees): they count as the same answer.
+bool SamePose(const Sim3d& a, const Sim3d& b, double cell) {
+  return RotationErrorDeg(a.rotation, b.rotation) < 2 && TranslationError(a.translation, b.translation) < cell;
+}
+
+// One registration job's state: the pair (its grids and occupied points, shared by every
+// candidate and the scoring) and the candidates found so far.
+class BlockRegistration {
+ public:
+  BlockRegistration(RegistrationInput& source, RegistrationInput& target, const BlockRegistrationOptions& options,
+                    DregNet* net)
+      : pair_(source, target, options), o_(options), net_(net) {}
+
+  BlockRegistrationResult Run() {
+    Timer timer;
+    result_.options = o_;
+    result_.source_kind = pair_.SourceKind();
+    result_.target_kind = pair_.TargetKind();
+    bool run_classical = o_.method == RegistrationMethod::kRansac || o_.method == RegistrationMethod::kFgr;
+    if (o_.UsesNetwork()) run_classical = RunOnGrids();
+    if (run_classical) RunClassical();
+    if (o_.refine == RegistrationRefinement::kField) RefineCandidatesOnFields();
+    Choose();
+    result_.seconds = timer.Seconds();
+    return std::move(result_);
+  }
+
+ private:
+  void Warn(const std::string& message) {
+    LOG_WARN("{}", message);
+    result_.warnings.push_back(message);
+  }
+
+  // dreg (and with auto + kField, FPFH + RANSAC on the same grids). Returns whether the classical
+  // method on the occupied points runs too.
+  bool RunOnGrids() {
+    RegistrationResult c = RegisterCoarse(pair_, RegistrationMethod::kDreg, RegistrationCloud::kGridMask, o_, net_);
+    if (c.source_points < 100 || c.target_points < 100) {
+      Warn(fmt::format("few surface voxels (source {}, target {}): is a block empty?", c.source_points,
+                       c.target_points));
+    }
+    c.details = {
+        {"register_seconds", c.seconds}, {"grid_seconds", pair_.GridSeconds()}, {"weights", o_.weights},
+        {"half_turn", c.half_turn},      {"source_points", c.source_points},    {"target_points", c.target_points}};
+    const bool is_auto = o_.method == RegistrationMethod::kAuto, field = o_.refine == RegistrationRefinement::kField;
+    // auto without kField drops a low-confidence dreg answer for RANSAC: no block ICP then.
+    const bool falls_back = is_auto && !field && c.method_score < o_.min_confidence;
+    const bool block_icp = o_.refine != RegistrationRefinement::kNone && o_.block_icp;
+    if (block_icp && !falls_back) RefineOnBlockPoints(pair_, o_, &c);
+    result_.candidates.push_back(c);
+    if (!is_auto) return false;
+    if (field) {
+      // FPFH + RANSAC on the same grids too: on the surface points of a grid it registers pairs it
+      // fails on the blocks' occupied points, and the other way round
+      // (docs/notes/2026-11-23-grids-icp-half-turn.md, "Two FPFH candidates").
+      RegistrationResult g =
+          RegisterCoarse(pair_, RegistrationMethod::kRansac, RegistrationCloud::kGridMask, o_, nullptr);
+      g.method = "ransac-grid" + std::string(o_.refine != RegistrationRefinement::kNone ? "+icp" : "");
+      g.details = {{"grid_seconds", pair_.GridSeconds()},
+                   {"register_seconds", g.seconds},
+                   {"source_points", g.source_points},
+                   {"target_points", g.target_points}};
+      if (block_icp) RefineOnBlockPoints(pair_, o_, &g);
+      result_.candidates.push_back(g);
+      return true;  // and on the occupied points; the fields choose
+    }
+    if (falls_back) {
+      Warn(fmt::format("DReg-NeRF confidence {:.2f} < {:.2f}: falling back to FPFH + RANSAC", c.method_score,
+                       o_.min_confidence));
+      result_.fallback = {{"method", c.method},
+                          {"confidence", c.method_score},
+                          {"target_from_source", MatrixToJson(c.target_from_source.ToMatrix())}};
+      result_.candidates.clear();
+      return true;
+    }
+    return false;
+  }
+
+  // FPFH + RANSAC / FGR on the inputs' occupied points.
+  void RunClassical() {
+    const Eigen::Index ns = pair_.SourcePoints().cols(), nt = pair_.TargetPoints().cols();
+    if (ns < 100 || nt < 100) {
+      Warn(fmt::format("too few occupied points (source {}, target {}); registration is unreliable", ns, nt));
+    }
+    const RegistrationMethod method =
+        o_.method == RegistrationMethod::kFgr ? RegistrationMethod::kFgr : RegistrationMethod::kRansac;
+    RegistrationResult c = RegisterCoarse(pair_, method, RegistrationCloud::kOccupied, o_, nullptr);
+    c.details["points_seconds"] = pair_.PointsSeconds();
+    result_.candidates.push_back(c);
+  }
+
+  // Each candidate refined on the fields; a start that is the same answer as an earlier
+  // candidate's (SamePose) is refined once: the refinement is the costly step (refined_with).
+  void RefineCandidatesOnFields() {
+    auto& cs = result_.candidates;
+    std::vector<Sim3d> starts;
+    for (const auto& c : cs) starts.push_back(c.target_from_source);
+    for (size_t k = 0; k < cs.size(); ++k) {
+      RegistrationResult& c = cs[k];
+      if (pair_.SourceCloud(c.cloud).cols() < 3 || pair_.TargetCloud(c.cloud).cols() < 3) continue;
+      size_t same = k;
+      for (size_t j = 0; j < k && same == k; ++j)
+        if (cs[j].field.is_object() && SamePose(starts[k], starts[j], pair_.GridCell())) same = j;
+      if (same < k) {
+        c.target_from_source = cs[same].target_from_source;
+        c.field = cs[same].field;
+        c.field["refined_with"] = cs[same].method;
+        c.method += "+field";
+      } else {
+        RefineOnFields(pair_, o_, &c);
+      }
+    }
+  }
+
+  // Every candidate's final pose scored on the same samples (around both inputs' occupied points)
+  // with the same measure, so candidates of different methods compare and the kept one's
+  // confidence means the same whichever method found it.
+  void Score() {
+    auto& cs = result_.candidates;
+    const FieldAgreementSamples samples = DrawFieldAgreementSamples(pair_.SourcePoints(), pair_.TargetPoints(),
+                                                                    pair_.GridCell(), o_.field.max_samples, o_.seed);
+    const DensityField src = pair_.SourceField(), tgt = pair_.TargetField();
+    std::vector<Sim3d> poses;
+    for (const auto& c : cs) poses.push_back(c.target_from_source);
+    std::vector<FieldAgreement> scores;
+    const size_t best = ChooseCandidate(src, tgt, samples, poses, o_.field.occupancy_scale, &scores);
+    for (size_t k = 0; k < cs.size(); ++k) {
+      cs[k].agreement = scores[k];
+      cs[k].confidence = scores[k].confidence;
+    }
+    // Only field-refined candidates are compared: without kField there is one (auto falls back
+    // instead of choosing).
+    result_.chosen = o_.refine == RegistrationRefinement::kField ? best : 0;
+  }
+
+  void Choose() {
+    auto& cs = result_.candidates;
+    Score();
+    const size_t best = result_.chosen;
+    const RegistrationResult& c = cs[best];
+    static_cast<RegistrationResult&>(result_) = c;
+    result_.source_cloud = pair_.SourceCloud(c.cloud);
+    result_.target_cloud = pair_.TargetCloud(c.cloud);
+    if (c.confidence < kLowConfidence) {
+      Warn(fmt::format(
+          "low confidence {:.2f}: the two fields disagree at the kept pose; the blocks may not overlap or the "
+          "pose is wrong",
+          c.confidence));
+    }
+    // How many other refined candidates ended at the kept pose. On real blocks this is the signal
+    // that tells right from wrong poses where the network's confidence and the field cost do not
+    // (docs/notes/2026-11-24-block-icp-and-agreement.md, "How to tell a wrong pose").
+    if (o_.refine != RegistrationRefinement::kField || cs.size() < 2) return;
+    int agreeing = 0;
+    for (size_t k = 0; k < cs.size(); ++k) {
+      if (k != best && cs[k].field.is_object())
+        agreeing += SamePose(cs[k].target_from_source, c.target_from_source, pair_.GridCell());
+    }
+    result_.agreeing_candidates = agreeing;
+    if (agreeing == 0) {
+      Warn(fmt::format("no other candidate ({} tried) ended at the kept pose: it may be wrong; check the overlays",
+                       cs.size()));
+    }
+  }
+
+  RegistrationPair pair_;
+  const BlockRegistrationOptions& o_;
+  DregNet* net_;
+  BlockRegistrationResult result_;
+};
+
+}  // namespace
+
+BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+                                       const BlockRegistrationOptions& options, DregNet* net) {
+  options.Check();
+  if (options.UsesNetwork() && !net)
+    throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
+  return BlockRegistration(source, target, options, net).Run();
+}
+
+BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
+                                       DregNet* net) {
+  NerfBlockInput s(source), t(target);
+  return RegisterBlocks(s, t, options, net);
+}
+
+Json BlockRegistrationResult::ToJson() const {
+  Json others = Json::array();
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (k != chosen) others.push_back(candidates[k].ToJson());
+  }
+  Json j = {{"target_from_source", MatrixToJson(target_from_source.ToMatrix())},
+            {"scale", target_from_source.scale},
+            {"field", field},
+            {"confidence", confidence},
+            {"method_score", method_score},
+            {"agreement", FieldAgreementJson(agreement)},
+            {"seconds", seconds},
+            {"method", method},
+            {"fallback_from", fallback.is_null() ? Json() : fallback},
+            {"not_chosen", others},
+            {"agreeing_candidates", agreeing_candidates >= 0 ? Json(agreeing_candidates) : Json()},
+            {"warnings", warnings},
+            {"source_kind", source_kind},
+            {"target_kind", target_kind}};
+  j.update(details);
+  j["options"] = options.ToJson();
+  return j;
+}
+
+// The network for dreg / auto: the weights must exist and, with --config, be of that config.
+DregNet LoadCheckedDregNet(const BlockRegistrationOptions& o) {
+  if (o.weights.empty() || !FileExists(o.weights)) {
+    ThrowInputError(o.weights.empty() ? "--weights" : o.weights, "",
+                    "DReg-NeRF weights (reg train), or --method ransac / fgr");
+  }
+  DregModelOptions model_options;
+  DregNet net = LoadDregWeights(o.weights, &model_options);
+  if (!o.config.empty()) {
+    CheckDregOptionsMatch(model_options, o.config == "paper" ? DregModelOptions::Paper() : DregModelOptions::Cpu(),
+                          o.weights);
+  }
+  net->to(o.device);
+  return net;
+}
+
+}  // namespace nerfreg

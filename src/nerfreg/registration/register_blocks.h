@@ -1,0 +1,63 @@
+#pragma once
+// The registration of two inputs as one job: everything `reg register` decides, behind one options
+// struct and one result, so the choice among methods can be tested and the options used are
+// written next to the pose.
+//
+// The job: each method gives a candidate through the chain (registration/registration_chain.h;
+// dreg: the network on the inputs' grids; ransac / fgr: FPFH on the inputs' occupied points; auto:
+// dreg, FPFH + RANSAC on the grids and on the occupied points), each refined as options.refine
+// asks. Then one candidate is kept (ChooseCandidate, on common samples) and the result says how far
+// to trust it.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/reg/registration_input.h"
+#include "nerfreg/registration/field_agreement.h"
+#include "nerfreg/registration/registration_chain.h"
+#include "nerfreg/registration/registration_options.h"
+#include "nerfreg/registration/registration_result.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct NerfBlock;
+
+// The job's result: the kept candidate (the base: its pose, method, scores, field record and
+// details; `seconds` is the job's), every candidate tried, and what the job noticed.
+struct BlockRegistrationResult : RegistrationResult {
+  std::vector<RegistrationResult> candidates;
+  size_t chosen = 0;  // index into candidates
+  // With several field-refined candidates: how many others ended within 2 deg and a grid cell of
+  // the kept pose; -1 when not checked.
+  int agreeing_candidates = -1;
+  Json fallback;  // auto without kField: the dreg answer dropped for ransac (null: none)
+  std::vector<std::string> warnings;
+  BlockRegistrationOptions options;
+  std::string source_kind = "nerf", target_kind = "nerf";  // RegistrationInput::Kind()
+  Eigen::Matrix3Xd source_cloud, target_cloud;             // [3, N]: the points the kept candidate registered
+
+  const RegistrationResult& Chosen() const { return candidates.at(chosen); }
+  // T.json: target_from_source, scale, method, confidence, method_score, agreement, field,
+  // not_chosen, agreeing_candidates, fallback_from, seconds, warnings, source_kind, target_kind,
+  // the kept candidate's details (block_icp, half_turn, ...) and "options".
+  Json ToJson() const;
+};
+
+// Below this confidence (FieldAgreement) reg register warns (docs/registration.md: right pairs
+// scored above it, blocks of different objects below).
+inline constexpr double kLowConfidence = 0.65;
+
+// The network for dreg / auto: the weights must exist (InputError naming them, or --weights) and,
+// with options.config, be of that config; moved to options.device.
+DregNet LoadCheckedDregNet(const BlockRegistrationOptions& options);
+
+// Any two inputs: NeRF blocks, splat sets, or one of each (reg/registration_input.h). `net`: needed
+// when options.UsesNetwork() (std::invalid_argument when null). Checks `options`.
+BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+                                       const BlockRegistrationOptions& options, DregNet* net);
+BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
+                                       DregNet* net);
+
+}  // namespace nerfreg

@@ -1,0 +1,187 @@
+#include "nerfreg/registration/registration_chain.h"
+
+#include <stdexcept>
+
+#include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/registration/grid_registration.h"
+#include "nerfreg/registration/point_registration.h"
+#include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
+
+namespace nerfreg {
+
+RegistrationPair::RegistrationPair(RegistrationInput& source, RegistrationInput& target,
+                                   const BlockRegistrationOptions& options)
+    : source_(&source),
+      target_(&target),
+      grid_options_(options.grid),
+      min_density_(options.min_density),
+      seed_(options.seed) {}
+
+RegistrationPair::RegistrationPair(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options)
+    : owned_source_(std::make_unique<NerfBlockInput>(source)),
+      owned_target_(std::make_unique<NerfBlockInput>(target)),
+      source_(owned_source_.get()),
+      target_(owned_target_.get()),
+      grid_options_(options.grid),
+      min_density_(options.min_density),
+      seed_(options.seed) {}
+
+RegistrationPair::RegistrationPair(RegGrid source_grid, RegGrid target_grid, RegistrationInput* source,
+                                   RegistrationInput* target, const BlockRegistrationOptions& options)
+    : source_(source),
+      target_(target),
+      grid_options_(options.grid),
+      min_density_(options.min_density),
+      seed_(options.seed),
+      grids_ready_(true),
+      grids_given_(true),
+      source_grid_(std::move(source_grid)),
+      target_grid_(std::move(target_grid)) {
+  source_masked_ = PointsToEigen(source_grid_.MaskedXyz());
+  target_masked_ = PointsToEigen(target_grid_.MaskedXyz());
+}
+
+RegistrationPair::RegistrationPair(Eigen::Matrix3Xd source_points, Eigen::Matrix3Xd target_points,
+                                   RegistrationInput* source, RegistrationInput* target,
+                                   const BlockRegistrationOptions& options)
+    : source_(source),
+      target_(target),
+      grid_options_(options.grid),
+      min_density_(options.min_density),
+      seed_(options.seed),
+      points_ready_(true),
+      source_points_(std::move(source_points)),
+      target_points_(std::move(target_points)) {}
+
+void RegistrationPair::ExtractGrids() {
+  if (grids_ready_) return;
+  if (!HasInputs()) throw std::logic_error("RegistrationPair: no inputs to extract grids from");
+  Timer timer;
+  GridExtractionOptions go = grid_options_;
+  go.seed = seed_;
+  source_grid_ = source_->ExtractGrid(go);
+  target_grid_ = target_->ExtractGrid(go);
+  grid_seconds_ = timer.Seconds();
+  source_masked_ = PointsToEigen(source_grid_.MaskedXyz());
+  target_masked_ = PointsToEigen(target_grid_.MaskedXyz());
+  grids_ready_ = true;
+}
+
+void RegistrationPair::ExtractPoints() {
+  if (points_ready_) return;
+  if (!HasInputs()) throw std::logic_error("RegistrationPair: no inputs to extract occupied points from");
+  Timer timer;
+  // A block against splats: the block's solid as a shell, as the splats are (else ICP settles the
+  // capture's surface inside the block's solid).
+  const bool mixed = source_->Kind() != target_->Kind();
+  source_points_ = source_->OccupiedPoints(min_density_, seed_, mixed);
+  target_points_ = target_->OccupiedPoints(min_density_, seed_, mixed);
+  points_seconds_ = timer.Seconds();
+  points_ready_ = true;
+}
+
+const RegGrid& RegistrationPair::SourceGrid() {
+  ExtractGrids();
+  return source_grid_;
+}
+
+const RegGrid& RegistrationPair::TargetGrid() {
+  ExtractGrids();
+  return target_grid_;
+}
+
+const Eigen::Matrix3Xd& RegistrationPair::SourcePoints() {
+  ExtractPoints();
+  return source_points_;
+}
+
+const Eigen::Matrix3Xd& RegistrationPair::TargetPoints() {
+  ExtractPoints();
+  return target_points_;
+}
+
+const Eigen::Matrix3Xd& RegistrationPair::SourceCloud(RegistrationCloud cloud) {
+  if (cloud == RegistrationCloud::kOccupied) return SourcePoints();
+  ExtractGrids();
+  return source_masked_;
+}
+
+const Eigen::Matrix3Xd& RegistrationPair::TargetCloud(RegistrationCloud cloud) {
+  if (cloud == RegistrationCloud::kOccupied) return TargetPoints();
+  ExtractGrids();
+  return target_masked_;
+}
+
+DensityField RegistrationPair::SourceField() {
+  if (!source_) throw std::logic_error("RegistrationPair: no source input for its field");
+  return source_->Field();
+}
+
+DensityField RegistrationPair::TargetField() {
+  if (!target_) throw std::logic_error("RegistrationPair: no target input for its field");
+  return target_->Field();
+}
+
+double RegistrationPair::GridCell() const {
+  return grids_given_ ? source_grid_.CellSize() : grid_options_.side / grid_options_.resolution;
+}
+
+RegistrationResult RegisterCoarse(RegistrationPair& pair, RegistrationMethod method, RegistrationCloud cloud,
+                                  const BlockRegistrationOptions& options, DregNet* net) {
+  if (cloud == RegistrationCloud::kGridMask) {
+    return RegisterGrids(pair.SourceGrid(), pair.TargetGrid(), GridOptionsFor(options, method), net);
+  }
+  return RegisterPoints(pair.SourcePoints(), pair.TargetPoints(), method, options);
+}
+
+void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
+  Json& record = r->details["block_icp"];
+  r->target_from_source =
+      RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel, &record);
+  r->seconds += record["seconds"].get<double>();
+  r->method += "+block";
+}
+
+void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
+  DensityField source = pair.SourceField(), target = pair.TargetField();
+  if (options.field.overlap_only && pair.HasGrids()) {
+    source.seen = SeenFromGrid(pair.SourceGrid());
+    target.seen = SeenFromGrid(pair.TargetGrid());
+  }
+  r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud),
+                                         r->target_from_source, options.field, pair.GridCell(), &r->field);
+  r->seconds += r->field["seconds"].get<double>();
+  r->method += "+field";
+}
+
+void ContinueChain(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
+  if (r->cloud == RegistrationCloud::kGridMask && options.refine != RegistrationRefinement::kNone &&
+      options.block_icp) {
+    RefineOnBlockPoints(pair, options, r);
+  }
+  if (options.refine == RegistrationRefinement::kField) RefineOnFields(pair, options, r);
+}
+
+RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, RegistrationCloud cloud,
+                            const BlockRegistrationOptions& options, DregNet* net) {
+  RegistrationResult r = RegisterCoarse(pair, method, cloud, options, net);
+  ContinueChain(pair, options, &r);
+  return r;
+}
+
+Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_field, const Eigen::Matrix3Xd& src_points,
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
+                     double spread, Json* json) {
+  options.sample_spread = spread;
+  const FieldAlignmentResult f =
+      AlignFields(src_field, tgt_field, src_points, tgt_points, start.ToRigid(), options, start.scale);
+  if (f.iterations == 0)
+    LOG_WARN("field refinement: fewer than 10 samples fall inside both blocks; pose left as it was");
+  *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
+           {"samples", f.samples},       {"seconds", f.seconds},           {"before", MatrixToJson(start.ToMatrix())}};
+  if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
+  return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation);
+}
+
+}  // namespace nerfreg

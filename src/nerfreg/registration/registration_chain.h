@@ -1,0 +1,106 @@
+#pragma once
+// The registration chain, the one sequence of stages every job runs (`reg register`'s candidates,
+// each row of `reg eval --pairs`, each pair of `reg register-many`, the benchmarks), so that what
+// `reg eval` measures is what `reg register` runs:
+//
+//   1. coarse: a method on the pair's grids (RegisterGrids: dreg, or FPFH + RANSAC / FGR on the
+//      surface masks; ICP on the grids and the half-turn check unless refine is kNone) or on the
+//      inputs' occupied points (RegisterPoints: FPFH + RANSAC / FGR, then ICP);
+//   2. block ICP (grid methods, refine != kNone, options.block_icp): ICP on the occupied points;
+//   3. field (refine == kField): the two density fields aligned (AlignFields).
+//
+// A new method is one more coarse stage: a file of this folder returning a RegistrationResult,
+// and a case in RegisterCoarse. The choice among candidates is RegisterBlocks'
+// (registration/register_blocks.h).
+#include <Eigen/Core>
+#include <memory>
+
+#include "nerfreg/reg/dreg_model.h"
+#include "nerfreg/reg/field_alignment.h"
+#include "nerfreg/reg/reg_grid.h"
+#include "nerfreg/reg/registration_input.h"
+#include "nerfreg/registration/registration_options.h"
+#include "nerfreg/registration/registration_result.h"
+#include "nerfreg/util/json_util.h"
+
+namespace nerfreg {
+
+struct NerfBlock;
+
+// What the stages read of a pair of inputs, each extracted once, on first use: the registration
+// grids (options.grid, seeded with options.seed), the occupied points (density > min_density; a
+// block against splats gives its shell, RegistrationInput::OccupiedPoints) and the density fields.
+class RegistrationPair {
+ public:
+  // Two inputs (reg register, register-many), borrowed.
+  RegistrationPair(RegistrationInput& source, RegistrationInput& target, const BlockRegistrationOptions& options);
+  // Two NeRF blocks, borrowed.
+  RegistrationPair(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options);
+  // Grids already extracted (reg eval --pairs, the benchmarks), with the inputs they came from or
+  // without (synthesised pairs: no occupied points, no fields; only the grid stages run).
+  RegistrationPair(RegGrid source_grid, RegGrid target_grid, RegistrationInput* source, RegistrationInput* target,
+                   const BlockRegistrationOptions& options);
+  // Occupied points extracted elsewhere (register-many extracts each input's once for all pairs),
+  // with the inputs they came from (for their fields) or without.
+  RegistrationPair(Eigen::Matrix3Xd source_points, Eigen::Matrix3Xd target_points, RegistrationInput* source,
+                   RegistrationInput* target, const BlockRegistrationOptions& options);
+  RegistrationPair(const RegistrationPair&) = delete;
+  RegistrationPair& operator=(const RegistrationPair&) = delete;
+
+  bool HasInputs() const { return source_ != nullptr && target_ != nullptr; }
+  bool HasGrids() const { return grids_ready_; }
+  std::string SourceKind() const { return source_ ? source_->Kind() : "grid"; }
+  std::string TargetKind() const { return target_ ? target_->Kind() : "grid"; }
+  const RegGrid& SourceGrid();
+  const RegGrid& TargetGrid();
+  const Eigen::Matrix3Xd& SourcePoints();  // [3, N] occupied points, source frame
+  const Eigen::Matrix3Xd& TargetPoints();  // [3, M]
+  // The points of `cloud` (grid masks or occupied points), [3, N].
+  const Eigen::Matrix3Xd& SourceCloud(RegistrationCloud cloud);
+  const Eigen::Matrix3Xd& TargetCloud(RegistrationCloud cloud);
+  DensityField SourceField();  // throws std::logic_error without inputs
+  DensityField TargetField();
+  // The grid cell, scene units: the field refinement's sample spread and the "same pose" distance.
+  double GridCell() const;
+  double GridSeconds() const { return grid_seconds_; }
+  double PointsSeconds() const { return points_seconds_; }
+
+ private:
+  void ExtractGrids();
+  void ExtractPoints();
+  std::unique_ptr<RegistrationInput> owned_source_, owned_target_;
+  RegistrationInput* source_ = nullptr;
+  RegistrationInput* target_ = nullptr;
+  GridExtractionOptions grid_options_;
+  double min_density_ = 0;
+  unsigned seed_ = 0;
+  bool grids_ready_ = false, points_ready_ = false, grids_given_ = false;
+  RegGrid source_grid_, target_grid_;
+  Eigen::Matrix3Xd source_masked_, target_masked_, source_points_, target_points_;
+  double grid_seconds_ = 0, points_seconds_ = 0;
+};
+
+// Stage 1: `method` (kDreg, kRansac or kFgr) on `cloud`. `net`: needed for kDreg.
+RegistrationResult RegisterCoarse(RegistrationPair& pair, RegistrationMethod method, RegistrationCloud cloud,
+                                  const BlockRegistrationOptions& options, DregNet* net);
+// Stage 2: ICP on the occupied points from the result's pose ("+block"; details["block_icp"]).
+void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
+// Stage 3: the fields aligned from the result's pose, samples around the result's cloud ("+field";
+// `field` records it). With options.field.overlap_only and the pair's grids, each field's `seen`
+// is its grid's mask (SeenFromGrid).
+void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
+// Stages 2 and 3 as options ask, after a coarse stage (or a start given by the caller, e.g. the
+// truth in reg eval --pairs).
+void ContinueChain(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
+// The whole chain for one method.
+RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, RegistrationCloud cloud,
+                            const BlockRegistrationOptions& options, DregNet* net);
+
+// The field refinement's driver on any two density fields: AlignFields from `start` (its scale
+// held), samples around `src_points` / `tgt_points` with spread `spread`; `json` records it
+// (iterations, initial_cost, final_cost, samples, seconds, before, overlap_fraction).
+Sim3d RefineOnFields(const DensityField& source, const DensityField& target, const Eigen::Matrix3Xd& src_points,
+                     const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
+                     double spread, Json* json);
+
+}  // namespace nerfreg
