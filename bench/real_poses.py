@@ -31,23 +31,49 @@ VISP = "/usr/share/visp-images-data/ViSP-images"
 SPIDER = "/usr/share/assimp/models/OBJ/spider.obj"
 
 # The sets, fixed. Frames are chosen by their number in the file name: first..last every step.
-# Where the sequences move is measured by bench/real_poses.py's "motion" columns (from COLMAP 3.8's
-# cameras); the static stretches left out were found by frame differencing (see results/*.md).
+# How much each moves is measured from the cameras (the "motion" column); the still stretches left
+# out were found by frame differencing (mean absolute difference of consecutive frames).
 SETS = {
-    # 218 real 640x480 frames, a cube and a cylinder on a desk, hand-held camera; frames 0-21 are
-    # still (mean absolute difference between frames < 0.3 grey levels, bar a hand passing).
-    "mbt_cube": dict(src="mbt/cube", first=22, last=217, step=6, xml="mbt/cube.xml",
+    # 218 real 640x480 frames; frames 0-21 are still. The camera stays put: a hand moves the sheet
+    # with the cube and the cylinder (SET_NOTES). Not a default set.
+    "mbt_cube": dict(src="mbt/cube", first=22, last=217, step=8, xml="mbt/cube.xml",
                      what="real, 640x480, cube + cylinder on a desk"),
     # 80 real 384x288 frames of a dotted cube on a poster; frames 0-16 and 70-79 are still.
     "cube": dict(src="cube", first=16, last=70, step=2, xml=None, what="real, 384x288, dotted cube on a poster"),
-    # 501 real 384x288 frames around a planar target on a box, a cluttered background behind.
-    "mire2": dict(src="mire-2", first=1, last=497, step=16, xml=None, what="real, 384x288, planar target on a box"),
+    # 501 real 384x288 frames; the camera stays put, a hand moves a box with a planar target in
+    # front of a still background (SET_NOTES). Not a default set.
+    "mire2": dict(src="mire-2", first=1, last=497, step=20, xml=None, what="real, 384x288, planar target on a box"),
     # 40 rendered 640x480 frames of a castle model with ground-truth poses.
     "castle": dict(src="mbt-depth/Castle-simu/Images", first=1, last=40, step=1,
                    xml="mbt-depth/Castle-simu/Config/chateau.xml", gt="mbt-depth/Castle-simu/CameraPose",
                    what="rendered, 640x480, castle model (ground truth)"),
     # nerfreg's own photo-like render: radial distortion, pixel noise, JPEG.
     "spider": dict(render=True, what="rendered by nerfreg, 640x480, k1 -0.05, noise 0.01, JPEG 90 (ground truth)"),
+}
+DEFAULT_SETS = "cube castle spider"
+# What was found about each set, printed under the tables.
+SET_NOTES = {
+    "mbt_cube": "the camera does not move: the telephone, the cables and the desk's edges stay put in every frame "
+                "while a hand moves the sheet of paper carrying the cube and the cylinder (compare frames 22, 110 and "
+                "217). There is no single rigid scene (the background says the camera is still, the object that it "
+                "moves), so the methods' cameras are not comparable estimates of one truth; its motion column "
+                "describes one method's compromise. Intrinsics: mbt/cube.xml `<camera>` (px py u0 v0, no "
+                "distortion). Not in the default sets (SETS=mbt_cube runs it).",
+    "mire2": "the camera does not move: the background (a dark cloth, posters, an alien figure) stays put while a hand "
+             "moves the box carrying the planar target (fingers in frames 401 and 481). No rigid scene, no "
+             "intrinsics anywhere in visp-images-data. Not in the default sets (SETS=mire2 runs it).",
+    "cube": "the whole frame is the poster and the dotted cube, moving together: one rigid scene. Frames 0-16 and "
+            "70-79 are still (mean absolute difference of consecutive frames 0.3 grey levels, 5-21 in between). "
+            "visp-images-data has no intrinsics for it (ViSP's examples on it use none; the only camera files are "
+            "mbt/cube.xml, xml/chateau*.xml and mbt-depth/Castle-simu/Config/chateau*.xml, for other sequences): "
+            "uncalibrated runs only, their focal lengths compared with each other.",
+    "castle": "Camera_NNN.txt is cam_from_world (ViSP's cMo: x_cam = M x_world; the check against COLMAP is below). "
+              "The truth camera centres lie on a straight line (singular values of the centred centres 1.1, 2e-7, "
+              "1e-7), so a Sim(3) fitted to the centres alone leaves the rotation about that line free: hence the "
+              "rotation alignment. Intrinsics: Config/chateau.xml `<camera>` px = py = 700, u0 = 320, v0 = 240.",
+    "spider": "nerfreg's render: the distortion follows OpenCV's model (a block-matching fit of a render with "
+              "--distortion -0.05 against one without gave k1 = -0.053). Calibrated COLMAP runs get OPENCV with "
+              "k1 = -0.05.",
 }
 SPIDER_NOISE = 0.01
 SPIDER_DISTORTION = -0.05
@@ -355,8 +381,9 @@ def run_nerfreg(info, out, nerfreg, method, calibrated):
     rc, secs = run_timed(cmd, logf)
     r = {"command": " ".join(cmd), "rc": rc, "wall_s": secs, "log": logf}
     if rc != 0 or not os.path.exists(os.path.join(out, "transforms.json")):
-        r["status"] = "refused" if rc == 2 else "failed"
         r["error"] = error_line(logf)
+        # Refused: declined before trying (no intrinsics, before self-calibration); else it failed.
+        r["status"] = "refused" if rc == 2 and "--intrinsics" in r["error"] else "failed"
         return r, {}, np.zeros((0, 3))
     t = json.load(open(os.path.join(out, "transforms.json")))
     r["status"] = "ok"
@@ -394,68 +421,98 @@ def largest_model(sparse):
     return best
 
 
-def run_colmap38(info, out, calibrated, fix_intrinsics):
+def finish_colmap(r, model_dir, models):
+    """Fills r from the model COLMAP wrote (None: none); returns (r, poses, points)."""
+    if model_dir is None:
+        r.update(status="failed", error=r.get("error") or "no model written", posed=0)
+        return r, {}, np.zeros((0, 3))
+    poses, cams, cam_of, pts = read_model(model_dir, model_dir + ".txt")
+    r.update(status="ok", model=model_dir, models=models, posed=len(poses), **model_summary(poses, cams, cam_of))
+    return r, poses, pts
+
+
+def run_colmap38(info, out, calibrated):
+    """COLMAP 3.8's command lines. Calibrated: the mapper runs twice on one database, the intrinsics
+    kept (the primary run, as nerfreg keeps --intrinsics) and refined from them (COLMAP's default;
+    timed as the mapper alone). Returns [(key suffix, (r, poses, points))]."""
     shutil.rmtree(out, ignore_errors=True)
-    os.makedirs(os.path.join(out, "sparse"))
+    os.makedirs(out)
     logf = os.path.join(out, "colmap.log")
     db = os.path.join(out, "database.db")
     model, params = colmap_params(info.get("intrinsics") if calibrated else None)
     fe = ["colmap", "feature_extractor", "--database_path", db, "--image_path", info["images_dir"],
           "--ImageReader.single_camera", "1", "--ImageReader.camera_model", model, "--SiftExtraction.use_gpu", "0"]
-    mapper = ["colmap", "mapper", "--database_path", db, "--image_path", info["images_dir"], "--output_path",
-              os.path.join(out, "sparse")]
     if params:
         fe += ["--ImageReader.camera_params", params]
-        if fix_intrinsics:  # COLMAP refines a prior focal and distortion by default
-            mapper += ["--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_extra_params", "0"]
+
+    def mapper(sparse, fixed):
+        os.makedirs(sparse)
+        c = ["colmap", "mapper", "--database_path", db, "--image_path", info["images_dir"], "--output_path", sparse]
+        if fixed:  # COLMAP refines a prior focal and distortion by default
+            c += ["--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_extra_params", "0"]
+        return c
+
     stages = [("feature_extractor", fe),
               ("exhaustive_matcher", ["colmap", "exhaustive_matcher", "--database_path", db, "--SiftMatching.use_gpu", "0"]),
-              ("mapper", mapper)]
-    r = {"commands": [" ".join(c) for _, c in stages], "stage_s": {}, "log": logf}
+              ("mapper", mapper(os.path.join(out, "sparse"), bool(params)))]
+    r = {"commands": [" ".join(c) for _, c in stages], "stage_s": {}, "log": logf,
+         "intrinsics": "kept" if params else "self-calibrated (SIMPLE_RADIAL)"}
     total = 0.0
     for name, c in stages:
         rc, secs = run_timed(c, logf)
         r["stage_s"][name] = secs
         total += secs
         if rc != 0:
-            r.update(status="failed", error="%s: %s" % (name, error_line(logf)), wall_s=total)
-            return r, {}, np.zeros((0, 3))
+            r.update(error="%s: %s" % (name, error_line(logf)))
+            break
     r["wall_s"] = total
-    best = largest_model(os.path.join(out, "sparse"))
-    if best is None:
-        r.update(status="failed", error="mapper wrote no model", posed=0)
-        return r, {}, np.zeros((0, 3))
-    poses, cams, cam_of, pts = read_model(best, best + ".txt")
-    r.update(status="ok", model=best, models=len(glob.glob(os.path.join(out, "sparse", "*", "images.bin"))),
-             posed=len(poses), **model_summary(poses, cams, cam_of))
-    return r, poses, pts
+    out_runs = [("", finish_colmap(r, largest_model(os.path.join(out, "sparse")),
+                                   len(glob.glob(os.path.join(out, "sparse", "*", "images.bin")))))]
+    if params and (not r.get("error") or r["error"].startswith("mapper")):
+        c = mapper(os.path.join(out, "sparse_refined"), False)
+        rc, secs = run_timed(c, logf)
+        r2 = {"commands": r["commands"][:2] + [" ".join(c)], "stage_s": {"mapper": secs}, "wall_s": secs, "log": logf,
+              "intrinsics": "refined from the given ones (COLMAP's default)",
+              "note": "the mapper alone, on the primary run's database"}
+        if rc != 0:
+            r2["error"] = "mapper: " + error_line(logf)
+        out_runs.append((" refined", finish_colmap(r2, largest_model(os.path.join(out, "sparse_refined")),
+                                                   len(glob.glob(os.path.join(out, "sparse_refined", "*", "images.bin"))))))
+    return out_runs
 
 
-def run_colmap4(info, out, calibrated, python, fix_intrinsics):
+def run_colmap4(info, out, calibrated, python):
+    """COLMAP 4's global mapper through pycolmap, in its own process. Calibrated: global_mapping runs
+    twice on one database, the intrinsics kept and refined (as run_colmap38)."""
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
     logf = os.path.join(out, "colmap4.log")
     model, params = colmap_params(info.get("intrinsics") if calibrated else None)
-    fix = "fix" if fix_intrinsics and params else "refine"
-    cmd = [python, os.path.abspath(__file__), "colmap4", info["images_dir"], out, model, params, fix]
+    cmd = [python, os.path.abspath(__file__), "colmap4", info["images_dir"], out, model, params]
     rc, secs = run_timed(cmd, logf)
-    r = {"command": " ".join(cmd[:-2] + ["'%s'" % params, fix]), "wall_s": secs, "log": logf}
     res = os.path.join(out, "result.json")
     if rc != 0 or not os.path.exists(res):
-        r.update(status="failed", error=error_line(logf))
-        return r, {}, np.zeros((0, 3))
+        r = {"command": " ".join(cmd[:-1] + ["'%s'" % params]), "wall_s": secs, "log": logf, "status": "failed",
+             "error": error_line(logf)}
+        return [("", (r, {}, np.zeros((0, 3))))]
     j = json.load(open(res))
-    r["stage_s"] = j["stage_s"]
-    if not j.get("model"):
-        r.update(status="failed", error="global_mapping returned no model", posed=0)
-        return r, {}, np.zeros((0, 3))
-    poses, cams, cam_of, pts = read_colmap_text(j["model"])
-    r.update(status="ok", model=j["model"], models=j["models"], posed=len(poses), **model_summary(poses, cams, cam_of))
-    return r, poses, pts
+    out_runs = []
+    for k, variant in enumerate(j["variants"]):
+        stage = dict(j["stage_s"]) if k == 0 else {}
+        stage.update(variant["stage_s"])
+        r = {"command": " ".join(cmd[:-1] + ["'%s'" % params]), "stage_s": stage, "log": logf,
+             "intrinsics": variant["intrinsics"], "wall_s": sum(stage.values()) if k else secs}
+        if k:
+            r["note"] = "global_mapping alone, on the primary run's database"
+        if not variant.get("model"):
+            r["error"] = "global_mapping returned no model"
+        out_runs.append((variant["suffix"], finish_colmap(r, variant.get("model"), variant.get("models", 0))))
+    return out_runs
 
 
-def colmap4_worker(images, out, model, params, fix):
-    """One COLMAP 4 run: SIFT (CPU), exhaustive matching, global mapping; the largest model as text."""
+def colmap4_worker(images, out, model, params):
+    """One COLMAP 4 run: SIFT (CPU), exhaustive matching, global mapping; the largest model as text.
+    With intrinsics: global mapping with them kept, then again refining them (COLMAP's default)."""
     import pycolmap
     db = os.path.join(out, "database.db")
     stage = {}
@@ -472,25 +529,37 @@ def colmap4_worker(images, out, model, params, fix):
     t0 = time.time()
     pycolmap.match_exhaustive(db, device=pycolmap.Device.cpu)
     stage["match_exhaustive"] = time.time() - t0
-    opts = pycolmap.GlobalPipelineOptions()
-    if fix == "fix":  # the intrinsics stay as given (refined by default, as in COLMAP 3.8)
-        opts.mapper.bundle_adjustment.refine_focal_length = False
-        opts.mapper.bundle_adjustment.refine_extra_params = False
-    t0 = time.time()
-    os.makedirs(os.path.join(out, "sparse"), exist_ok=True)
-    recs = pycolmap.global_mapping(db, images, os.path.join(out, "sparse"), opts)
-    stage["global_mapping"] = time.time() - t0
-    best, n = None, -1
-    for k, rec in recs.items():
-        if rec.num_reg_images() > n:
-            best, n = k, rec.num_reg_images()
-    result = {"stage_s": stage, "models": len(recs), "model": None, "pycolmap": pycolmap.__version__}
-    if best is not None:
-        txt = os.path.join(out, "model_txt")
-        os.makedirs(txt, exist_ok=True)
-        recs[best].write_text(txt)
-        result["model"] = txt
-        print(recs[best].summary())
+    result = {"stage_s": stage, "pycolmap": pycolmap.__version__, "variants": []}
+    if not params:
+        # No focal prior: COLMAP 4's own advice (global_pipeline.cc) is to calibrate the view graph
+        # from the fundamental matrices first.
+        t0 = time.time()
+        result["calibrate_view_graph"] = bool(pycolmap.calibrate_view_graph(db))
+        stage["calibrate_view_graph"] = time.time() - t0
+    variants = [("", True, "kept"), (" refined", False, "refined from the given ones (COLMAP's default)")] if params \
+        else [("", False, "self-calibrated (SIMPLE_RADIAL, view graph calibration)")]
+    for suffix, fixed, what in variants:
+        opts = pycolmap.GlobalPipelineOptions()
+        if fixed:
+            opts.mapper.bundle_adjustment.refine_focal_length = False
+            opts.mapper.bundle_adjustment.refine_extra_params = False
+        sparse = os.path.join(out, "sparse" + suffix.strip().replace(" ", "_"))
+        os.makedirs(sparse, exist_ok=True)
+        t0 = time.time()
+        recs = pycolmap.global_mapping(db, images, sparse, opts)
+        v = {"suffix": suffix, "intrinsics": what, "stage_s": {"global_mapping": time.time() - t0},
+             "models": len(recs), "model": None}
+        best, n = None, -1
+        for k, rec in recs.items():
+            if rec.num_reg_images() > n:
+                best, n = k, rec.num_reg_images()
+        if best is not None:
+            txt = os.path.join(out, "model_txt" + suffix.strip().replace(" ", "_"))
+            os.makedirs(txt, exist_ok=True)
+            recs[best].write_text(txt)
+            v["model"] = txt
+            print(recs[best].summary())
+        result["variants"].append(v)
     json.dump(result, open(os.path.join(out, "result.json"), "w"), indent=1)
 
 
@@ -512,15 +581,15 @@ def versions(nerfreg, python):
                                    text=True).stdout.strip()
     v["pip_freeze"] = subprocess.run([python, "-m", "pip", "freeze"], capture_output=True, text=True).stdout.split()
     v["nerfreg"] = nerfreg
-    try:
-        v["nerfreg_version"] = subprocess.run([nerfreg, "--version"], capture_output=True, text=True).stdout.strip()
-    except OSError as e:
-        v["nerfreg_version"] = str(e)
+    if os.path.exists(nerfreg):
+        v["nerfreg_binary"] = {"mtime": datetime.datetime.fromtimestamp(os.path.getmtime(nerfreg)).isoformat(
+            timespec="seconds"), "sha256": subprocess.run(["sha256sum", nerfreg], capture_output=True,
+                                                          text=True).stdout.split()[0]}
     try:
         v["git"] = subprocess.run(["git", "-C", ROOT, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
         nerfreg_dir = os.path.dirname(os.path.dirname(os.path.abspath(nerfreg)))
-        v["nerfreg_git"] = subprocess.run(["git", "-C", nerfreg_dir, "log", "-1", "--format=%H %s"], capture_output=True,
-                                          text=True).stdout.strip()
+        v["nerfreg_git"] = subprocess.run(["git", "-C", nerfreg_dir, "describe", "--always", "--dirty"],
+                                          capture_output=True, text=True).stdout.strip()
     except OSError:
         pass
     return v
@@ -541,6 +610,7 @@ def bench_set(info, args, python):
 
     def add(key, triple):
         r, p, pts = triple
+        r["loadavg_after"] = open("/proc/loadavg").read().split()[:3]
         runs[key], poses[key], points[key] = r, p, pts
         log("%s %s: %s, posed %s/%d, %.1f s%s" % (name, key, r["status"], r.get("posed", "-"), info["images"],
                                                  r.get("wall_s", 0), (" (" + r["error"] + ")") if r.get("error") else ""))
@@ -551,15 +621,17 @@ def bench_set(info, args, python):
             add("nerfreg classical", run_nerfreg(info, os.path.join(work, "nerfreg_classical"), args.nerfreg, "classical", True))
             add("nerfreg auto", run_nerfreg(info, os.path.join(work, "nerfreg_auto"), args.nerfreg, None, True))
         if "colmap38" in methods:
-            add("COLMAP 3.8", run_colmap38(info, os.path.join(work, "colmap38"), True, args.colmap_fix_intrinsics))
+            for suffix, triple in run_colmap38(info, os.path.join(work, "colmap38"), True):
+                add("COLMAP 3.8" + suffix, triple)
         if "colmap4" in methods:
-            add("COLMAP 4 global", run_colmap4(info, os.path.join(work, "colmap4"), True, python, args.colmap_fix_intrinsics))
+            for suffix, triple in run_colmap4(info, os.path.join(work, "colmap4"), True, python):
+                add("COLMAP 4 global" + suffix, triple)
     if "nerfreg" in methods:
         add("nerfreg uncal", run_nerfreg(info, os.path.join(work, "nerfreg_uncal"), args.nerfreg, None, False))
     if "colmap38" in methods:
-        add("COLMAP 3.8 uncal", run_colmap38(info, os.path.join(work, "colmap38_uncal"), False, False))
-    if "colmap4" in methods and not calibrated:
-        add("COLMAP 4 global uncal", run_colmap4(info, os.path.join(work, "colmap4_uncal"), False, python, False))
+        add("COLMAP 3.8 uncal", run_colmap38(info, os.path.join(work, "colmap38_uncal"), False)[0][1])
+    if ("colmap4" in methods and not calibrated) or "colmap4uncal" in methods:
+        add("COLMAP 4 global uncal", run_colmap4(info, os.path.join(work, "colmap4_uncal"), False, python)[0][1])
 
     res = {k: v for k, v in info.items() if k not in ("gt_matrices",)}
     res["runs"] = runs
@@ -642,7 +714,7 @@ def targets(res, calibrated, c38, c4, castle):
             t["rotation_agreement"] = {"pass": max(meds) <= threshold, "worst_median_deg": max(meds),
                                        "threshold_deg": threshold}
         else:
-            t["rotation_agreement"] = {"pass": None if r.get("status") == "ok" else False,
+            t["rotation_agreement"] = {"pass": None if threshold is None or r.get("status") == "ok" else False,
                                        "threshold_deg": threshold}
         if castle:
             m = pair(res, k, "truth").get("rot_deg_median")
@@ -659,24 +731,29 @@ def write_md(j, path):
     L = []
     L.append("# Poses of real photos: nerfreg `dbarf poses` against COLMAP 3.8 and COLMAP 4 (global)")
     L.append("")
-    L.append("Written by `bench/real_poses.py` from `%s`: `%s` (%s; %s, %s cores, load average at the start %s)." %
+    L.append("Written by `bench/real_poses.py` from `%s`: `%s` (%s; %s, %s cores; the whole bench %.0f s; load "
+             "average %s at the start, %s at the end: where it is above 1, other jobs shared the cores and the "
+             "times are upper bounds)." %
              (os.path.basename(j["json"]), j["command"], j["date"], j["machine"]["cpu"], j["machine"]["cores"],
-              " ".join(j["machine"]["loadavg_start"])))
+              j.get("bench_wall_s", float("nan")), " ".join(j["machine"]["loadavg_start"]),
+              " ".join(j["machine"].get("loadavg_end", ["?"]))))
     L.append("nerfreg: `%s` (%s); COLMAP: %s; pycolmap %s (pip: %s)." %
              (j["versions"]["nerfreg"], j["versions"].get("nerfreg_git", "?"), j["versions"]["colmap"][0].strip(),
               j["versions"]["pycolmap"], " ".join(j["versions"]["pip_freeze"])))
     L.append("")
     L.append("Every run is timed by the wall clock, one after another, each with the machine's default thread "
-             "count. Calibrated runs get the set's intrinsics (nerfreg: `--intrinsics`; COLMAP: one `PINHOLE` / "
-             "`OPENCV` camera with `--ImageReader.camera_params`, %s); uncalibrated runs get none (COLMAP: "
-             "`SIMPLE_RADIAL`, focal guessed at 1.2x the longer side and refined; nerfreg: no `--intrinsics`). "
-             "Pairs are compared over the images both posed. Rotations: difference of cam_from_world after the "
-             "best rotation alignment (robust chordal mean, refit on the 80 %% closest). Centres: after a Sim(3) "
-             "by Umeyama on the camera centres (fit on all, refit on the 80 %% closest), in %% of the reference's "
-             "widest baseline. `rot c` is the rotation difference after that centre-only Sim(3), which leaves the "
-             "rotation about the centres' line free where the cameras move along a line (Castle-simu)." % (
-                 "focal and distortion kept as given (`--colmap-fix-intrinsics`)" if j.get("colmap_fix_intrinsics")
-                 else "COLMAP's defaults: focal and distortion refined from that prior, principal point fixed"))
+             "count. Calibrated runs get the set's intrinsics and keep them (nerfreg: `--intrinsics`; COLMAP: one "
+             "`PINHOLE` / `OPENCV` camera with `--ImageReader.camera_params`, and the mapper told not to refine "
+             "focal and distortion). `refined` rows: the same COLMAP database mapped again with COLMAP's default, "
+             "the given intrinsics a prior that bundle adjustment refines (focal, distortion; principal point "
+             "fixed); their time is that mapping alone. Uncalibrated runs get no intrinsics (COLMAP: `SIMPLE_RADIAL`, "
+             "focal guessed at 1.2x the longer side and refined, COLMAP 4 after `calibrate_view_graph`; nerfreg: "
+             "no `--intrinsics`). Pairs are compared over the images both posed. Rotations: difference of "
+             "cam_from_world after the best rotation alignment (robust chordal mean, refit on the 80 % closest). "
+             "Centres: after a Sim(3) by Umeyama on the camera centres (fit on all, refit on the 80 % closest), in "
+             "% of the reference's widest baseline. `rot c`: the rotation difference after that centre-only Sim(3), "
+             "which leaves the rotation about the centres' line free where the cameras move along a line "
+             "(Castle-simu's are collinear).")
     L.append("")
     L.append("## Sets")
     L.append("")
@@ -698,8 +775,12 @@ def write_md(j, path):
         for k, r in s["runs"].items():
             st = r.get("stage_s") or {}
             stages = ", ".join("%s %.1f" % (a, b) for a, b in st.items() if isinstance(b, (int, float)))
-            posed = "%d/%d" % (r["posed"], s["images"]) if r.get("status") == "ok" else "%s: `%s`" % (
-                r.get("status"), r.get("error", "").replace("|", "\\|"))
+            if r.get("status") == "ok":
+                posed = "%d/%d" % (r["posed"], s["images"])
+            else:
+                label = "refused" if "--intrinsics" in r.get("error", "") else "failed"
+                posed = "%s%s: `%s`" % (label, " (exit %d)" % r["rc"] if r.get("rc") else "",
+                                        r.get("error", "").replace("|", "\\|"))
             f = r.get("focal_px")
             L.append("| %s | %s | %s | %s | %s | %s | %s |" % (
                 s["name"], k, posed, fmt(r.get("wall_s"), "%.1f"), stages or "-",
@@ -731,7 +812,8 @@ def write_md(j, path):
     for s in j["sets"]:
         for k, t in s["targets"].items():
             c = t["covers_colmap4"]
-            cov = pf(c["pass"]) + (" (%d/%d; missing %d)" % (c["posed"], c["colmap4_posed"], len(c["missing"]))
+            cov = pf(c["pass"]) + (" (posed %d, COLMAP 4 %d, missing %d)" % (c["posed"], c["colmap4_posed"],
+                                                                             len(c["missing"]))
                                    if c.get("colmap4_posed") else "")
             ra = t["rotation_agreement"]
             rot = pf(ra["pass"]) + (" (%s <= %s)" % (fmt(ra.get("worst_median_deg")), fmt(ra.get("threshold_deg")))
@@ -739,6 +821,13 @@ def write_md(j, path):
             tr = t.get("truth_0.1deg")
             L.append("| %s | %s | %s | %s | %s |" % (s["name"], k, cov, rot,
                                                     (pf(tr["pass"]) + " (%s deg)" % fmt(tr["median_deg"])) if tr else "-"))
+    L.append("")
+    L.append("## Data notes")
+    L.append("")
+    for s in j["sets"]:
+        note = SET_NOTES.get(s["name"], SET_NOTES.get(s["name"].rstrip("0123456789")))
+        if note:
+            L.append("- %s: %s" % (s["name"], note))
     L.append("")
     notes = [s for s in j["sets"] if s.get("gt_convention_check")]
     if notes:
@@ -758,31 +847,34 @@ def main():
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--work", required=True)
-    r.add_argument("--sets", default="mbt_cube cube mire2 castle spider")
+    r.add_argument("--sets", default=DEFAULT_SETS)
     r.add_argument("--methods", default="nerfreg colmap38 colmap4")
     r.add_argument("--spider-views", type=int, default=24)
     r.add_argument("--nerfreg", required=True)
     r.add_argument("--out-prefix", required=True)
     r.add_argument("--command", default="")
-    r.add_argument("--colmap-fix-intrinsics", action="store_true",
-                   help="calibrated COLMAP runs keep the intrinsics (default: COLMAP's default, prior refined)")
     c4 = sub.add_parser("colmap4")
-    for a in ("images", "out", "model", "params", "fix"):
+    for a in ("images", "out", "model", "params"):
         c4.add_argument(a)
     rp = sub.add_parser("report")
     rp.add_argument("json")
     rp.add_argument("md")
     args = ap.parse_args()
     if args.cmd == "colmap4":
-        return colmap4_worker(args.images, args.out, args.model, args.params, args.fix)
+        return colmap4_worker(args.images, args.out, args.model, args.params)
     if args.cmd == "report":
-        return write_md(json.load(open(args.json)), args.md)
+        # The verdicts are recomputed from the stored figures (the JSON is rewritten with them).
+        j = json.load(open(args.json))
+        for s in j["sets"]:
+            c38, c4 = s["references"]
+            s["targets"] = targets(s, "intrinsics" in s, c38, c4, s["name"] == "castle" and "gt_poses" in s)
+        json.dump(j, open(args.json, "w"), indent=1)
+        return write_md(j, args.md)
     os.makedirs(args.work, exist_ok=True)
     python = sys.executable
     j = {"command": args.command or " ".join(sys.argv), "date": datetime.datetime.now().isoformat(timespec="seconds"),
          "machine": machine(), "versions": versions(args.nerfreg, python), "work": args.work,
-         "json": args.out_prefix + ".json", "colmap_fix_intrinsics": args.colmap_fix_intrinsics,
-         "spider_views": args.spider_views, "sets": []}
+         "json": args.out_prefix + ".json", "spider_views": args.spider_views, "sets": []}
     t0 = time.time()
     for name in args.sets.split():
         spec = SETS[name]

@@ -3,17 +3,16 @@
 # intrinsics) against COLMAP 3.8 (Debian `colmap`: feature_extractor, exhaustive_matcher, mapper;
 # with the intrinsics and without) and COLMAP 4's global mapper (pycolmap 4.2.1: extract_features,
 # match_exhaustive, global_mapping), in one run, one method after another, each timed.
-# Sets (fixed in bench/real_poses.py): ViSP's real sequences mbt/cube, cube and mire-2, the
-# rendered Castle-simu (ground-truth poses), and a photo-like nerfreg render of spider.obj (radial
-# distortion, noise, JPEG; ground truth). Writes $OUT.json (every number, command line, version,
+# Sets (fixed in bench/real_poses.py): ViSP's real sequence cube/ (uncalibrated), the rendered
+# Castle-simu (ground-truth poses) and a photo-like nerfreg render of spider.obj (radial distortion,
+# noise, JPEG; ground truth); SETS=mbt_cube / mire2 add ViSP's mbt/cube and mire-2, left out by
+# default because their camera stands still while a hand moves the object (no rigid scene). Writes $OUT.json (every number, command line, version,
 # the machine) and $OUT.md (the tables).
 #
-# Usage: bench/real_poses.sh [--quick] [--views 24|48|96] [--colmap-fix-intrinsics]
+# Usage: bench/real_poses.sh [--quick] [--views 24|48|96]
 #   --quick: the Castle-simu set only (SETS= names the sets otherwise)
 #   --views: views of the spider render (default 24)
-#   --colmap-fix-intrinsics: calibrated COLMAP runs keep the intrinsics (default: COLMAP's own
-#     default, the given focal and distortion a prior that bundle adjustment refines)
-# Environment: NERFREG (default build/nerfreg), SETS (default "mbt_cube cube mire2 castle spider"),
+# Environment: NERFREG (default build/nerfreg), SETS (default "cube castle spider"),
 #   METHODS (default "nerfreg colmap38 colmap4"), WORK (default /tmp/real_poses), OUT (default
 #   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap).
 # Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only), visp-images-data.
@@ -23,17 +22,15 @@ NERFREG=${NERFREG:-$ROOT/build/nerfreg}
 VENV=${VENV:-$ROOT/.bench-venv}
 WORK=${WORK:-/tmp/real_poses}
 OUT=${OUT:-$ROOT/results/real_poses}
-SETS=${SETS:-"mbt_cube cube mire2 castle spider"}
+SETS=${SETS:-"cube castle spider"}
 METHODS=${METHODS:-"nerfreg colmap38 colmap4"}
 VIEWS=24
-EXTRA=()
 ARGS="$*"
 while [ $# -gt 0 ]; do
   case $1 in
     --quick) SETS=castle ;;
     --views) VIEWS=$2; shift ;;
-    --colmap-fix-intrinsics) EXTRA+=(--colmap-fix-intrinsics) ;;
-    *) echo "usage: $0 [--quick] [--views N] [--colmap-fix-intrinsics]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--quick] [--views N]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -49,5 +46,5 @@ if ! "$VENV/bin/python" -c 'import numpy, PIL, pycolmap; assert pycolmap.__versi
 fi
 
 exec "$VENV/bin/python" "$ROOT/bench/real_poses.py" run --work "$WORK" --sets "$SETS" --methods "$METHODS" \
-  --spider-views "$VIEWS" --nerfreg "$NERFREG" --out-prefix "$OUT" ${EXTRA[@]+"${EXTRA[@]}"} \
-  --command "SETS=\"$SETS\" NERFREG=$NERFREG bench/real_poses.sh $ARGS"
+  --spider-views "$VIEWS" --nerfreg "$NERFREG" --out-prefix "$OUT" \
+  --command "SETS=\"$SETS\" NERFREG=$NERFREG OUT=$OUT bench/real_poses.sh $ARGS"
