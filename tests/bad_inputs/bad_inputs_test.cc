@@ -165,6 +165,12 @@ const std::vector<BadInputCase>& Cases() {
       {"dbarf_poses_zero_features",
        [](const std::string& d) { return "dbarf poses " + d + " --focal 100 --max-features 0 --out " + d + "/p"; },
        "error: --max-features: expected > 0, got 0", "p"},
+      {"dbarf_poses_unknown_pairs",
+       [](const std::string& d) { return "dbarf poses " + d + " --pairs nearby --out " + d + "/p"; },
+       "error: --pairs: expected exhaustive, sequential, retrieval or auto, got \"nearby\"", "p"},
+      {"dbarf_poses_negative_focal",
+       [](const std::string& d) { return "dbarf poses " + d + " --focal -5 --out " + d + "/p"; },
+       "error: --focal: expected a focal length in pixels > 0", "p"},
       {"dbarf_finetune_negative_depth_ba_rounds",
        [](const std::string& d) {
          return "dbarf finetune " + d + "/posed.json --depth-ba-rounds -1 --out " + d + "/ft.pt";

@@ -375,8 +375,8 @@ void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, 
     c.edges = static_cast<int>(residuals[k].size());
     c.rotation_residual_deg = residuals[k].empty() ? 180.0 : Median(residuals[k]);
     // Only panoramic edges: no direction was measured, so none disagrees.
-    c.direction_residual_deg = direction_residuals[k].empty() ? (residuals[k].empty() ? 180.0 : 0.0)
-                                                              : Median(direction_residuals[k]);
+    c.direction_residual_deg =
+        direction_residuals[k].empty() ? (residuals[k].empty() ? 180.0 : 0.0) : Median(direction_residuals[k]);
     c.observations = observations[k];
     c.reprojection_error_px = observations[k] > 0 ? error_sum[k] / observations[k] : 0.0;
     result->posed[k] = true;
@@ -682,7 +682,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     // low-texture images the photometric comparison is weak, and a well-constrained SfM there was
     // right where the network's cameras scored better (docs/poses_and_views.md).
     const double doubted = DoubtedFraction(result, options);
-    if (one_size && doubted >= options.auto_doubt_fraction && !AssessSfm(result.sfm, result.cameras).WellConstrained()) {
+    if (one_size && doubted >= options.auto_doubt_fraction &&
+        !AssessSfm(result.sfm, result.cameras).WellConstrained()) {
       LOG_WARN(
           "the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
           "that explain the images better",

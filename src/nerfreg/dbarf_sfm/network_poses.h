@@ -121,7 +121,7 @@ struct ImagePosesResult {
   // The intrinsics the poses go with, one per image: the given ones, refined where the SfM
   // self-calibrated (SfmOptions::refine_focal / refine_distortion).
   std::vector<Camera> cameras;
-  double near = 0, far = 0;                            // depth range of the content in the output frame
+  double near = 0, far = 0;  // depth range of the content in the output frame
   // The classical result (auto, classical: its points and view graph; cam_from_world / posed are
   // the final ones); network: the view graph only (keypoints empty when images were not matched).
   SfmResult sfm;

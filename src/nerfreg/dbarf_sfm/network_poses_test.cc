@@ -65,7 +65,8 @@ TEST(NetworkPoses, ANetworkPoseWhoseEdgesDisagreeIsNotPosed) {
     exact.push_back(src_from_world.back() * target.Inverse());
     wrong.push_back(exact.back());
   }
-  wrong[1].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(16 * M_PI / 180, Eigen::Vector3d::UnitX())) * wrong[1].rotation;
+  wrong[1].rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(16 * M_PI / 180, Eigen::Vector3d::UnitX())) * wrong[1].rotation;
   const ImagePosesOptions options;
   auto confidence = [](const NetworkRegistration& r) {
     ImagePoseConfidence c;

@@ -29,8 +29,7 @@ void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs)
   app.add_option("--sift-upsample", o->upsample, "Enlarge images by this factor before SIFT (default 2)");
   app.add_option("--sift-upsample-max-side", o->upsample_max_side,
                  "... only while the enlarged image's longer side stays within this (default 1000; 0: always)");
-  app.add_option("--ransac-px", o->ransac_threshold_px,
-                 "Two-view RANSAC threshold in pixels (default 1)");
+  app.add_option("--ransac-px", o->ransac_threshold_px, "Two-view RANSAC threshold in pixels (default 1)");
   app.add_option("--pairs", *pairs,
                  "Pairs to match: exhaustive, sequential (name order, --overlap), retrieval (a vocabulary of the "
                  "images' own features) or auto (exhaustive up to 50 images, else retrieval, plus sequential for "
@@ -54,7 +53,8 @@ int RunDbarfPoses(int argc, char** argv) {
                   "cannot pose are posed by the network against their posed neighbours. Writes OUT/transforms.json "
                   "(camera 0 at the identity, mean distance of the others to it 1; per frame \"posed_by\" (sfm or "
                   "network) and \"confidence\" (see its \"confidence_doc\"); images that could not be posed under "
-                  "\"not_posed\" with the reason, low-confidence ones under \"low_confidence\"), a COLMAP model in OUT/sparse/0 and "
+                  "\"not_posed\" with the reason, low-confidence ones under \"low_confidence\"), a COLMAP model in "
+                  "OUT/sparse/0 and "
                   "OUT/cameras.png (the posed cameras seen from above: centres and viewing directions, with a scale "
                   "bar whose length is logged).",
                   "nerfreg dbarf poses data/scene/images --intrinsics data/scene/transforms.json --out runs/poses");

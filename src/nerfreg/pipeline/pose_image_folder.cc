@@ -90,8 +90,8 @@ std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const st
     const Image& im = images[k];
     const FocalPrior prior = FocalPriorFromExif(exif[k], im.width, im.height, JoinPaths(dir, names[k]));
     const std::string maker = exif[k].make + (exif[k].model.empty() ? "" : " " + exif[k].model);
-    const std::string key = (maker.empty() ? "unknown camera" : maker) + " " + std::to_string(im.width) + "x" +
-                            std::to_string(im.height);
+    const std::string key =
+        (maker.empty() ? "unknown camera" : maker) + " " + std::to_string(im.width) + "x" + std::to_string(im.height);
     const auto [it, inserted] = group_of.emplace(key, static_cast<int>(group_of.size()));
     group->push_back(it->second);
     cameras.push_back(
@@ -209,8 +209,8 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                 {"far", result.far},
                 {"frame", "first posed camera at the identity; mean distance of the others to it = 1"},
                 {"intrinsics", o.intrinsics.empty() && !(o.focal > 0) ? "self-calibrated"
-                               : o.refine_intrinsics                   ? "refined from the given ones"
-                                                                       : "given"},
+                               : o.refine_intrinsics                  ? "refined from the given ones"
+                                                                      : "given"},
                 {"well_constrained", quality.WellConstrained()},
                 {"problems", quality.problems}};
   if (!result.auto_choice.empty()) {
@@ -251,7 +251,8 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
 
   const std::vector<std::string> names = ListImages(o.images_dir);
   if (names.size() < 3)
-    ThrowInputError(o.images_dir, "", "at least 3 PNG / JPEG / PGM / PPM images, found " + std::to_string(names.size()));
+    ThrowInputError(o.images_dir, "",
+                    "at least 3 PNG / JPEG / PGM / PPM images, found " + std::to_string(names.size()));
   std::vector<Image> images;
   std::vector<ExifInfo> exif;
   for (const auto& name : names) {

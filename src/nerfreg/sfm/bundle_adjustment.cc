@@ -112,9 +112,9 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
       const Eigen::Vector2d& uv = keypoints[e.image][e.keypoint];
       ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_scale_px);
       if (cam.model == CameraModel::kOpenCVFisheye) {
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<NormalizedCost, 2, 6, 3>(new NormalizedCost(cam.CamFromImg(uv), cam.fx, cam.fy)),
-            loss, params[e.image].data(), point.x_in_world.data());
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<NormalizedCost, 2, 6, 3>(
+                                     new NormalizedCost(cam.CamFromImg(uv), cam.fx, cam.fy)),
+                                 loss, params[e.image].data(), point.x_in_world.data());
       } else {
         problem.AddResidualBlock(
             new ceres::AutoDiffCostFunction<ProjectionCost, 2, 6, 3, 3>(new ProjectionCost(uv, cam)), loss,

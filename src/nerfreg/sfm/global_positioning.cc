@@ -12,8 +12,7 @@
 namespace nerfreg {
 
 void GlobalPositioningOptions::Check() const {
-  if (!(huber_scale > 0) || max_iterations < 0 || max_tracks_per_image < 1 || min_track_length < 2 ||
-      num_threads < 1) {
+  if (!(huber_scale > 0) || max_iterations < 0 || max_tracks_per_image < 1 || min_track_length < 2 || num_threads < 1) {
     throw std::invalid_argument("GlobalPositioningOptions: out of range");
   }
 }
@@ -89,8 +88,8 @@ GlobalPositioningResult PositionCamerasAndPoints(const std::vector<Track>& track
   std::vector<int> component_size(n, 0);
   for (int k = 0; k < n; ++k)
     if (oriented[k] && per_image[k] >= kMinObservations) ++component_size[FindRoot(&parent, k)];
-  const int best = static_cast<int>(std::max_element(component_size.begin(), component_size.end()) -
-                                    component_size.begin());
+  const int best =
+      static_cast<int>(std::max_element(component_size.begin(), component_size.end()) - component_size.begin());
   if (component_size[best] < 2) {
     result.track_index.clear();
     return result;
@@ -129,7 +128,8 @@ GlobalPositioningResult PositionCamerasAndPoints(const std::vector<Track>& track
     }
   }
   if (result.num_observations == 0) return result;
-  const int root = static_cast<int>(std::find(result.solved.begin(), result.solved.end(), true) - result.solved.begin());
+  const int root =
+      static_cast<int>(std::find(result.solved.begin(), result.solved.end(), true) - result.solved.begin());
   result.centers[root].setZero();
   problem.SetParameterBlockConstant(result.centers[root].data());
   const ceres::Solver::Summary summary =

@@ -30,17 +30,17 @@ struct GlobalPositioningOptions {
   // Tracks used per image at most (the longest first): the positions need far fewer points than
   // the bundle adjustment, and the problem's cost grows with the observations.
   int max_tracks_per_image = 300;
-  int min_track_length = 3;   // shorter tracks constrain too little (2-view points add no loop)
-  unsigned int seed = 1;      // of the random start
-  int num_threads = 1;        // Ceres threads
-  void Check() const;         // throws std::invalid_argument
+  int min_track_length = 3;  // shorter tracks constrain too little (2-view points add no loop)
+  unsigned int seed = 1;     // of the random start
+  int num_threads = 1;       // Ceres threads
+  void Check() const;        // throws std::invalid_argument
 };
 
 struct GlobalPositioningResult {
-  std::vector<Eigen::Vector3d> centers;         // per image, world frame; zero where !solved
-  std::vector<bool> solved;                     // the images with enough tracks, in one component
-  std::vector<int> track_index;                 // the tracks used (into the input `tracks`)
-  std::vector<Eigen::Vector3d> points;          // one per used track, world frame
+  std::vector<Eigen::Vector3d> centers;  // per image, world frame; zero where !solved
+  std::vector<bool> solved;              // the images with enough tracks, in one component
+  std::vector<int> track_index;          // the tracks used (into the input `tracks`)
+  std::vector<Eigen::Vector3d> points;   // one per used track, world frame
   int num_observations = 0;
   double final_cost = 0;
   bool converged = false;

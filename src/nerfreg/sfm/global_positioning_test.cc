@@ -46,7 +46,8 @@ TEST(GlobalSfm, ACollapsedTranslationSolutionIsDetectedAndSolvedAgain) {
   o.seed = 5;
   SyntheticScene s = MakeSyntheticScene(o);
   // All directions point one way: the centres collapse onto a line through one point.
-  for (auto& e : s.graph.edges) e.j_from_i.translation = (e.j_from_i.rotation * Eigen::Vector3d(0, 0, 1e-3)).normalized();
+  for (auto& e : s.graph.edges)
+    e.j_from_i.translation = (e.j_from_i.rotation * Eigen::Vector3d(0, 0, 1e-3)).normalized();
   SfmOptions options;
   options.positioning = SfmPositioning::kTranslationAveraging;
   options.collapse_retries = 0;

@@ -97,8 +97,10 @@ double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vecto
                          const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
   std::vector<double> angles;
   for (const auto& [a, b] : edge.inlier_matches) {
-    const Eigen::Vector3d ra = cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
-    const Eigen::Vector3d rb = cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    const Eigen::Vector3d ra =
+        cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    const Eigen::Vector3d rb =
+        cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
     angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
   }
   if (angles.empty()) return 0;
@@ -231,8 +233,8 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     solution = std::move(s);
     if (num_collapsed == 0 || attempt == options.collapse_retries) break;
     ++result.num_collapse_resolves;
-    LOG_INFO("sfm: {} camera centres collapsed onto others; solving again from another start ({}/{})",
-             num_collapsed, attempt + 1, options.collapse_retries);
+    LOG_INFO("sfm: {} camera centres collapsed onto others; solving again from another start ({}/{})", num_collapsed,
+             attempt + 1, options.collapse_retries);
   }
   result.times.Record("positioning", seconds_positioning);
   result.times.Record("triangulation", seconds_triangulation);
@@ -263,7 +265,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
                                                         : "no consistent two-view geometry with the others";
   }
   for (int k = 0; k < n; ++k)
-    if (!result.posed[k]) result.not_posed.push_back(graph.names[k]);
+    if (!result.posed[k]) result.not_posed.push_back(graph.names[k]), result.cam_from_world[k] = Rigid3d();
   if (root < 0) {
     result.points.clear();
     result.seconds_sfm = timer.Seconds();

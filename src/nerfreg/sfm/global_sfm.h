@@ -81,8 +81,8 @@ struct SfmResult {
   // Per image, why it is not posed ("" where posed): "no consistent two-view geometry", "too few
   // tracks", "its camera centre coincides with NAME's (a collapsed solution)".
   std::vector<std::string> not_posed_reason;
-  std::vector<Camera> cameras;  // the intrinsics used, refined where asked
-  std::vector<SfmPoint> points;        // the triangulated tracks, elements index view_graph.keypoints
+  std::vector<Camera> cameras;   // the intrinsics used, refined where asked
+  std::vector<SfmPoint> points;  // the triangulated tracks, elements index view_graph.keypoints
   int num_points = 0;
   double mean_reprojection_error_px = 0;  // over the final observations
   ViewGraph view_graph;                   // the graph the poses came from, with its keypoints

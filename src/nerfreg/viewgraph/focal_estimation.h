@@ -18,11 +18,11 @@ namespace nerfreg {
 struct FocalEstimationOptions {
   double min_fraction = 0.3;  // search range, as fractions of the image's longer side
   double max_fraction = 5.0;
-  int grid_steps = 120;       // logarithmic grid over the range
+  int grid_steps = 120;  // logarithmic grid over the range
   // The minimum is distinct when the cost at focal / 1.3 and focal * 1.3 both exceed the minimum
   // by this factor (and the minimum is inside the range).
   double distinct_ratio = 1.5;
-  int min_pairs = 3;  // fewer fundamental matrices: no estimate
+  int min_pairs = 3;   // fewer fundamental matrices: no estimate
   void Check() const;  // throws std::invalid_argument
 };
 

@@ -176,8 +176,8 @@ void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
       std::vector<cv::Point2d> pi, pj;
       for (const auto& [a, b] : pair_matches[p]) pi.push_back(pixels[i][a]), pj.push_back(pixels[j][b]);
       cv::Mat mask;
-      const cv::Mat f = cv::findFundamentalMat(pi, pj, cv::USAC_MAGSAC, options.ransac_threshold_px,
-                                               options.ransac_confidence, mask);
+      const cv::Mat f =
+          cv::findFundamentalMat(pi, pj, cv::USAC_MAGSAC, options.ransac_threshold_px, options.ransac_confidence, mask);
       if (f.rows != 3 || f.cols != 3 || cv::countNonZero(mask) < options.min_inliers) continue;
       Eigen::Matrix3d e;
       for (int a = 0; a < 3; ++a)
@@ -196,9 +196,10 @@ void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
     const Camera& c = (*cameras)[first];
     const FocalEstimate e = EstimateFocalFromFundamentals(f, c.width, c.height, options.focal_estimation);
     if (!e.distinct) {
-      LOG_INFO("{} and its camera group: focal length not determined by {} fundamental matrices; the prior {:.1f} px "
-               "stays (bundle adjustment refines it)",
-               names[first], e.num_pairs, c.fx);
+      LOG_INFO(
+          "{} and its camera group: focal length not determined by {} fundamental matrices; the prior {:.1f} px "
+          "stays (bundle adjustment refines it)",
+          names[first], e.num_pairs, c.fx);
       continue;
     }
     LOG_INFO("{} and its camera group: focal length {:.1f} px from {} fundamental matrices (prior {:.1f} px)",
@@ -365,8 +366,7 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
       edge.panoramic = panoramic;
       edge.j_from_i = Rigid3d(rot, panoramic ? Eigen::Vector3d::Zero() : Eigen::Vector3d(trans.normalized()));
       for (size_t m = 0; m < matches.size(); ++m) {
-        if (mask.at<uint8_t>(static_cast<int>(m)) != 0)
-          edge.inlier_matches.push_back(matches[m]);
+        if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back(matches[m]);
       }
       pair_edges[p] = std::move(edge);
     }
