@@ -701,11 +701,15 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                                                      result.posed, options.network.photometric_ba);
       result.auto_network_score = PhotometricCameraScore(net_images, net_intrinsics, state, net.cam_from_world,
                                                          net.posed, options.network.photometric_ba);
-      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}", result.auto_sfm_score,
-               result.auto_network_score);
+      // The network's cameras must also be better by their own measure: cameras whose edges doubt
+      // more of them than the SfM's doubt of its own are not kept, however they score
+      // photometrically (on a photo-like orbit the network's collapsed cameras scored better).
+      const double network_doubted = DoubtedFraction(net, options);
+      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; doubted SfM {:.0f}%, network {:.0f}%",
+               result.auto_sfm_score, result.auto_network_score, 100 * doubted, 100 * network_doubted);
       result.seconds_network = net.seconds_network;
       result.num_network_edges = net.num_network_edges;
-      if (result.auto_network_score < result.auto_sfm_score) {
+      if (result.auto_network_score < result.auto_sfm_score && network_doubted < doubted) {
         const SfmResult sfm = std::move(result.sfm);
         const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;
         result = std::move(net);

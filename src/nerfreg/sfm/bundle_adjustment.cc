@@ -170,12 +170,15 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
     Eigen::Matrix3d r;
     ceres::AngleAxisToRotationMatrix(params[k].data(), ceres::ColumnMajorAdapter3x3(r.data()));
     (*cam_from_world)[k] = Rigid3d(r, Eigen::Vector3d(params[k][3], params[k][4], params[k][5]));
+  }
+  // Every image of a refined group takes its intrinsics, posed or not (an image left out still
+  // shares the camera).
+  for (int k = 0; k < n && (options.refine_focal || options.refine_distortion); ++k) {
     Camera& cam = (*cameras)[k];
-    if (cam.model != CameraModel::kOpenCVFisheye && (options.refine_focal || options.refine_distortion)) {
-      const std::array<double, 3>& block = intrinsics[group[k]];
-      const double aspect = cam.fy / cam.fx;
-      cam.fx = block[0], cam.fy = block[0] * aspect, cam.k1 = block[1], cam.k2 = block[2];
-    }
+    if (cam.model == CameraModel::kOpenCVFisheye) continue;
+    const std::array<double, 3>& block = intrinsics[group[k]];
+    const double aspect = cam.fy / cam.fx;
+    cam.fx = block[0], cam.fy = block[0] * aspect, cam.k1 = block[1], cam.k2 = block[2];
   }
   summary.final_rms_px =
       std::sqrt(SquaredErrorSum(*cameras, keypoints, posed, *cam_from_world, *points) / summary.num_observations);
