@@ -94,6 +94,29 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
   EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
 }
 
+// Two photos from one spot (a pure rotation): the pair is panoramic, its rotation comes from the
+// homography and it carries no translation direction; views from two places are not panoramic.
+TEST(ViewGraph, PhotosFromOneSpotArePanoramicWithTheirRotation) {
+  const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
+  const std::vector<Rigid3d> poses = {
+      LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()),
+      LookAt({0, -0.5, 3}, {0.5, 0.2, 0}, Eigen::Vector3d::UnitY()),  // the same centre, turned
+      LookAt({0.6, -0.3, 2.8}, {0.2, 0.1, 0}, Eigen::Vector3d::UnitY()),
+  };
+  std::vector<Image> images;
+  for (const auto& p : poses) images.push_back(RenderPlane(cam, p));
+  const ViewGraph g = BuildViewGraph(images, {cam, cam, cam}, {"a.png", "b.png", "c.png"}, ViewGraphOptions{});
+  const ViewGraphEdge* ab = g.FindEdge(0, 1);
+  ASSERT_NE(ab, nullptr);
+  EXPECT_TRUE(ab->panoramic);
+  EXPECT_EQ(ab->j_from_i.translation, Eigen::Vector3d::Zero());
+  EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, (poses[1] * poses[0].Inverse()).rotation), 0.2);
+  const ViewGraphEdge* ac = g.FindEdge(0, 2);
+  ASSERT_NE(ac, nullptr);
+  EXPECT_FALSE(ac->panoramic);
+  EXPECT_NEAR(ac->j_from_i.translation.norm(), 1.0, 1e-9);
+}
+
 TEST(ViewGraph, ImagesOfDifferentSizesAreTakenAndOneUnlikeItsCameraIsNamed) {
   const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
   const Camera other = Camera::Pinhole(40, 24, 30, 30, 20, 12);
