@@ -701,15 +701,14 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                                                      result.posed, options.network.photometric_ba);
       result.auto_network_score = PhotometricCameraScore(net_images, net_intrinsics, state, net.cam_from_world,
                                                          net.posed, options.network.photometric_ba);
-      // The network's cameras must also be better by their own measure: cameras whose edges doubt
-      // more of them than the SfM's doubt of its own are not kept, however they score
-      // photometrically (on a photo-like orbit the network's collapsed cameras scored better).
-      const double network_doubted = DoubtedFraction(net, options);
-      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; doubted SfM {:.0f}%, network {:.0f}%",
-               result.auto_sfm_score, result.auto_network_score, 100 * doubted, 100 * network_doubted);
-      result.seconds_network = net.seconds_network;
-      result.num_network_edges = net.num_network_edges;
-      if (result.auto_network_score < result.auto_sfm_score && network_doubted < doubted) {
+      // Cameras the network collapsed onto each other are never kept, however they score
+      // photometrically: on a photo-like orbit its collapsed cameras scored better than the SfM's.
+      const std::vector<int> coincident = CoincidentCentres(net.cam_from_world, net.posed);
+      const int network_collapsed = static_cast<int>(std::count_if(coincident.begin(), coincident.end(),
+                                                                   [](int c) { return c >= 0; }));
+      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; network cameras collapsed: {}",
+               result.auto_sfm_score, result.auto_network_score, network_collapsed);
+      if (result.auto_network_score < result.auto_sfm_score && network_collapsed == 0) {
         const SfmResult sfm = std::move(result.sfm);
         const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;
         result = std::move(net);

@@ -20,7 +20,10 @@ namespace nerfreg {
 struct BundleAdjustmentOptions {
   double huber_scale_px = 1.0;  // reprojection errors beyond this count linearly
   int max_iterations = 50;      // Ceres iterations
-  int num_threads = 1;          // Ceres threads
+  // Ceres threads. More than one makes the Schur complement's sums, and so the result, depend on
+  // the scheduling: the same images would give different cameras from run to run (the SfM cache's
+  // test caught it under load).
+  int num_threads = 1;
   // false holds every rotation at its value (GLOMAP's first adjustment after global positioning:
   // positions settle before orientations may trade against them).
   bool refine_rotations = true;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <thread>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
@@ -19,18 +18,6 @@ ViewGraphOptions SfmViewGraphDefaults() {
   // Enlarging helps the small renders (128x96, 320x240) and costs photos most of the time: at
   // 640x480 it made matching ~6x slower for the same rotations (docs/notes/2026-11-25-sift-upsample.md).
   o.upsample_max_side = 1000;
-  return o;
-}
-
-BundleAdjustmentOptions SfmBundleAdjustmentDefaults() {
-  BundleAdjustmentOptions o;
-  o.num_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  return o;
-}
-
-GlobalPositioningOptions SfmGlobalPositioningDefaults() {
-  GlobalPositioningOptions o;
-  o.num_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return o;
 }
 

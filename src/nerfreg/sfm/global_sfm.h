@@ -39,8 +39,6 @@ namespace nerfreg {
 // The view graph settings for posing: COLMAP's SIFT contrast threshold, and images enlarged 2x
 // before SIFT (as COLMAP's first octave -1 does), since DBARF's inputs are often small renders.
 ViewGraphOptions SfmViewGraphDefaults();
-BundleAdjustmentOptions SfmBundleAdjustmentDefaults();
-GlobalPositioningOptions SfmGlobalPositioningDefaults();
 
 // How camera centres are found once orientations are known.
 enum class SfmPositioning {
@@ -52,11 +50,10 @@ struct SfmOptions {
   ViewGraphOptions view_graph = SfmViewGraphDefaults();
   RotationAveragingOptions rotation;
   SfmPositioning positioning = SfmPositioning::kGlobalPositioning;
-  GlobalPositioningOptions global_positioning = SfmGlobalPositioningDefaults();
+  GlobalPositioningOptions global_positioning;
   TranslationAveragingOptions translation;
   TrackOptions tracks;
-  // Ceres solves with every core (the view graph's OpenCV pool is idle by then).
-  BundleAdjustmentOptions bundle_adjustment = SfmBundleAdjustmentDefaults();
+  BundleAdjustmentOptions bundle_adjustment;
   // Reprojection thresholds (pixels) of the triangulation rounds, loose to tight: the first
   // triangulates from the averaged poses (a few pixels off at 128x96), the last sets the final
   // observations. One bundle adjustment follows each round.
