@@ -1,8 +1,9 @@
 # nerfreg_add_library(NAME SRCS ... [PUBLIC_LINK ...] [PRIVATE_LINK ...] [TORCH])
 #   One static library per layer folder. TORCH: the sources include <torch/torch.h>; they reuse
 #   one precompiled header (torch headers cost ~15 s per translation unit otherwise).
-# nerfreg_add_test(NAME SRCS ... LINK ... [TORCH])
-#   One GoogleTest binary per layer; every TEST becomes its own ctest entry.
+# nerfreg_add_test(NAME SRCS ... LINK ... [TORCH] [TIMEOUT S])
+#   One GoogleTest binary per layer; every TEST becomes its own ctest entry, limited to S seconds
+#   (default 180: a guard against hangs, not a speed check).
 
 set(NERFREG_SRC_ROOT ${PROJECT_SOURCE_DIR}/src)
 
@@ -43,7 +44,10 @@ function(nerfreg_add_test NAME)
   if(NOT NERFREG_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(A "TORCH" "" "SRCS;LINK" ${ARGN})
+  cmake_parse_arguments(A "TORCH" "TIMEOUT" "SRCS;LINK" ${ARGN})
+  if(NOT A_TIMEOUT)
+    set(A_TIMEOUT 180)
+  endif()
   add_executable(${NAME} ${A_SRCS})
   nerfreg_runtime_first(${NAME})
   target_link_libraries(${NAME} PRIVATE ${A_LINK} nerfreg_test_main)
@@ -64,5 +68,5 @@ function(nerfreg_add_test NAME)
     set(discovery_mode POST_BUILD)
   endif()
   gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120 DISCOVERY_MODE ${discovery_mode}
-    PROPERTIES TIMEOUT 180 ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE;OPENBLAS_NUM_THREADS=1")
+    PROPERTIES TIMEOUT ${A_TIMEOUT} ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE;OPENBLAS_NUM_THREADS=1")
 endfunction()
