@@ -704,8 +704,8 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
       // Cameras the network collapsed onto each other are never kept, however they score
       // photometrically: on a photo-like orbit its collapsed cameras scored better than the SfM's.
       const std::vector<int> coincident = CoincidentCentres(net.cam_from_world, net.posed);
-      const int network_collapsed = static_cast<int>(std::count_if(coincident.begin(), coincident.end(),
-                                                                   [](int c) { return c >= 0; }));
+      const int network_collapsed =
+          static_cast<int>(std::count_if(coincident.begin(), coincident.end(), [](int c) { return c >= 0; }));
       LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; network cameras collapsed: {}",
                result.auto_sfm_score, result.auto_network_score, network_collapsed);
       if (result.auto_network_score < result.auto_sfm_score && network_collapsed == 0) {
