@@ -18,12 +18,13 @@ $(BUILD_DIR)/build.ninja:
 build: setup $(BUILD_DIR)/build.ninja
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
-# Also compiles and links the CUDA build (CI has the CUDA toolkit and no GPU to run it); a machine
-# without nvcc skips that step with a message.
+# Also compiles and links the CUDA build (CI has the CUDA toolkit and no GPU to run it): both
+# binaries and the kernels' tests; the other tests' sources are the CPU build's. A machine without
+# nvcc skips that step with a message.
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 300
 	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) bash scripts/fuzz.sh
-	CUDA_IF_TOOLKIT=1 $(MAKE) cuda
+	CUDA_IF_TOOLKIT=1 CUDA_TARGETS="nerfreg nerfreg_core nerfreg_nerf_kernels_test" $(MAKE) cuda
 
 # Sanitized (ASan + UBSan) unit tests of the parser layers, then every fuzz target.
 fuzz: setup

@@ -10,6 +10,8 @@
 #   CUDA_SCOPE       full (default) or core
 #   CUDA_BUILD_DIR   build folder (default build-cuda, build-cuda-core for core)
 #   CUDA_ARCHS       CMAKE_CUDA_ARCHITECTURES (default 90-real;90-virtual: H100, PTX for newer)
+#   CUDA_TARGETS     build only these targets (default: all). `make test` builds the two binaries
+#                    and the kernels' tests: the other tests are the CPU build's, compiled there
 #   JOBS, CMAKE_FLAGS as for `make build`
 #   CUDA_IF_TOOLKIT  1: a machine without nvcc skips the build with a message instead of failing
 #                    (`make test`, which compiles and links the CUDA build wherever the toolkit is)
@@ -60,5 +62,6 @@ cmake -S . -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DNERFREG_CUDA=ON -DNERFREG_LEARNED_CORE_ONLY="${CORE_ONLY}" -DNERFREG_BUILD_BENCH=OFF \
   -DTorch_DIR="${TORCH_DIR}" -DCMAKE_CUDA_COMPILER="${NVCC}" -DCUDAToolkit_ROOT="${CUDA_ROOT}" \
   -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCHS:-90-real;90-virtual}" ${CMAKE_FLAGS:-}
-cmake --build "${BUILD_DIR}" -j "${JOBS}"
+# shellcheck disable=SC2086  # CUDA_TARGETS is a list of targets
+cmake --build "${BUILD_DIR}" -j "${JOBS}" ${CUDA_TARGETS:+--target ${CUDA_TARGETS}}
 echo "make cuda: built ${BUILD_DIR} (${SCOPE}) in $(( $(date +%s) - start )) s (Torch_DIR=${TORCH_DIR})"
