@@ -1,5 +1,6 @@
 #include "nerfreg/sfm/bundle_adjustment.h"
 #include "nerfreg/posegraph/ceres_solve.h"
+#include "nerfreg/util/logging.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -12,7 +13,7 @@
 namespace nerfreg {
 
 void BundleAdjustmentOptions::Check() const {
-  if (!(huber_scale_px > 0) || max_iterations < 0 || num_threads < 1)
+  if (!(huber_scale_px > 0) || max_iterations < 0 || num_threads < 1 || dense_schur_max_cameras < 0)
     throw std::invalid_argument("BundleAdjustmentOptions: out of range");
 }
 
@@ -161,9 +162,17 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
     }
     if (!held.empty()) problem.SetManifold(params[k].data(), new ceres::SubsetManifold(6, held));
   }
+  int num_posed = 0;
+  for (int k = 0; k < n; ++k) num_posed += posed[k] && problem.HasParameterBlock(params[k].data());
+  const ceres::LinearSolverType solver =
+      num_posed <= options.dense_schur_max_cameras ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   const ceres::Solver::Summary ceres_summary =
-      SolveCeresProblem(&problem, options.max_iterations, ceres::SPARSE_SCHUR, options.num_threads);
+      SolveCeresProblem(&problem, options.max_iterations, solver, options.num_threads);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  LOG_DEBUG("bundle adjustment: {} observations, {} iterations, {:.2f} s (jacobians {:.2f}, linear solver {:.2f}): {}",
+            summary.num_observations, summary.iterations, ceres_summary.total_time_in_seconds,
+            ceres_summary.jacobian_evaluation_time_in_seconds, ceres_summary.linear_solver_time_in_seconds,
+            ceres_summary.message);
   summary.iterations = static_cast<int>(ceres_summary.iterations.size());
   for (int k = 0; k < n; ++k) {
     if (!posed[k]) continue;

@@ -19,7 +19,12 @@ namespace nerfreg {
 
 struct BundleAdjustmentOptions {
   double huber_scale_px = 1.0;  // reprojection errors beyond this count linearly
-  int max_iterations = 50;      // Ceres iterations
+  // Ceres iterations (COLMAP's default): on low-texture captures the cost is flat along small
+  // rotation-translation trades and 50 stopped short of the minimum.
+  int max_iterations = 100;
+  // Up to this many cameras the reduced camera system is solved densely (DENSE_SCHUR, as COLMAP
+  // chooses): faster than the sparse factorisation for small sets, same result.
+  int dense_schur_max_cameras = 50;
   // Ceres threads. More than one makes the Schur complement's sums, and so the result, depend on
   // the scheduling: the same images would give different cameras from run to run (the SfM cache's
   // test caught it under load).

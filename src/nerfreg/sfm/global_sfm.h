@@ -59,6 +59,10 @@ struct SfmOptions {
   // observations. One bundle adjustment follows each round.
   std::vector<double> round_reprojection_error_px = {8.0, 3.0, 2.0};
   double min_triangulation_angle_deg = 1.0;  // points seen under a smaller angle are not kept
+  // After the first round, the tracks are built again from every edge's matches that agree with
+  // the solved poses to this many pixels (epipolar, Sampson), also the edges rotation averaging
+  // left out; 0 keeps the first tracks throughout.
+  double reverify_matches_px = 2.0;
   // Self-calibration in the bundle adjustments after the first round: the focal length and the
   // radial distortion (k1, k2) of each camera group.
   bool refine_focal = false;
