@@ -5,7 +5,8 @@ given), at each size: `nerfreg dbarf poses --method classical`, COLMAP 3.8 (feat
 exhaustive_matcher, mapper) and COLMAP 4's global mapper (pycolmap), one after another, each with
 the intrinsics kept. The renders, the COLMAP drivers and the scoring against the truth are
 bench/real_poses.py's (imported); this file adds the sizes, peak memory, per-pair costs and the
-growth exponents, and writes results/poses_scale.{md,json}.
+growth exponents (and, with --two-view-bench, bench/two_view_bench.cc's per-pair table at the
+smallest size), and writes results/poses_scale.{md,json}.
 
   poses_scale.py run --work DIR --sizes "24 48 96" --nerfreg build/nerfreg --out-prefix results/poses_scale
   poses_scale.py report JSON MD   (rewrite the tables from a JSON)
@@ -74,6 +75,21 @@ def run_size(n, args, python):
     return res
 
 
+def two_view(n, args):
+    """bench/two_view_bench.cc on the N-view set (every pair, one thread, CPU time): the two-view
+    estimators' per-pair cost and edge accuracy on the same matches."""
+    d = os.path.join(args.work, "spider%d" % n)
+    out = os.path.join(d, "two_view.json")
+    cmd = [args.two_view_bench, "--images", os.path.join(d, "images"), "--intrinsics", os.path.join(d, "transforms.json"),
+           "--json", out]
+    rc, secs = rp.run_timed(cmd, os.path.join(d, "two_view.log"))
+    if rc != 0 or not os.path.exists(out):
+        return {"command": " ".join(cmd), "error": rp.error_line(os.path.join(d, "two_view.log"))}
+    r = json.load(open(out))
+    r.update(command=" ".join(cmd), views=n, wall_s=secs)
+    return r
+
+
 def growth(sizes):
     """Per method, the exponent b of wall_s ~ a N^b, least squares in log-log over the sizes it ran."""
     out = {}
@@ -126,6 +142,26 @@ def write_md(j, path):
                 pairs, pp or "-", fmt(t.get("rot_deg_median")), fmt(t.get("rot_deg_max")),
                 fmt(t.get("center_pct_median"), "%.2f"), fmt(t.get("center_pct_max"), "%.2f")))
     L.append("")
+    tv = j.get("two_view")
+    if tv and "variants" in tv:
+        L.append("## Two-view geometry pair by pair (N = %d)" % tv["views"])
+        L.append("")
+        L.append("`%s` (bench/two_view_bench.cc): every pair's putative matches once, then each estimator on them, "
+                 "one thread, times in CPU ms (not inflated by other jobs). %d pairs; keypoints median %.0f; putative "
+                 "matches median %.0f; matching %.2f ms a pair. Edge errors: the relative rotation and translation "
+                 "direction against the truth." % (tv["command"], tv["pairs"], tv["keypoints_median"],
+                                                   tv["matches_median"], tv["matching_ms_per_pair"]))
+        L.append("")
+        L.append("| estimator | ms / pair | ms / edge | ms / other pair | edges | rot err median / max deg | "
+                 "direction err median / max deg | edges > 5 deg off | edges unlike the reference's |")
+        L.append("|---|---|---|---|---|---|---|---|---|")
+        for v in tv["variants"]:
+            L.append("| %s | %.1f | %.1f | %.1f | %d | %s / %s | %s / %s | %d | %d |" % (
+                v["variant"], v["ms_per_pair"], v["ms_per_edge_pair"], v["ms_per_other_pair"], v["edges"],
+                fmt(v["rotation_error_deg_median"]), fmt(v["rotation_error_deg_max"], "%.2f"),
+                fmt(v["direction_error_deg_median"], "%.2f"), fmt(v["direction_error_deg_max"], "%.2f"),
+                v["edges_over_5deg"], v["edges_differing_from_reference"]))
+        L.append("")
     L.append("## Growth of the wall time")
     L.append("")
     L.append("Exponent b of wall s ~ a N^b, least squares on log-log over the sizes run (the issue's target: b <= 1.5).")
@@ -148,6 +184,7 @@ def main():
     r.add_argument("--nerfreg", required=True)
     r.add_argument("--out-prefix", required=True)
     r.add_argument("--command", default="")
+    r.add_argument("--two-view-bench", default="", help="nerfreg_two_view_bench: run on the smallest size")
     rep = sub.add_parser("report")
     rep.add_argument("json")
     rep.add_argument("md")
@@ -163,10 +200,14 @@ def main():
          "machine": rp.machine(), "versions": rp.versions(args.nerfreg, python), "work": args.work,
          "json": args.out_prefix + ".json", "sizes": []}
     t0 = time.time()
-    for n in [int(x) for x in args.sizes.split()]:
+    sizes = [int(x) for x in args.sizes.split()]
+    for n in sizes:
         rp.log("N = %d" % n)
         j["sizes"].append(run_size(n, args, python))
         j["growth"] = growth(j["sizes"])
+        if n == min(sizes) and args.two_view_bench and os.path.exists(args.two_view_bench):
+            rp.log("two-view bench, N = %d" % n)
+            j["two_view"] = two_view(n, args)
         j["machine"]["loadavg_end"] = open("/proc/loadavg").read().split()[:3]
         j["bench_wall_s"] = time.time() - t0
         os.makedirs(os.path.dirname(os.path.abspath(args.out_prefix)), exist_ok=True)

@@ -10,7 +10,9 @@
 # Usage: bench/poses_scale.sh
 # Environment: SIZES (default "24 48 96"; "24 48 96 192" for the largest too), METHODS (default
 #   "nerfreg colmap38 colmap4"), NERFREG (default build/nerfreg), WORK (default /tmp/poses_scale),
-#   OUT (default results/poses_scale), VENV (default .bench-venv, made as bench/real_poses.sh does).
+#   OUT (default results/poses_scale), VENV (default .bench-venv, made as bench/real_poses.sh does),
+#   TWO_VIEW_BENCH (default build/bench/nerfreg_two_view_bench: the two-view estimators pair by pair
+#   at the smallest size, when built).
 # Run it with nice on a shared machine: the times are wall-clock.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,6 +22,7 @@ WORK=${WORK:-/tmp/poses_scale}
 OUT=${OUT:-$ROOT/results/poses_scale}
 SIZES=${SIZES:-"24 48 96"}
 METHODS=${METHODS:-"nerfreg colmap38 colmap4"}
+TWO_VIEW_BENCH=${TWO_VIEW_BENCH:-$ROOT/build/bench/nerfreg_two_view_bench}
 [ $# -eq 0 ] || { echo "usage: $0 (set SIZES, METHODS, NERFREG, WORK, OUT, VENV in the environment)" >&2; exit 2; }
 command -v colmap >/dev/null || { echo "error: colmap (3.8) not on PATH" >&2; exit 2; }
 [ -x "$NERFREG" ] || { echo "error: $NERFREG: not an executable (set NERFREG)" >&2; exit 2; }
@@ -34,5 +37,5 @@ if ! "$VENV/bin/python" -c 'import numpy, PIL, pycolmap; assert pycolmap.__versi
 fi
 
 exec "$VENV/bin/python" "$ROOT/bench/poses_scale.py" run --work "$WORK" --sizes "$SIZES" --methods "$METHODS" \
-  --nerfreg "$NERFREG" --out-prefix "$OUT" \
+  --nerfreg "$NERFREG" --out-prefix "$OUT" --two-view-bench "$TWO_VIEW_BENCH" \
   --command "SIZES=\"$SIZES\" METHODS=\"$METHODS\" NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"

@@ -257,10 +257,6 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
       options.early_rejection
           ? RansacIterationCap(num_matches, options.min_inliers, 5, options.ransac_confidence, kMaxEssentialIterations)
           : kMaxEssentialIterations;
-  const int h_iterations =
-      options.early_rejection
-          ? RansacIterationCap(num_matches, options.min_inliers, 4, options.ransac_confidence, kMaxHomographyIterations)
-          : kMaxHomographyIterations;
   const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
   cv::Mat mask;
   int inliers = 0;
@@ -301,6 +297,13 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   // a planar scene or photos from one spot. Seen from one spot (the rays agree once the
   // homography's rotation is taken out), the essential matrix is degenerate: the rotation comes
   // from the homography and the edge has no translation direction.
+  // Only a homography with more than kPlanarInlierRatio of the essential matrix's inliers (and
+  // min_inliers) changes the edge: with early rejection, the hypotheses are capped for that count.
+  const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
+  const int h_iterations =
+      options.early_rejection
+          ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
+          : kMaxHomographyIterations;
   cv::Mat h_mask;
   const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
   const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);

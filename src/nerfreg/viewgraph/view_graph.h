@@ -43,7 +43,10 @@ struct ViewGraphOptions {
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
   int min_inliers = 30;  // fewer geometric inliers: no edge
-  // The essential matrix's estimator (--two-view).
+  // The essential matrix's estimator (--two-view). USAC: fewer wrong edges, cheaper on pairs that
+  // do not overlap and more accurate poses on the orbit and Castle-simu (results/poses_scale.md),
+  // but its least-squares polish is off on a planar scene (the plane of view_graph_test.cc: 2.3 deg
+  // against RANSAC's < 1), so RANSAC stays the default.
   TwoViewEstimator estimator = TwoViewEstimator::kRansac;
   // Early rejection of pairs that cannot become edges. (1) The hypotheses drawn are capped at the
   // number that finds, with ransac_confidence, an all-inlier sample when just min_inliers of the
@@ -51,7 +54,9 @@ struct ViewGraphOptions {
   // more hypotheses only look for models with too few inliers. (2) A pair whose essential matrix
   // has fewer than min_inliers inliers is no edge whatever its homography says (a homography's
   // inliers also fit the essential matrix [t]x R of its rotation for any t), so the homography is
-  // fitted only to pairs that pass. false: 1000 / 2000 hypotheses and every homography fitted.
+  // fitted only to pairs that pass, and its hypotheses are capped as in (1) for the inliers that
+  // would make the pair planar (0.8 of the essential matrix's). false: 1000 / 2000 hypotheses and
+  // every homography fitted.
   bool early_rejection = true;
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
