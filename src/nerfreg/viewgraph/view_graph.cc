@@ -126,6 +126,54 @@ cv::Mat ToGray8(const Image& im) {
 // |a - b|^2 = |a|^2 + |b|^2 - 2 a.b. The product is column-major, so each column (one keypoint
 // of b against every keypoint of a) is contiguous: a's running best two are updated without
 // branches (the compiler vectorises it), and b's best two are one pass over the column.
+// The best two distances of one keypoint of b over every row of a, and the row of the best (the
+// first such row on ties).
+struct ColumnBest {
+  float c1 = INFINITY, c2 = INFINITY;
+  int i1 = -1;
+};
+
+// One column of squared distances d_i = |a_i|^2 + |b_j|^2 - 2 a_i.b_j, read once: updates each row's
+// running best two (d1, d2, j1) and returns the column's best two. The column's search keeps
+// kLanes independent best-two lanes (row i in lane i % kLanes) so that both updates are branchless
+// and vectorise, then merges the lanes; the result equals the sequential search's exactly. Built
+// for AVX2 and for baseline x86-64, chosen at run time (the build targets baseline x86-64).
+constexpr int kLanes = 16;
+#if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
+__attribute__((target_clones("avx2", "default")))
+#endif
+ColumnBest
+ScanColumn(const float* column, const float* norms_a, float norm_b, int na, int j, float* d1, float* d2, int* j1) {
+  float c1[kLanes], c2[kLanes];
+  int i1[kLanes];
+  for (int l = 0; l < kLanes; ++l) c1[l] = c2[l] = INFINITY, i1[l] = -1;
+  const auto update = [&](int i, int l) {
+    const float d = norms_a[i] + norm_b - 2 * column[i];
+    const bool row_better = d < d1[i];
+    d2[i] = row_better ? d1[i] : std::min(d2[i], d);
+    j1[i] = row_better ? j : j1[i];
+    d1[i] = row_better ? d : d1[i];
+    const bool better = d < c1[l];
+    c2[l] = better ? c1[l] : std::min(c2[l], d);
+    i1[l] = better ? i : i1[l];
+    c1[l] = better ? d : c1[l];
+  };
+  int base = 0;
+  for (; base + kLanes <= na; base += kLanes)
+    for (int l = 0; l < kLanes; ++l) update(base + l, l);
+  for (int l = 0; base + l < na; ++l) update(base + l, l);
+  int best = 0;
+  for (int l = 1; l < kLanes; ++l)
+    if (c1[l] < c1[best] || (c1[l] == c1[best] && i1[l] >= 0 && (i1[best] < 0 || i1[l] < i1[best]))) best = l;
+  ColumnBest out;
+  out.c1 = c1[best];
+  out.i1 = i1[best];
+  out.c2 = c2[best];
+  for (int l = 0; l < kLanes; ++l)
+    if (l != best) out.c2 = std::min(out.c2, c1[l]);
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
@@ -136,40 +184,30 @@ std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes
   const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
   // dot = a b^T (na x nb, column-major) through the BLAS: OpenBLAS's kernels use the CPU's widest
   // vectors (the build targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here.
-  Eigen::MatrixXf dot(na, nb);
+  // kColumnBlock columns of b at a time into this thread's buffer, kept between calls: a fresh
+  // na x nb product (64 MB at 4000 keypoints) cost as much in page faults as the product itself.
+  // The products of 0..255 integers over 128 terms are exact in float, so any blocking gives the
+  // same distances.
+  constexpr int kColumnBlock = 256;
+  thread_local std::vector<float> dot;
+  dot.resize(static_cast<size_t>(na) * std::min(nb, kColumnBlock));
   const char transpose = 'T', keep = 'N';
   const int depth = 128;
   const float one = 1, zero = 0;
-  sgemm_(&transpose, &keep, &na, &nb, &depth, &one, a.data(), &depth, b.data(), &depth, &zero, dot.data(), &na);
   const float r2 = static_cast<float>(ratio * ratio);
   std::vector<float> d1a(na, INFINITY), d2a(na, INFINITY);
   std::vector<int> j1a(na, -1), best_ba(nb, -1);
   const float* norms_a = norms_a_vector.data();
-  for (int j = 0; j < nb; ++j) {
-    const float* column = dot.col(j).data();
-    const float norm_b = norms_b(j);
-    float* d1 = d1a.data();
-    float* d2 = d2a.data();
-    int* j1 = j1a.data();
-    for (int i = 0; i < na; ++i) {
-      const float d = norms_a[i] + norm_b - 2 * column[i];
-      const bool better = d < d1[i];
-      d2[i] = better ? d1[i] : std::min(d2[i], d);
-      j1[i] = better ? j : j1[i];
-      d1[i] = better ? d : d1[i];
+  for (int j0 = 0; j0 < nb; j0 += kColumnBlock) {
+    const int columns = std::min(kColumnBlock, nb - j0);
+    sgemm_(&transpose, &keep, &na, &columns, &depth, &one, a.data(), &depth, b.row(j0).data(), &depth, &zero,
+           dot.data(), &na);
+    for (int c = 0; c < columns; ++c) {
+      const int j = j0 + c;
+      const ColumnBest best = ScanColumn(dot.data() + static_cast<size_t>(c) * na, norms_a, norms_b(j), na, j,
+                                         d1a.data(), d2a.data(), j1a.data());
+      if (best.c1 < r2 * best.c2) best_ba[j] = best.i1;
     }
-    float c1 = INFINITY, c2 = INFINITY;
-    int i1 = -1;
-    for (int i = 0; i < na; ++i) {
-      const float d = norms_a[i] + norm_b - 2 * column[i];
-      if (d < c2) {
-        if (d < c1)
-          c2 = c1, c1 = d, i1 = i;
-        else
-          c2 = d;
-      }
-    }
-    if (c1 < r2 * c2) best_ba[j] = i1;
   }
   std::vector<std::pair<int, int>> out;
   for (int i = 0; i < na; ++i) {
