@@ -343,13 +343,26 @@ def prepare_spider(name, spec, work, nerfreg, views):
 # ---------------------------------------------------------------- runs
 
 
+# Peak resident memory (MB) of the commands run_timed ran, by log file: the largest of the commands
+# that wrote to one log (GNU time's "Maximum resident set size"; absent without /usr/bin/time).
+PEAK_RSS_MB = {}
+
+
 def run_timed(cmd, logf, cwd=ROOT, env=None):
     t0 = time.time()
+    rss = logf + ".time"
+    wrap = ["/usr/bin/time", "-v", "-o", rss] if os.path.exists("/usr/bin/time") else []
     with open(logf, "a") as f:
         f.write("$ " + " ".join(cmd) + "\n")
         f.flush()
-        rc = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, cwd=cwd, env=env).returncode
-    return rc, time.time() - t0
+        rc = subprocess.run(wrap + cmd, stdout=f, stderr=subprocess.STDOUT, cwd=cwd, env=env).returncode
+    secs = time.time() - t0
+    if wrap and os.path.exists(rss):
+        for line in open(rss):
+            if "Maximum resident set size" in line:
+                PEAK_RSS_MB[logf] = max(PEAK_RSS_MB.get(logf, 0.0), int(line.split(":")[1]) / 1024.0)
+        os.remove(rss)
+    return rc, secs
 
 
 def error_line(logf):
@@ -431,10 +444,10 @@ def finish_colmap(r, model_dir, models):
     return r, poses, pts
 
 
-def run_colmap38(info, out, calibrated):
+def run_colmap38(info, out, calibrated, refined=True):
     """COLMAP 3.8's command lines. Calibrated: the mapper runs twice on one database, the intrinsics
     kept (the primary run, as nerfreg keeps --intrinsics) and refined from them (COLMAP's default;
-    timed as the mapper alone). Returns [(key suffix, (r, poses, points))]."""
+    timed as the mapper alone; refined=False: the first only). Returns [(key suffix, (r, poses, points))]."""
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
     logf = os.path.join(out, "colmap.log")
@@ -468,7 +481,7 @@ def run_colmap38(info, out, calibrated):
     r["wall_s"] = total
     out_runs = [("", finish_colmap(r, largest_model(os.path.join(out, "sparse")),
                                    len(glob.glob(os.path.join(out, "sparse", "*", "images.bin")))))]
-    if params and (not r.get("error") or r["error"].startswith("mapper")):
+    if refined and params and (not r.get("error") or r["error"].startswith("mapper")):
         c = mapper(os.path.join(out, "sparse_refined"), False)
         rc, secs = run_timed(c, logf)
         r2 = {"commands": r["commands"][:2] + [" ".join(c)], "stage_s": {"mapper": secs}, "wall_s": secs, "log": logf,
@@ -481,18 +494,22 @@ def run_colmap38(info, out, calibrated):
     return out_runs
 
 
-def run_colmap4(info, out, calibrated, python):
+def run_colmap4(info, out, calibrated, python, refined=True):
     """COLMAP 4's global mapper through pycolmap, in its own process. Calibrated: global_mapping runs
-    twice on one database, the intrinsics kept and refined (as run_colmap38)."""
+    twice on one database, the intrinsics kept and refined (as run_colmap38; refined=False: kept only)."""
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
     logf = os.path.join(out, "colmap4.log")
     model, params = colmap_params(info.get("intrinsics") if calibrated else None)
     cmd = [python, os.path.abspath(__file__), "colmap4", info["images_dir"], out, model, params]
+    shown = " ".join(cmd[:-1] + ["'%s'" % params])
+    if not refined:
+        cmd.append("--kept-only")
+        shown += " --kept-only"
     rc, secs = run_timed(cmd, logf)
     res = os.path.join(out, "result.json")
     if rc != 0 or not os.path.exists(res):
-        r = {"command": " ".join(cmd[:-1] + ["'%s'" % params]), "wall_s": secs, "log": logf, "status": "failed",
+        r = {"command": shown, "wall_s": secs, "log": logf, "status": "failed",
              "error": error_line(logf)}
         return [("", (r, {}, np.zeros((0, 3))))]
     j = json.load(open(res))
@@ -500,7 +517,7 @@ def run_colmap4(info, out, calibrated, python):
     for k, variant in enumerate(j["variants"]):
         stage = dict(j["stage_s"]) if k == 0 else {}
         stage.update(variant["stage_s"])
-        r = {"command": " ".join(cmd[:-1] + ["'%s'" % params]), "stage_s": stage, "log": logf,
+        r = {"command": shown, "stage_s": stage, "log": logf,
              "intrinsics": variant["intrinsics"], "wall_s": sum(stage.values()) if k else secs}
         if k:
             r["note"] = "global_mapping alone, on the primary run's database"
@@ -510,7 +527,7 @@ def run_colmap4(info, out, calibrated, python):
     return out_runs
 
 
-def colmap4_worker(images, out, model, params):
+def colmap4_worker(images, out, model, params, kept_only=False):
     """One COLMAP 4 run: SIFT (CPU), exhaustive matching, global mapping; the largest model as text.
     With intrinsics: global mapping with them kept, then again refining them (COLMAP's default)."""
     import pycolmap
@@ -538,6 +555,8 @@ def colmap4_worker(images, out, model, params):
         stage["calibrate_view_graph"] = time.time() - t0
     variants = [("", True, "kept"), (" refined", False, "refined from the given ones (COLMAP's default)")] if params \
         else [("", False, "self-calibrated (SIMPLE_RADIAL, view graph calibration)")]
+    if kept_only:
+        variants = variants[:1]
     for suffix, fixed, what in variants:
         opts = pycolmap.GlobalPipelineOptions()
         if fixed:
@@ -856,12 +875,13 @@ def main():
     c4 = sub.add_parser("colmap4")
     for a in ("images", "out", "model", "params"):
         c4.add_argument(a)
+    c4.add_argument("--kept-only", action="store_true", help="with intrinsics: the kept run only, not refined")
     rp = sub.add_parser("report")
     rp.add_argument("json")
     rp.add_argument("md")
     args = ap.parse_args()
     if args.cmd == "colmap4":
-        return colmap4_worker(args.images, args.out, args.model, args.params)
+        return colmap4_worker(args.images, args.out, args.model, args.params, args.kept_only)
     if args.cmd == "report":
         # The verdicts are recomputed from the stored figures (the JSON is rewritten with them).
         j = json.load(open(args.json))

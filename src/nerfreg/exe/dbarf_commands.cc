@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // The view graph's flags (features, pairs, two-view geometry) of dbarf poses.
-void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs) {
+void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs, std::string* two_view) {
   app.add_option("--max-features", o->max_features, "SIFT keypoints per image (default 4000)");
   app.add_option("--min-inliers", o->min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
   app.add_option("--sift-contrast", o->contrast_threshold, "SIFT contrast threshold (default 0.005)");
@@ -30,6 +30,9 @@ void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs)
   app.add_option("--sift-upsample-max-side", o->upsample_max_side,
                  "... only while the enlarged image's longer side stays within this (default 1000; 0: always)");
   app.add_option("--ransac-px", o->ransac_threshold_px, "Two-view RANSAC threshold in pixels (default 1)");
+  app.add_option(
+      "--two-view", *two_view,
+      "Two-view geometry estimator: usac (OpenCV's MAGSAC++) or ransac (OpenCV's RANSAC) (default " + *two_view + ")");
   app.add_option("--pairs", *pairs,
                  "Pairs to match: exhaustive, sequential (name order, --overlap), retrieval (a vocabulary of the "
                  "images' own features) or auto (exhaustive up to 50 images, else retrieval, plus sequential for "
@@ -97,12 +100,13 @@ int RunDbarfPoses(int argc, char** argv) {
                  "photometrically better cameras are kept (default 0.25; 1: off)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
-  std::string pairs = "auto";
-  AddViewGraphOptions(app, &options.sfm.view_graph, &pairs);
+  std::string pairs = "auto", two_view = TwoViewEstimatorName(options.sfm.view_graph.estimator);
+  AddViewGraphOptions(app, &options.sfm.view_graph, &pairs, &two_view);
   std::string device = "cpu";
   AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.sfm.view_graph.pairs.strategy = ParsePairStrategy(pairs);
+  options.sfm.view_graph.estimator = ParseTwoViewEstimator(two_view);
   options.device = ParseDevice(device);
   job.force = common.force;
   PoseImageFolder(job);

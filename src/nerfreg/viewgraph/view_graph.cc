@@ -27,6 +27,16 @@ int EffectiveUpsample(const ViewGraphOptions& options, int max_side) {
   return max_side > 0 && max_side * options.upsample <= options.upsample_max_side ? options.upsample : 1;
 }
 
+TwoViewEstimator ParseTwoViewEstimator(const std::string& name) {
+  if (name == "ransac") return TwoViewEstimator::kRansac;
+  if (name == "usac") return TwoViewEstimator::kUsac;
+  ThrowInputError("--two-view", "", "ransac or usac, got '" + name + "'");
+}
+
+std::string TwoViewEstimatorName(TwoViewEstimator estimator) {
+  return estimator == TwoViewEstimator::kUsac ? "usac" : "ransac";
+}
+
 void ViewGraphOptions::Check() const {
   // Named by the command-line options that set them (dbarf poses), since users set them there.
   if (max_features <= 0) ThrowInputError("--max-features", "", "> 0, got " + std::to_string(max_features));
@@ -79,6 +89,22 @@ constexpr double kPlanarInlierRatio = 0.8;
 // rotation, differ by less than this median angle.
 constexpr double kPanoramicParallaxDeg = 0.5;
 
+// Hypotheses drawn at most (OpenCV's defaults for the essential matrix and the homography).
+constexpr int kMaxEssentialIterations = 1000;
+constexpr int kMaxHomographyIterations = 2000;
+
+// The hypotheses that find, with probability `confidence`, an all-inlier sample of `sample_size`
+// among num_matches matches when min_inliers of them are inliers: a model with fewer inliers is
+// no edge, so more hypotheses than this only search for models that would be rejected.
+int RansacIterationCap(int num_matches, int min_inliers, int sample_size, double confidence, int max_iterations) {
+  if (num_matches <= min_inliers) return 1;
+  double p_all_inliers = 1;  // drawn without replacement
+  for (int k = 0; k < sample_size; ++k) p_all_inliers *= std::max(0.0, double(min_inliers - k) / (num_matches - k));
+  if (p_all_inliers <= 0) return max_iterations;
+  const double n = std::ceil(std::log(1 - confidence) / std::log(1 - p_all_inliers));
+  return static_cast<int>(std::clamp(n, 1.0, static_cast<double>(max_iterations)));
+}
+
 cv::Mat ToGray8(const Image& im) {
   cv::Mat gray(im.height, im.width, CV_8UC1);
   for (int y = 0; y < im.height; ++y)
@@ -95,16 +121,59 @@ cv::Mat ToGray8(const Image& im) {
   return gray;
 }
 
-struct Features {
-  std::vector<cv::KeyPoint> keypoints;
-  SiftDescriptors descriptors;  // one row per keypoint: 128 bytes a keypoint (OpenCV's are integers)
-};
-
 // Mutual nearest neighbours passing the ratio test in both directions, from one matrix of
 // descriptor dot products (one BLAS GEMM instead of two brute-force passes):
 // |a - b|^2 = |a|^2 + |b|^2 - 2 a.b. The product is column-major, so each column (one keypoint
 // of b against every keypoint of a) is contiguous: a's running best two are updated without
 // branches (the compiler vectorises it), and b's best two are one pass over the column.
+// The best two distances of one keypoint of b over every row of a, and the row of the best (the
+// first such row on ties).
+struct ColumnBest {
+  float c1 = INFINITY, c2 = INFINITY;
+  int i1 = -1;
+};
+
+// One column of squared distances d_i = |a_i|^2 + |b_j|^2 - 2 a_i.b_j, read once: updates each row's
+// running best two (d1, d2, j1) and returns the column's best two. The column's search keeps
+// kLanes independent best-two lanes (row i in lane i % kLanes) so that both updates are branchless
+// and vectorise, then merges the lanes; the result equals the sequential search's exactly. Built
+// for AVX2 and for baseline x86-64, chosen at run time (the build targets baseline x86-64).
+constexpr int kLanes = 16;
+#if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
+__attribute__((target_clones("avx2", "default")))
+#endif
+ColumnBest
+ScanColumn(const float* column, const float* norms_a, float norm_b, int na, int j, float* d1, float* d2, int* j1) {
+  float c1[kLanes], c2[kLanes];
+  int i1[kLanes];
+  for (int l = 0; l < kLanes; ++l) c1[l] = c2[l] = INFINITY, i1[l] = -1;
+  const auto update = [&](int i, int l) {
+    const float d = norms_a[i] + norm_b - 2 * column[i];
+    const bool row_better = d < d1[i];
+    d2[i] = row_better ? d1[i] : std::min(d2[i], d);
+    j1[i] = row_better ? j : j1[i];
+    d1[i] = row_better ? d : d1[i];
+    const bool better = d < c1[l];
+    c2[l] = better ? c1[l] : std::min(c2[l], d);
+    i1[l] = better ? i : i1[l];
+    c1[l] = better ? d : c1[l];
+  };
+  int base = 0;
+  for (; base + kLanes <= na; base += kLanes)
+    for (int l = 0; l < kLanes; ++l) update(base + l, l);
+  for (int l = 0; base + l < na; ++l) update(base + l, l);
+  int best = 0;
+  for (int l = 1; l < kLanes; ++l)
+    if (c1[l] < c1[best] || (c1[l] == c1[best] && i1[l] >= 0 && (i1[best] < 0 || i1[l] < i1[best]))) best = l;
+  ColumnBest out;
+  out.c1 = c1[best];
+  out.i1 = i1[best];
+  out.c2 = c2[best];
+  for (int l = 0; l < kLanes; ++l)
+    if (l != best) out.c2 = std::min(out.c2, c1[l]);
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
@@ -115,40 +184,30 @@ std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes
   const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
   // dot = a b^T (na x nb, column-major) through the BLAS: OpenBLAS's kernels use the CPU's widest
   // vectors (the build targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here.
-  Eigen::MatrixXf dot(na, nb);
+  // kColumnBlock columns of b at a time into this thread's buffer, kept between calls: a fresh
+  // na x nb product (64 MB at 4000 keypoints) cost as much in page faults as the product itself.
+  // The products of 0..255 integers over 128 terms are exact in float, so any blocking gives the
+  // same distances.
+  constexpr int kColumnBlock = 256;
+  thread_local std::vector<float> dot;
+  dot.resize(static_cast<size_t>(na) * std::min(nb, kColumnBlock));
   const char transpose = 'T', keep = 'N';
   const int depth = 128;
   const float one = 1, zero = 0;
-  sgemm_(&transpose, &keep, &na, &nb, &depth, &one, a.data(), &depth, b.data(), &depth, &zero, dot.data(), &na);
   const float r2 = static_cast<float>(ratio * ratio);
   std::vector<float> d1a(na, INFINITY), d2a(na, INFINITY);
   std::vector<int> j1a(na, -1), best_ba(nb, -1);
   const float* norms_a = norms_a_vector.data();
-  for (int j = 0; j < nb; ++j) {
-    const float* column = dot.col(j).data();
-    const float norm_b = norms_b(j);
-    float* d1 = d1a.data();
-    float* d2 = d2a.data();
-    int* j1 = j1a.data();
-    for (int i = 0; i < na; ++i) {
-      const float d = norms_a[i] + norm_b - 2 * column[i];
-      const bool better = d < d1[i];
-      d2[i] = better ? d1[i] : std::min(d2[i], d);
-      j1[i] = better ? j : j1[i];
-      d1[i] = better ? d : d1[i];
+  for (int j0 = 0; j0 < nb; j0 += kColumnBlock) {
+    const int columns = std::min(kColumnBlock, nb - j0);
+    sgemm_(&transpose, &keep, &na, &columns, &depth, &one, a.data(), &depth, b.row(j0).data(), &depth, &zero,
+           dot.data(), &na);
+    for (int c = 0; c < columns; ++c) {
+      const int j = j0 + c;
+      const ColumnBest best = ScanColumn(dot.data() + static_cast<size_t>(c) * na, norms_a, norms_b(j), na, j,
+                                         d1a.data(), d2a.data(), j1a.data());
+      if (best.c1 < r2 * best.c2) best_ba[j] = best.i1;
     }
-    float c1 = INFINITY, c2 = INFINITY;
-    int i1 = -1;
-    for (int i = 0; i < na; ++i) {
-      const float d = norms_a[i] + norm_b - 2 * column[i];
-      if (d < c2) {
-        if (d < c1)
-          c2 = c1, c1 = d, i1 = i;
-        else
-          c2 = d;
-      }
-    }
-    if (c1 < r2 * c2) best_ba[j] = i1;
   }
   std::vector<std::pair<int, int>> out;
   for (int i = 0; i < na; ++i) {
@@ -215,6 +274,131 @@ void EstimateGroupFocals(const std::vector<std::pair<int, int>>& pairs,
 
 }  // namespace
 
+std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Vector2d>& keypoints_i,
+                                                     const std::vector<Eigen::Vector2d>& keypoints_j,
+                                                     const std::vector<std::pair<int, int>>& matches, double focal_px,
+                                                     const ViewGraphOptions& options) {
+  if (static_cast<int>(matches.size()) < options.min_inliers) return std::nullopt;
+  std::vector<cv::Point2d> pi, pj;
+  pi.reserve(matches.size());
+  pj.reserve(matches.size());
+  for (const auto& [a, b] : matches) {
+    pi.push_back({keypoints_i[a].x(), keypoints_i[a].y()});
+    pj.push_back({keypoints_j[b].x(), keypoints_j[b].y()});
+  }
+  // Normalised coordinates: the pixel threshold becomes threshold / focal.
+  const double threshold = options.ransac_threshold_px / focal_px;
+  const bool usac = options.estimator == TwoViewEstimator::kUsac;
+  const int method = usac ? cv::USAC_MAGSAC : cv::RANSAC;
+  const int num_matches = static_cast<int>(matches.size());
+  const int e_iterations =
+      options.early_rejection
+          ? RansacIterationCap(num_matches, options.min_inliers, 5, options.ransac_confidence, kMaxEssentialIterations)
+          : kMaxEssentialIterations;
+  const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
+  cv::Mat mask;
+  int inliers = 0;
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d trans = Eigen::Vector3d::Zero();
+  cv::Mat e;
+  if (usac) {
+    // cv::USAC_MAGSAC's settings (OpenCV's usac setParameters), with the iteration cap, which the
+    // flag-only overload ignores for essential matrices.
+    cv::UsacParams params;
+    params.confidence = options.ransac_confidence;
+    params.isParallel = false;
+    params.loIterations = 10;
+    params.loMethod = cv::LOCAL_OPTIM_SIGMA;
+    params.loSampleSize = 50;
+    params.maxIterations = e_iterations;
+    params.randomGeneratorState = 0;
+    params.sampler = cv::SAMPLING_UNIFORM;
+    params.score = cv::SCORE_METHOD_MAGSAC;
+    params.threshold = threshold;
+    e = cv::findEssentialMat(pi, pj, identity_k, identity_k, cv::noArray(), cv::noArray(), mask, params);
+  } else {
+    e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence, threshold, e_iterations, mask);
+  }
+  const bool e_valid = e.rows == 3 && e.cols == 3;  // else degenerate, or several solutions stacked
+  // Early rejection: a homography's inliers fit the essential matrix [t]x R of its rotation for
+  // any t, so too few essential-matrix inliers leave no edge either way.
+  if (options.early_rejection && (!e_valid || cv::countNonZero(mask) < options.min_inliers)) return std::nullopt;
+  if (e_valid) {
+    cv::Mat r, t;
+    inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
+    for (int a = 0; a < 3; ++a) {
+      trans(a) = t.at<double>(a);
+      for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
+    }
+  }
+  // A homography on the same matches that explains them about as well (COLMAP's ratio 0.8) is
+  // a planar scene or photos from one spot. Seen from one spot (the rays agree once the
+  // homography's rotation is taken out), the essential matrix is degenerate: the rotation comes
+  // from the homography and the edge has no translation direction.
+  // Only a homography with more than kPlanarInlierRatio of the essential matrix's inliers (and
+  // min_inliers) changes the edge: with early rejection, the hypotheses are capped for that count.
+  const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
+  const int h_iterations =
+      options.early_rejection
+          ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
+          : kMaxHomographyIterations;
+  cv::Mat h_mask;
+  const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
+  const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
+  bool panoramic = false;
+  if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
+    Eigen::Matrix3d hm;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
+    if (r_h.determinant() < 0) r_h = -r_h;
+    std::vector<double> parallax;
+    for (size_t m = 0; m < matches.size(); ++m) {
+      if (h_mask.at<uint8_t>(static_cast<int>(m)) == 0) continue;
+      const Eigen::Vector3d a = r_h * Eigen::Vector3d(pi[m].x, pi[m].y, 1), b(pj[m].x, pj[m].y, 1);
+      parallax.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
+    }
+    std::nth_element(parallax.begin(), parallax.begin() + parallax.size() / 2, parallax.end());
+    if (parallax[parallax.size() / 2] < kPanoramicParallaxDeg) {
+      panoramic = true;
+      rot = r_h;
+      trans.setZero();
+      mask = h_mask;
+      inliers = h_inliers;
+    }
+  }
+  if (inliers < options.min_inliers) return std::nullopt;
+  ViewGraphEdge edge;
+  edge.num_matches = static_cast<int>(matches.size());
+  edge.num_inliers = inliers;
+  edge.num_homography_inliers = h_inliers;
+  edge.panoramic = panoramic;
+  edge.j_from_i = Rigid3d(rot, panoramic ? Eigen::Vector3d::Zero() : Eigen::Vector3d(trans.normalized()));
+  for (size_t m = 0; m < matches.size(); ++m)
+    if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back(matches[m]);
+  return edge;
+}
+
+SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options) {
+  const cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+  const int up = EffectiveUpsample(options, std::max(image.width, image.height));
+  cv::Mat gray = ToGray8(image);
+  if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat desc;
+  sift->detectAndCompute(gray, cv::noArray(), keypoints, desc);
+  SiftFeatures out;
+  out.descriptors.resize(desc.rows, 128);
+  for (int r = 0; r < desc.rows && desc.cols == 128; ++r)
+    for (int c = 0; c < 128; ++c)
+      out.descriptors(r, c) = static_cast<uint8_t>(std::clamp(desc.at<float>(r, c), 0.f, 255.f) + 0.5f);
+  // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by `up`
+  // (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
+  for (const auto& kp : keypoints) out.keypoints.emplace_back((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
+  return out;
+}
+
 void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, bool equal_sizes) {
   for (size_t k = 0; k < images.size(); ++k) {
@@ -243,33 +427,19 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   graph.names = names;
   graph.cameras = cameras;
   const int n = static_cast<int>(images.size());
-  std::vector<Features> features(n);
-  std::vector<std::vector<cv::Point2d>> pixels(n);
-  graph.keypoints.resize(n);
+  std::vector<SiftFeatures> features(n);
   const Timer timer;
   // Images, then pairs, in parallel (OpenCV's pool: all cores, or cv::setNumThreads). Each item
   // writes only its own slot, so the graph is the same whatever the thread count.
   cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
-    cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
-    for (int k = range.start; k < range.end; ++k) {
-      const int up = EffectiveUpsample(options, std::max(images[k].width, images[k].height));
-      cv::Mat gray = ToGray8(images[k]);
-      if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
-      cv::Mat desc;
-      sift->detectAndCompute(gray, cv::noArray(), features[k].keypoints, desc);
-      features[k].descriptors.resize(desc.rows, 128);
-      for (int r = 0; r < desc.rows && desc.cols == 128; ++r)
-        for (int c = 0; c < 128; ++c)
-          features[k].descriptors(r, c) = static_cast<uint8_t>(std::clamp(desc.at<float>(r, c), 0.f, 255.f) + 0.5f);
-      for (const auto& kp : features[k].keypoints) {
-        // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by
-        // `up` (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
-        const Eigen::Vector2d uv((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);
-        graph.keypoints[k].push_back(uv);
-        pixels[k].push_back({uv.x(), uv.y()});
-      }
-    }
+    for (int k = range.start; k < range.end; ++k) features[k] = ExtractSiftFeatures(images[k], options);
   });
+  std::vector<std::vector<cv::Point2d>> pixels(n);
+  graph.keypoints.resize(n);
+  for (int k = 0; k < n; ++k) {
+    graph.keypoints[k] = features[k].keypoints;
+    for (const auto& uv : features[k].keypoints) pixels[k].push_back({uv.x(), uv.y()});
+  }
   const double seconds_features = timer.Seconds();
   std::vector<std::pair<int, int>> pairs = pairs_in;
   if (pairs.empty()) {
@@ -292,83 +462,16 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
     EstimateGroupFocals(pairs, pair_matches, pixels, group, options, names, &graph.cameras);
   }
   const double seconds_focal = timer.Seconds() - seconds_features - seconds_matching;
-  std::vector<std::vector<cv::Point2d>> normalised(n);
+  std::vector<std::vector<Eigen::Vector2d>> normalised(n);
   for (int k = 0; k < n; ++k)
-    for (const auto& uv : graph.keypoints[k]) {
-      const Eigen::Vector3d d = graph.cameras[k].CamFromImg(uv);
-      normalised[k].push_back({d.x(), d.y()});
-    }
+    for (const auto& uv : graph.keypoints[k]) normalised[k].push_back(graph.cameras[k].CamFromImg(uv).head<2>());
   std::vector<std::optional<ViewGraphEdge>> pair_edges(num_pairs);
-  const cv::Mat identity_k = cv::Mat::eye(3, 3, CV_64F);
   cv::parallel_for_(cv::Range(0, num_pairs), [&](const cv::Range& range) {
     for (int p = range.start; p < range.end; ++p) {
       const auto [i, j] = pairs[p];
-      const std::vector<std::pair<int, int>>& matches = pair_matches[p];
-      if (static_cast<int>(matches.size()) < options.min_inliers) continue;
-      std::vector<cv::Point2d> pi, pj;
-      for (const auto& m : matches) {
-        pi.push_back(normalised[i][m.first]);
-        pj.push_back(normalised[j][m.second]);
-      }
-      // Normalised coordinates: the pixel threshold becomes threshold / focal.
       const double f = 0.25 * (graph.cameras[i].fx + graph.cameras[i].fy + graph.cameras[j].fx + graph.cameras[j].fy);
-      const double threshold = options.ransac_threshold_px / f;
-      cv::Mat mask;
-      int inliers = 0;
-      Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
-      Eigen::Vector3d trans = Eigen::Vector3d::Zero();
-      cv::Mat e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence, threshold, mask);
-      if (e.rows == 3 && e.cols == 3) {  // else degenerate, or several solutions stacked
-        cv::Mat r, t;
-        inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
-        for (int a = 0; a < 3; ++a) {
-          trans(a) = t.at<double>(a);
-          for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
-        }
-      }
-      // A homography on the same matches that explains them about as well (COLMAP's ratio 0.8) is
-      // a planar scene or photos from one spot. Seen from one spot (the rays agree once the
-      // homography's rotation is taken out), the essential matrix is degenerate: the rotation comes
-      // from the homography and the edge has no translation direction.
-      cv::Mat h_mask;
-      const cv::Mat h = cv::findHomography(pi, pj, cv::RANSAC, threshold, h_mask, 2000, options.ransac_confidence);
-      const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
-      bool panoramic = false;
-      if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
-        Eigen::Matrix3d hm;
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
-        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
-        Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
-        if (r_h.determinant() < 0) r_h = -r_h;
-        std::vector<double> parallax;
-        for (size_t m = 0; m < matches.size(); ++m) {
-          if (h_mask.at<uint8_t>(static_cast<int>(m)) == 0) continue;
-          const Eigen::Vector3d a = r_h * Eigen::Vector3d(pi[m].x, pi[m].y, 1), b(pj[m].x, pj[m].y, 1);
-          parallax.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
-        }
-        std::nth_element(parallax.begin(), parallax.begin() + parallax.size() / 2, parallax.end());
-        if (parallax[parallax.size() / 2] < kPanoramicParallaxDeg) {
-          panoramic = true;
-          rot = r_h;
-          trans.setZero();
-          mask = h_mask;
-          inliers = h_inliers;
-        }
-      }
-      if (inliers < options.min_inliers) continue;
-      ViewGraphEdge edge;
-      edge.i = i;
-      edge.j = j;
-      edge.num_matches = static_cast<int>(matches.size());
-      edge.num_inliers = inliers;
-      edge.num_homography_inliers = h_inliers;
-      edge.panoramic = panoramic;
-      edge.j_from_i = Rigid3d(rot, panoramic ? Eigen::Vector3d::Zero() : Eigen::Vector3d(trans.normalized()));
-      for (size_t m = 0; m < matches.size(); ++m) {
-        if (mask.at<uint8_t>(static_cast<int>(m)) != 0) edge.inlier_matches.push_back(matches[m]);
-      }
-      pair_edges[p] = std::move(edge);
+      pair_edges[p] = EstimateTwoViewGeometry(normalised[i], normalised[j], pair_matches[p], f, options);
+      if (pair_edges[p]) pair_edges[p]->i = i, pair_edges[p]->j = j;
     }
   });
   for (auto& edge : pair_edges)

@@ -5,8 +5,12 @@
 // time, spec dbarf.md 9.3), and its relative poses are the classical initialisation that the
 // pose graph fuses into global cameras.
 //
-// SIFT features (OpenCV), Lowe ratio test + mutual consistency, essential matrix by RANSAC on
-// undistorted normalised coordinates, cheirality check (recoverPose). Edge weight = inlier count.
+// SIFT features (OpenCV), Lowe ratio test + mutual consistency, essential matrix by RANSAC or
+// USAC (MAGSAC++) on undistorted normalised coordinates, cheirality check (recoverPose). Edge
+// weight = inlier count. Pairs that cannot become edges are rejected early (a hypothesis cap from
+// min_inliers, no homography after a failed essential matrix): on an orbit most pairs do not
+// overlap, and they cost the full 1000 hypotheses otherwise.
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -22,12 +26,38 @@
 
 namespace nerfreg {
 
+// How a pair's essential matrix (and its homography) are estimated, both by OpenCV on the putative
+// matches.
+enum class TwoViewEstimator {
+  kRansac,  // cv::RANSAC: up to 1000 hypotheses (2000 for the homography) on a pair with few inliers
+  kUsac,    // cv::USAC_MAGSAC: MAGSAC++ scoring, local optimisation, SPRT early rejection of hypotheses
+};
+
+// "ransac" or "usac" (the values of --two-view); anything else throws InputError naming --two-view.
+TwoViewEstimator ParseTwoViewEstimator(const std::string& name);
+std::string TwoViewEstimatorName(TwoViewEstimator estimator);
+
 struct ViewGraphOptions {
   int max_features = 4000;           // SIFT keypoints kept per image (strongest first)
   double ratio = 0.8;                // Lowe ratio test
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
   int min_inliers = 30;  // fewer geometric inliers: no edge
+  // The essential matrix's estimator (--two-view). USAC: fewer wrong edges, cheaper on pairs that
+  // do not overlap and more accurate poses on the orbit and Castle-simu (results/poses_scale.md),
+  // but its least-squares polish is off on a planar scene (the plane of view_graph_test.cc: 2.3 deg
+  // against RANSAC's < 1), so RANSAC stays the default.
+  TwoViewEstimator estimator = TwoViewEstimator::kRansac;
+  // Early rejection of pairs that cannot become edges. (1) The hypotheses drawn are capped at the
+  // number that finds, with ransac_confidence, an all-inlier sample when just min_inliers of the
+  // pair's matches are inliers: a pair of 22 matches needs 57 for its essential matrix, not 1000;
+  // more hypotheses only look for models with too few inliers. (2) A pair whose essential matrix
+  // has fewer than min_inliers inliers is no edge whatever its homography says (a homography's
+  // inliers also fit the essential matrix [t]x R of its rotation for any t), so the homography is
+  // fitted only to pairs that pass, and its hypotheses are capped as in (1) for the inliers that
+  // would make the pair planar (0.8 of the essential matrix's). false: 1000 / 2000 hypotheses and
+  // every homography fitted.
+  bool early_rejection = true;
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
   double contrast_threshold = 0.04;
@@ -83,9 +113,31 @@ struct ViewGraph {
 // The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
 int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 
+// One image's SIFT keypoints and descriptors, row k of each the same keypoint.
+struct SiftFeatures {
+  // Image coordinates in pixels (centre of pixel (c, r) at (c + 0.5, r + 0.5)).
+  std::vector<Eigen::Vector2d> keypoints;
+  SiftDescriptors descriptors;  // OpenCV's SIFT values (integers 0..255), 128 bytes a keypoint
+};
+
+// OpenCV SIFT on the image's grey levels (enlarged by EffectiveUpsample first), the
+// options.max_features strongest keypoints at options.contrast_threshold.
+SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options);
+
 // Mutual nearest neighbours (Euclidean) passing Lowe's ratio test in both directions: pairs
 // (row of a, row of b). One float GEMM of the descriptor dot products per pair.
 std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a, const SiftDescriptors& b, double ratio);
+
+// One pair's two-view geometry from its putative matches (rows of keypoints_i, keypoints_j):
+// essential matrix, cheirality, and the homography test for panoramic pairs. keypoints_*: the
+// images' keypoints in normalised image coordinates (Camera::CamFromImg's x / z, y / z);
+// threshold_px / focal_px: the RANSAC threshold in normalised units. nullopt: fewer than
+// options.min_inliers inliers (no edge). Deterministic (OpenCV's estimators seed their own
+// generators). The edge's i, j are left 0.
+std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Vector2d>& keypoints_i,
+                                                     const std::vector<Eigen::Vector2d>& keypoints_j,
+                                                     const std::vector<std::pair<int, int>>& matches, double focal_px,
+                                                     const ViewGraphOptions& options);
 
 // Throws InputError naming the image when an image's size differs from its camera's, or, with
 // `equal_sizes`, from the first image's (the networks stack images; the SfM takes any sizes).
