@@ -639,6 +639,9 @@ def bench_set(info, args, python):
         if "nerfreg" in methods:
             add("nerfreg classical", run_nerfreg(info, os.path.join(work, "nerfreg_classical"), args.nerfreg, "classical", True))
             add("nerfreg auto", run_nerfreg(info, os.path.join(work, "nerfreg_auto"), args.nerfreg, None, True))
+            # The pose network alone (issue 42: measured on real photos, never preferred by auto
+            # where its edges disagree with the SfM's).
+            add("nerfreg network", run_nerfreg(info, os.path.join(work, "nerfreg_network"), args.nerfreg, "network", True))
         if "colmap38" in methods:
             for suffix, triple in run_colmap38(info, os.path.join(work, "colmap38"), True):
                 add("COLMAP 3.8" + suffix, triple)

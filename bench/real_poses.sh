@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Poses of real photos: `nerfreg dbarf poses` (--method classical, the default auto, and without
+# Poses of real photos: `nerfreg dbarf poses` (--method classical, the default auto, network, and without
 # intrinsics) against COLMAP 3.8 (Debian `colmap`: feature_extractor, exhaustive_matcher, mapper;
 # with the intrinsics and without) and COLMAP 4's global mapper (pycolmap 4.2.1: extract_features,
 # match_exhaustive, global_mapping), in one run, one method after another, each timed.
