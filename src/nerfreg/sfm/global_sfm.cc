@@ -36,6 +36,31 @@ void SfmOptions::Check() const {
     if (!(t > 0)) throw std::invalid_argument("SfmOptions: round_reprojection_error_px must be positive");
 }
 
+std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
+                                                          const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                                          const std::vector<Camera>& cameras,
+                                                          const std::vector<Rigid3d>& cam_from_world, double max_px) {
+  std::vector<std::pair<int, int>> kept;
+  const Rigid3d j_from_i = cam_from_world[edge.j] * cam_from_world[edge.i].Inverse();
+  if (j_from_i.translation.norm() < 1e-12) return kept;  // no epipolar geometry
+  const Eigen::Vector3d t = j_from_i.translation.normalized();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  const Eigen::Matrix3d essential = tx * j_from_i.rotation.toRotationMatrix();
+  const double max_normalized = max_px / cameras[edge.j].fx;
+  for (const auto& [a, b] : edge.inlier_matches) {
+    Eigen::Vector3d xa = cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    Eigen::Vector3d xb = cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    xa /= xa.z();
+    xb /= xb.z();
+    const Eigen::Vector3d ea = essential * xa, etb = essential.transpose() * xb;
+    const double r = xb.dot(ea);
+    const double denominator = ea.head<2>().squaredNorm() + etb.head<2>().squaredNorm();
+    if (denominator > 0 && r * r < max_normalized * max_normalized * denominator) kept.push_back({a, b});
+  }
+  return kept;
+}
+
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction) {
   const size_t n = cam_from_world.size();
@@ -95,9 +120,8 @@ double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vecto
   return angles[angles.size() / 2];
 }
 
-// The graph's edges with their inlier matches checked again against solved poses: a match is kept
-// where its Sampson distance to the epipolar geometry of the two posed cameras is below max_px
-// (pixels, at image j's focal length). Every edge between posed images is checked, also those that
+// The graph's edges with their inlier matches checked again against solved poses
+// (MatchesAgreeingWithPoses). Every edge between posed images is checked, also those that
 // rotation averaging left out: on low-texture captures most two-view estimates are wrong (castle:
 // 430 of 745 edges left out) while many of their matches are right, and tracks from them are longer.
 ViewGraph PoseVerifiedGraph(const ViewGraph& graph, const std::vector<Camera>& cameras,
@@ -108,26 +132,8 @@ ViewGraph PoseVerifiedGraph(const ViewGraph& graph, const std::vector<Camera>& c
   verified.keypoints = graph.keypoints;
   for (const ViewGraphEdge& edge : graph.edges) {
     if (!posed[edge.i] || !posed[edge.j]) continue;
-    const Rigid3d j_from_i = cam_from_world[edge.j] * cam_from_world[edge.i].Inverse();
-    if (j_from_i.translation.norm() < 1e-12) continue;
-    const Eigen::Vector3d t = j_from_i.translation.normalized();
-    Eigen::Matrix3d tx;
-    tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-    const Eigen::Matrix3d E = tx * j_from_i.rotation.toRotationMatrix();
-    const double max_normalized = max_px / cameras[edge.j].fx;
     ViewGraphEdge kept = edge;
-    kept.inlier_matches.clear();
-    for (const auto& [a, b] : edge.inlier_matches) {
-      Eigen::Vector3d xa = cameras[edge.i].CamFromImg(graph.keypoints[edge.i][a]);
-      Eigen::Vector3d xb = cameras[edge.j].CamFromImg(graph.keypoints[edge.j][b]);
-      xa /= xa.z();
-      xb /= xb.z();
-      const Eigen::Vector3d Ea = E * xa, Etb = E.transpose() * xb;
-      const double r = xb.dot(Ea);
-      const double denominator = Ea.head<2>().squaredNorm() + Etb.head<2>().squaredNorm();
-      if (denominator > 0 && r * r / denominator < max_normalized * max_normalized)
-        kept.inlier_matches.push_back({a, b});
-    }
+    kept.inlier_matches = MatchesAgreeingWithPoses(edge, graph.keypoints, cameras, cam_from_world, max_px);
     if (!kept.inlier_matches.empty()) verified.edges.push_back(std::move(kept));
   }
   return verified;
