@@ -137,8 +137,8 @@ RegistrationResult RegisterCoarse(RegistrationPair& pair, RegistrationMethod met
 
 void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
   Json& record = r->details["block_icp"];
-  r->target_from_source =
-      RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel, &record);
+  r->target_from_source = RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source,
+                                              options.voxel, &record, options.scale == ScaleMode::kFree);
   r->seconds += record["seconds"].get<double>();
   r->method += "+block";
 }
