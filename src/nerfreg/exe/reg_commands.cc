@@ -166,7 +166,8 @@ int RunRegRegister(int argc, char** argv) {
   json["target"] = f.target;
   WriteJsonFile(f.out, json);
   WriteRegistrationOverlays(f.out, r);
-  std::printf("%s\n", json.dump().c_str());
+  // A person reads the summary; --json (with the logs as JSON lines) prints the record itself.
+  std::printf("%s", common.json ? (json.dump() + "\n").c_str() : RegistrationSummary(r, f.out).c_str());
   if (r.status == "untrusted") {
     std::fprintf(stderr, "untrusted: %s (%s written with \"status\": \"untrusted\")\n", r.status_reason.c_str(),
                  f.out.c_str());

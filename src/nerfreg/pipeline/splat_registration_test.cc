@@ -1,6 +1,7 @@
 // reg register on splats: two splat captures of one procedural object, each from half of the
 // views and in its own random frame (render --blocks 2 --splats), register to their known
 // transform by the project's success test.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "nerfreg/data/ground_truth.h"
@@ -78,6 +79,10 @@ TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScal
     EXPECT_LE(scale_error, 0.01) << "scale " << scale << "\n" << r.ToJson().dump();
     EXPECT_EQ(r.status, "registered") << r.ToJson().dump();
     EXPECT_TRUE(r.ToJson()["normalization"]["source"].is_object());
+    const std::string summary = RegistrationSummary(r, "T.json");
+    EXPECT_EQ(summary.rfind("registered  ransac+icp (ransac, scale free)", 0), 0u) << summary;
+    EXPECT_NE(summary.find(fmt::format("scale       {:.4f}", r.target_from_source.scale)), std::string::npos)
+        << summary;
     std::printf("scale %.1f, free: %.3f deg, %.4f of the extent, scale error %.4f %%, confidence %.2f\n", scale, rot,
                 trans / kObjectExtent, 100 * scale_error, r.confidence);
     if (scale == 2.5) {
