@@ -41,6 +41,7 @@ void BM_DregRegisterCpu(benchmark::State& state) {
   BlockRegistrationOptions o;
   o.method = RegistrationMethod::kDreg;
   o.refine = RegistrationRefinement::kNone;
+  o.scale = ScaleMode::kFixed;
   RegistrationPair grids(pair.src, pair.tgt, nullptr, nullptr, o);
   int points = 0;
   for (auto _ : state) {
@@ -80,6 +81,7 @@ void BM_FieldAlignment(benchmark::State& state) {
   Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Random(3, n);
   points.colwise().normalize();  // a unit sphere's surface
   BlockRegistrationOptions o;
+  o.scale = ScaleMode::kFixed;
   o.field.max_samples = static_cast<int>(state.range(0));
   o.field.iterations = 10;
   o.field.tolerance_deg = 0;

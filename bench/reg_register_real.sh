@@ -40,7 +40,8 @@ EOF
       out="$WORK/$(basename "$(dirname "$pairs")")_$(echo "$name" | tr '/' '_')_${label}.json"
       t0=$(date +%s.%N)
       # shellcheck disable=SC2086
-      "$NERFREG" reg register "$src" "$tgt" $args --out "$out" --force --quiet > /dev/null
+      # Exit 5: an untrusted result (T.json written with its status), scored like any other.
+      "$NERFREG" reg register "$src" "$tgt" $args --out "$out" --force --quiet > /dev/null || [ $? = 5 ]
       t1=$(date +%s.%N)
       "$NERFREG" reg eval --pair "$out" --ground-truth "$gt" --source "$sb" --target "$tb" --out "$out.eval" --force --quiet > /dev/null
       python3 - "$out" "$out.eval" "$name" "$label" "$t0" "$t1" <<'EOF' | tee -a "$ROWS"

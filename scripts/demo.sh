@@ -30,8 +30,12 @@ METHODS=""
 for run in $RUNS; do
   IFS=: read -r name method refine <<< "$run"
   METHODS="$METHODS $name"
+  # Exit 5: a result reg register does not believe in (T.json written, "status": "untrusted"); the
+  # demo compares methods, some of which fail on blocks this small, so it goes on.
+  rc=0
   $BIN reg register "$OUT/block_0.ckpt" "$OUT/block_1.ckpt" --method "$method" --refine "$refine" \
-    --out "$OUT/target_from_source_$name.json"
+    --out "$OUT/target_from_source_$name.json" || rc=$?
+  [ "$rc" = 0 ] || [ "$rc" = 5 ] || exit "$rc"
 done
 
 echo "== 4/4 errors against the ground truth, pictures, report"

@@ -98,5 +98,49 @@ TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
   EXPECT_LT((merged.position.leftCols(s.size()) - s.position).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// Captures of two different objects: reg register does not pass its answer off as a success. It
+// writes T.json with "status": "untrusted" and the reason, says so in one line on stderr and
+// exits with 5 (docs/cli.md); the same object's captures in different units register.
+TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister) {
+  ScopedTempDir dir;
+  for (const char* object : {"7", "3"}) {
+    const CommandResult render = RunNerfreg("render --procedural " + std::string(object) +
+                                            " --blocks 2 --views 60 --size 64 --supersample 1 --splats --quiet --out " +
+                                            dir.File(std::string("o") + object));
+    ASSERT_EQ(render.exit_code, 0) << render.output;
+  }
+  const CommandResult reg =
+      RunNerfreg("reg register " + dir.File("o7/block_0/splats.ply") + " " + dir.File("o3/block_1/splats.ply") +
+                 " --seed 0 --quiet --out " + dir.File("t.json"));
+  EXPECT_EQ(reg.exit_code, 5) << reg.output;
+  EXPECT_NE(reg.output.find("untrusted: confidence"), std::string::npos) << reg.output;
+  const Json t = ReadJsonFile(dir.File("t.json"));
+  EXPECT_EQ(t["status"], "untrusted") << t.dump();
+  EXPECT_FALSE(t["status_reason"].get<std::string>().empty());
+  std::printf("different objects: confidence %.3f, %d agreeing\n", t["confidence"].get<double>(),
+              t["agreeing_candidates"].get<int>());
+
+  // Object 7's first capture scaled by 2.5 (reg apply), then registered to its second capture.
+  const double s = 2.5;
+  const Sim3d scaled_from_source(s, Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 2, 3));
+  WriteJsonFile(dir.File("scale.json"), {{"target_from_source", MatrixToJson(scaled_from_source.ToMatrix())}});
+  ASSERT_EQ(RunNerfreg("reg apply " + dir.File("scale.json") + " " + dir.File("o7/block_0/splats.ply") +
+                       " --quiet --out " + dir.File("scaled.ply"))
+                .exit_code,
+            0);
+  const CommandResult scaled =
+      RunNerfreg("reg register " + dir.File("scaled.ply") + " " + dir.File("o7/block_1/splats.ply") +
+                 " --seed 0 --quiet --out " + dir.File("s.json"));
+  ASSERT_EQ(scaled.exit_code, 0) << scaled.output;
+  const Json sj = ReadJsonFile(dir.File("s.json"));
+  EXPECT_EQ(sj["status"], "registered");
+  const Sim3d want =
+      GroundTruthFile(dir.File("o7/ground_truth.json")).TargetFromSource(0, 1) * scaled_from_source.Inverse();
+  const Sim3d est = ReadPose(dir.File("s.json"));
+  EXPECT_LE(RotationErrorDeg(est.rotation, want.rotation), 2.0) << sj.dump();
+  EXPECT_LE(TranslationError(est.translation, want.translation), 0.02 * kObjectExtent) << sj.dump();
+  EXPECT_NEAR(est.scale / want.scale, 1.0, 0.01) << sj.dump();
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -246,6 +246,20 @@ const std::vector<BadInputCase>& Cases() {
          return "reg register " + d + "/m.ply " + d + "/m.ply --method ransac --out " + d + "/t.json";
        },
        "m.ply: expected a NeRF block checkpoint or a 3D Gaussian splat PLY", "t.json"},
+      {"reg_register_too_few_splats",
+       [](const std::string& d) {
+         WriteSplatPly(RandomSplats(50, 0, 9), d + "/few.ply");
+         return "reg register " + d + "/few.ply " + d + "/few.ply --method ransac --out " + d + "/t.json";
+       },
+       "few.ply: vertex: expected at least 100 splats to register, got 50", "t.json"},
+      {"reg_apply_scale_out_of_range",
+       [](const std::string& d) {
+         WriteSplatPly(RandomSplats(2, 0, 10), d + "/s.ply");
+         WriteFileAtomic(d + "/big.json",
+                         R"({"target_from_source": [[2000,0,0,0],[0,2000,0,0],[0,0,2000,0],[0,0,0,1]]})");
+         return "reg apply " + d + "/big.json " + d + "/s.ply --out " + d + "/out.ply";
+       },
+       "big.json: target_from_source: expected a scale in [0.001, 1000], got 2000", "out.ply"},
       {"reg_apply_not_a_similarity",
        [](const std::string& d) {
          WriteSplatPly(RandomSplats(2, 0, 7), d + "/s.ply");

@@ -64,7 +64,7 @@ namespace {
 // reg register's flags, as typed: the enums are parsed after CLI11 has checked the names.
 struct RegisterFlags {
   std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes",
-                                   icp_points = "occupied";
+                                   icp_points = "occupied", scale = "free";
   bool no_flips = false, no_block_icp = false;
   std::string device = "cpu";
   BlockRegistrationOptions options;
@@ -82,6 +82,10 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                  "samples kept; without --refine field: dreg, then ransac when dreg's confidence < --min-confidence), "
                  "dreg, ransac or fgr")
       ->check(CLI::IsMember({"auto", "ransac", "fgr", "dreg"}));
+  app.add_option("--scale", f->scale,
+                 "free (default: each input normalised by its own occupied extent, the scale between them estimated; "
+                 "the result is a similarity) or fixed (the inputs share a unit: rigid)")
+      ->check(CLI::IsMember({"free", "fixed"}));
   app.add_option("--min-confidence", o.min_confidence,
                  "auto without --refine field: dreg answers below this confidence fall back to ransac (0.3)");
   app.add_option("--refine", f->refine,
@@ -146,6 +150,7 @@ int RunRegRegister(int argc, char** argv) {
   o.refine = RegistrationRefinementFromName(f.refine);
   o.dreg_solver = DregSolverFromName(f.dreg_solver);
   o.icp_points = IcpPointsFromName(f.icp_points);
+  o.scale = ScaleModeFromName(f.scale);
   o.flips = !f.no_flips;
   o.block_icp = !f.no_block_icp;
   o.Check();
@@ -161,7 +166,13 @@ int RunRegRegister(int argc, char** argv) {
   json["target"] = f.target;
   WriteJsonFile(f.out, json);
   WriteRegistrationOverlays(f.out, r);
-  std::printf("%s\n", json.dump().c_str());
+  // A person reads the summary; --json (with the logs as JSON lines) prints the record itself.
+  std::printf("%s", common.json ? (json.dump() + "\n").c_str() : RegistrationSummary(r, f.out).c_str());
+  if (r.status == "untrusted") {
+    std::fprintf(stderr, "untrusted: %s (%s written with \"status\": \"untrusted\")\n", r.status_reason.c_str(),
+                 f.out.c_str());
+    return kExitUntrusted;
+  }
   return 0;
 }
 

@@ -38,6 +38,12 @@ struct Rigid3d {
   Vector6d Log() const;
 };
 
+// The scales nerfreg reads or returns (a block's world_from_field, T.json, a registration's
+// result): outside them a file is refused as a wrong unit or a broken file, since no two captures
+// of one object differ in size by more than a thousand times.
+inline constexpr double kMinSim3Scale = 1e-3;
+inline constexpr double kMaxSim3Scale = 1e3;
+
 // x_in_b = scale * rotation * x_in_a + translation.
 struct Sim3d {
   double scale = 1.0;

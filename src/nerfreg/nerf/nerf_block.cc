@@ -1,5 +1,7 @@
 #include "nerfreg/nerf/nerf_block.h"
 
+#include <fmt/format.h>
+
 #include <filesystem>
 
 #include "nerfreg/data/transforms_json.h"
@@ -307,8 +309,9 @@ NerfBlock LoadNerfBlock(const std::string& path, const std::function<void(torch:
     } catch (const std::invalid_argument& e) {
       m["world_from_field"].Fail(std::string("a similarity transform (") + e.what() + ")");
     }
-    if (!(b.world_from_field.scale > 1e-6 && b.world_from_field.scale < 1e6)) {
-      m["world_from_field"].Fail("a scale in (1e-6, 1e6)");
+    if (!(b.world_from_field.scale >= kMinSim3Scale && b.world_from_field.scale <= kMaxSim3Scale)) {
+      m["world_from_field"].Fail(
+          fmt::format("a scale in [{:g}, {:g}], got {:g}", kMinSim3Scale, kMaxSim3Scale, b.world_from_field.scale));
     }
   }
   try {

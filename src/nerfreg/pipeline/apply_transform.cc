@@ -1,5 +1,7 @@
 #include "nerfreg/pipeline/apply_transform.h"
 
+#include <fmt/format.h>
+
 #include <filesystem>
 
 #include "nerfreg/data/colmap.h"
@@ -50,8 +52,10 @@ Sim3d ReadTargetFromSource(const std::string& path) {
   const Eigen::Matrix4d m = root["target_from_source"].Matrix(4, 4);
   try {
     const Sim3d t = Sim3d::FromMatrix(m, 1e-5);
-    if (!(t.scale > 1e-6 && t.scale < 1e6) || m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) {
-      throw std::invalid_argument("scale outside (1e-6, 1e6) or last row not 0 0 0 1");
+    if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) throw std::invalid_argument("last row not 0 0 0 1");
+    if (!(t.scale >= kMinSim3Scale && t.scale <= kMaxSim3Scale)) {
+      root["target_from_source"].Fail(
+          fmt::format("a scale in [{:g}, {:g}], got {:g}", kMinSim3Scale, kMaxSim3Scale, t.scale));
     }
     return t;
   } catch (const std::invalid_argument& e) {

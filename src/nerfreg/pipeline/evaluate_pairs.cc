@@ -44,6 +44,8 @@ bool NeedsBlocks(PairRefinement r) { return r == PairRefinement::kBlockIcp || r 
 BlockRegistrationOptions RowOptions(const PairEvaluationOptions& options, DregSolver solver, int passes,
                                     PairRefinement refine) {
   BlockRegistrationOptions o = options.base;
+  // The rows run the chain on grids or blocks that share a unit: rigid.
+  o.scale = ScaleMode::kFixed;
   o.dreg_solver = solver;
   o.dreg_passes = passes;
   o.refine = refine == PairRefinement::kNone    ? RegistrationRefinement::kNone

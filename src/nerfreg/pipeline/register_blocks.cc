@@ -1,6 +1,10 @@
 #include "nerfreg/pipeline/register_blocks.h"
 
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 
 #include "nerfreg/render/point_splat.h"
 #include "nerfreg/util/file_util.h"
@@ -27,6 +31,27 @@ void WriteRegistrationOverlays(const std::string& out, const BlockRegistrationRe
   const Eigen::Vector3f orange(0.95f, 0.5f, 0.1f), blue(0.1f, 0.35f, 0.9f);
   WriteImage(stem + "_before.png", ThreeViewOverlay({{s_small, orange}, {t_small, blue}}, centre, 5.0));
   WriteImage(stem + "_after.png", ThreeViewOverlay({{moved, orange}, {t_small, blue}}, centre, 5.0));
+}
+
+std::string RegistrationSummary(const BlockRegistrationResult& r, const std::string& out) {
+  const Eigen::AngleAxisd aa(r.target_from_source.rotation);
+  const Eigen::Vector3d& t = r.target_from_source.translation;
+  const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
+  std::string agree = "no other candidate";
+  if (r.agreeing_candidates >= 0) {
+    agree = fmt::format("{} of {} other candidates agree", r.agreeing_candidates, r.candidates.size() - 1);
+  }
+  std::string s = fmt::format("{:<11} {} ({}, scale {}), {:.1f} s\n", r.status, r.method,
+                              RegistrationMethodName(r.options.method), ScaleModeName(r.options.scale), r.seconds);
+  if (!r.status_reason.empty()) s += fmt::format("{:<11} {}\n", "why", r.status_reason);
+  s += fmt::format("{:<11} {:.2f} deg about ({:.3f}, {:.3f}, {:.3f})\n", "rotation", aa.angle() * 180 / M_PI,
+                   aa.axis().x(), aa.axis().y(), aa.axis().z());
+  s += fmt::format("{:<11} ({:.4f}, {:.4f}, {:.4f}), |t| {:.4f} (target units)\n", "translation", t.x(), t.y(), t.z(),
+                   t.norm());
+  s += fmt::format("{:<11} {:.4f}\n", "scale", r.target_from_source.scale);
+  s += fmt::format("{:<11} {:.2f}, {}\n", "confidence", r.confidence, agree);
+  s += fmt::format("{:<11} {}, {}_before.png, {}_after.png\n", "written", out, stem, stem);
+  return s;
 }
 
 }  // namespace nerfreg

@@ -66,6 +66,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   BlockRegistrationOptions chain;
   chain.method = RegistrationMethod::kRansac;
   chain.refine = RegistrationRefinement::kIcp;
+  chain.scale = ScaleMode::kFixed;  // a rigid pose graph: the blocks share a unit
   chain.min_density = options.min_density;
   chain.voxel = options.voxel;
   chain.max_points = options.max_points;

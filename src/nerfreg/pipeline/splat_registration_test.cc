@@ -1,9 +1,11 @@
 // reg register on splats: two splat captures of one procedural object, each from half of the
 // views and in its own random frame (render --blocks 2 --splats), register to their known
 // transform by the project's success test.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "nerfreg/data/ground_truth.h"
+#include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/reg/registration_success.h"
@@ -40,6 +42,58 @@ TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
   EXPECT_GT(r.confidence, 0.5) << r.ToJson().dump();
   std::printf("splats ransac+icp+block+field: %.3f deg, %.4f (%.2f %% of the extent), confidence %.2f\n", rot, trans,
               100 * trans / kObjectExtent, r.confidence);
+}
+
+// Captures of one object in different units (one capture's splats scaled by 0.4 and by 2.5, and
+// turned and shifted too): the default (ScaleMode::kFree) recovers the similarity between them, its
+// scale within 1 %; kFixed, rigid, returns scale 1 and misses.
+TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScales) {
+  ScopedTempDir dir;
+  RenderDatasetOptions ro;
+  ro.views = 60;
+  ro.width = ro.height = 64;
+  ro.render.supersample = 1;
+  ro.blocks = 2;
+  ro.write_splats = true;
+  RenderDataset(ProceduralObject(7), ro, dir.File("data"));
+  const Sim3d truth = GroundTruthFile(dir.File("data/ground_truth.json")).TargetFromSource(0, 1);
+  const Splats source_splats = ReadSplatPly(dir.File("data/block_0/splats.ply"));
+  const SplatFieldOptions so;
+  SplatInput target(ReadSplatPly(dir.File("data/block_1/splats.ply")), so);
+  BlockRegistrationOptions o;
+  o.method = RegistrationMethod::kRansac;
+  o.refine = RegistrationRefinement::kIcp;
+  for (const double scale : {0.4, 2.5}) {
+    const Sim3d scaled_from_source(scale,
+                                   Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 0.5).normalized())),
+                                   Eigen::Vector3d(3, -1, 2) * scale);
+    SplatInput source(TransformSplats(source_splats, scaled_from_source), so);
+    const Sim3d want = truth * scaled_from_source.Inverse();
+    o.scale = ScaleMode::kFree;
+    const BlockRegistrationResult r = RegisterBlocks(source, target, o, nullptr);
+    const double rot = RotationErrorDeg(r.target_from_source.rotation, want.rotation);
+    const double trans = TranslationError(r.target_from_source.translation, want.translation);
+    const double scale_error = std::abs(r.target_from_source.scale / want.scale - 1);
+    EXPECT_LE(rot, 2.0) << "scale " << scale << "\n" << r.ToJson().dump();
+    EXPECT_LE(trans / kObjectExtent, 0.02) << "scale " << scale << "\n" << r.ToJson().dump();
+    EXPECT_LE(scale_error, 0.01) << "scale " << scale << "\n" << r.ToJson().dump();
+    EXPECT_EQ(r.status, "registered") << r.ToJson().dump();
+    EXPECT_TRUE(r.ToJson()["normalization"]["source"].is_object());
+    const std::string summary = RegistrationSummary(r, "T.json");
+    EXPECT_EQ(summary.rfind("registered  ransac+icp (ransac, scale free)", 0), 0u) << summary;
+    EXPECT_NE(summary.find(fmt::format("scale       {:.4f}", r.target_from_source.scale)), std::string::npos)
+        << summary;
+    std::printf("scale %.1f, free: %.3f deg, %.4f of the extent, scale error %.4f %%, confidence %.2f\n", scale, rot,
+                trans / kObjectExtent, 100 * scale_error, r.confidence);
+    if (scale == 2.5) {
+      o.scale = ScaleMode::kFixed;
+      const BlockRegistrationResult rigid = RegisterBlocks(source, target, o, nullptr);
+      EXPECT_EQ(rigid.target_from_source.scale, 1.0);
+      EXPECT_TRUE(rigid.ToJson()["normalization"].is_null());
+      std::printf("scale %.1f, fixed: %.3f deg, confidence %.2f\n", scale,
+                  RotationErrorDeg(rigid.target_from_source.rotation, want.rotation), rigid.confidence);
+    }
+  }
 }
 
 }  // namespace

@@ -121,6 +121,10 @@ struct Linearisation {
   int samples = 0;
   Matrix6 h = Matrix6::Zero();
   Vector6 b = Vector6::Zero();
+  // With a scale: the normal equations' row of the log-scale increment (h_s: its coupling with
+  // the SE(3) increment, h_ss its own), and its gradient b_s.
+  Vector6 h_s = Vector6::Zero();
+  double h_ss = 0, b_s = 0;
 };
 
 }  // namespace
@@ -172,13 +176,14 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
 
   // The cost at (r, t), and with `jacobian` its normal equations. A trial step needs the cost only:
   // one density query per sample instead of seven (LM rejects many steps before it stops).
-  auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, bool jacobian) {
+  auto linearise = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, double scale, bool jacobian) {
     Linearisation l;
     double sum = 0;
     // Samples carried into `field` at `mapped`, against their own occupancy `reference`;
-    // jacobian_row(i, g) is d residual_i / d increment given the field's gradient g there.
+    // jacobian_row(i, g) is d residual_i / d increment given the field's gradient g there;
+    // scale_row(i, g) the same for the log-scale increment.
     auto accumulate = [&](const DensityField& field, const Eigen::Matrix3Xd& mapped, const Eigen::VectorXd& reference,
-                          auto jacobian_row) {
+                          auto jacobian_row, auto scale_row) {
       Eigen::VectorXd occ;
       Eigen::Matrix3Xd grad;
       if (jacobian) {
@@ -195,31 +200,44 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
         const Vector6 j = jacobian_row(i, Eigen::Vector3d(grad.col(i)));
         l.h.noalias() += j * j.transpose();
         l.b.noalias() += j * res;
+        if (!o.estimate_scale) continue;
+        const double js = scale_row(i, Eigen::Vector3d(grad.col(i)));
+        l.h_s.noalias() += j * js;
+        l.h_ss += js * js;
+        l.b_s += js * res;
       }
     };
-    // Source samples in the target field: residual o_t(T y) - o_s(y), J = [z x g, g].
+    // Source samples in the target field: residual o_t(T y) - o_s(y), J = [z x g, g] (and g . z
+    // for the log-scale: the increment scales z about the origin).
     const Eigen::Matrix3Xd z = ((scale * r) * ys).colwise() + t;
-    accumulate(target, z, os, [&](Eigen::Index i, const Eigen::Vector3d& g) {
-      Vector6 j;
-      j << Eigen::Vector3d(z.col(i)).cross(g), g;
-      return j;
-    });
+    accumulate(
+        target, z, os,
+        [&](Eigen::Index i, const Eigen::Vector3d& g) {
+          Vector6 j;
+          j << Eigen::Vector3d(z.col(i)).cross(g), g;
+          return j;
+        },
+        [&](Eigen::Index i, const Eigen::Vector3d& g) { return g.dot(z.col(i)); });
     // Target samples in the source field: residual o_s(T^-1 x) - o_t(x), with the source gradient
     // carried into the target frame (g_t = R g / scale), J = [g_t x x, -g_t].
     const Eigen::Matrix3Xd p = (r.transpose() * (xt.colwise() - t)) / scale;
-    accumulate(source, p, ot, [&](Eigen::Index i, const Eigen::Vector3d& g) {
-      const Eigen::Vector3d gt = r * g / scale;
-      Vector6 j;
-      j << gt.cross(Eigen::Vector3d(xt.col(i))), -gt;
-      return j;
-    });
+    accumulate(
+        source, p, ot,
+        [&](Eigen::Index i, const Eigen::Vector3d& g) {
+          const Eigen::Vector3d gt = r * g / scale;
+          Vector6 j;
+          j << gt.cross(Eigen::Vector3d(xt.col(i))), -gt;
+          return j;
+        },
+        [&](Eigen::Index i, const Eigen::Vector3d& g) { return -(r * g / scale).dot(xt.col(i)); });
     l.cost = l.samples > 0 ? sum / l.samples : 0;
     return l;
   };
 
   Eigen::Matrix3d r = initial.RotationMatrix();
   Eigen::Vector3d t = initial.translation;
-  Linearisation cur = linearise(r, t, true);
+  double s = scale;
+  Linearisation cur = linearise(r, t, s, true);
   result.initial_cost = result.final_cost = cur.cost;
   result.samples = cur.samples;
   if (cur.samples < 10) {
@@ -228,37 +246,56 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
   }
   double lambda = 1e-3;
   for (int it = 0; it < o.iterations; ++it) {
-    Matrix6 a = cur.h;
-    a.diagonal() *= 1 + lambda;
-    a.diagonal().array() += 1e-12;
-    const Vector6 dx = -a.ldlt().solve(cur.b);
-    if (!dx.allFinite()) break;
+    Vector6 dx;
+    double ds = 0;  // the log-scale increment
+    if (o.estimate_scale) {
+      Eigen::Matrix<double, 7, 7> a;
+      a << cur.h, cur.h_s, cur.h_s.transpose(), cur.h_ss;
+      a.diagonal() *= 1 + lambda;
+      a.diagonal().array() += 1e-12;
+      Eigen::Matrix<double, 7, 1> b;
+      b << cur.b, cur.b_s;
+      const Eigen::Matrix<double, 7, 1> d = -a.ldlt().solve(b);
+      dx = d.head<6>();
+      ds = d(6);
+    } else {
+      Matrix6 a = cur.h;
+      a.diagonal() *= 1 + lambda;
+      a.diagonal().array() += 1e-12;
+      dx = -a.ldlt().solve(cur.b);
+    }
+    if (!dx.allFinite() || !std::isfinite(ds)) break;
     const double angle = dx.head<3>().norm();
     const Eigen::Matrix3d dr =
         angle > 0 ? Eigen::AngleAxisd(angle, dx.head<3>() / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    // The increment acts on the left: x -> exp(ds) dr x + dt.
     const Eigen::Matrix3d r_new = dr * r;
-    const Eigen::Vector3d t_new = dr * t + dx.tail<3>();
-    const Linearisation trial = linearise(r_new, t_new, false);
+    const Eigen::Vector3d t_new = o.estimate_scale ? Eigen::Vector3d(std::exp(ds) * (dr * t) + dx.tail<3>())
+                                                   : Eigen::Vector3d(dr * t + dx.tail<3>());
+    const double s_new = o.estimate_scale ? std::exp(ds) * s : s;
+    const Linearisation trial = linearise(r_new, t_new, s_new, false);
     result.iterations = it + 1;
     // Accept only what lowers the cost on at least half the samples (a step that moves the
     // samples out of the other box must not win by leaving them out).
     if (trial.samples >= cur.samples / 2 && trial.cost < cur.cost) {
       r = r_new;
       t = t_new;
+      s = s_new;
       lambda = std::max(lambda / 3, 1e-7);
-      const bool converged = angle * 180 / M_PI < o.tolerance_deg && dx.tail<3>().norm() < 1e-5;
+      const bool converged = angle * 180 / M_PI < o.tolerance_deg && dx.tail<3>().norm() < 1e-5 && std::abs(ds) < 1e-5;
       if (converged || it + 1 == o.iterations) {
         cur.cost = trial.cost;
         cur.samples = trial.samples;
         break;
       }
-      cur = linearise(r, t, true);
+      cur = linearise(r, t, s, true);
     } else {
       lambda *= 4;
       if (lambda > 1e6) break;
     }
   }
   result.target_from_source = Rigid3d(Eigen::Quaterniond(r), t);
+  result.scale = s;
   result.final_cost = cur.cost;
   result.samples = cur.samples;
   result.seconds = timer.Seconds();

@@ -70,12 +70,16 @@ struct FieldAlignmentOptions {
   // at least min_overlap_samples remain (else every sample, as without it).
   bool overlap_only = false;
   int min_overlap_samples = 200;
+  // Also refine the scale (a seventh, log-scale increment): for inputs in different units, whose
+  // scale the point stages estimated (registration's ScaleMode::kFree). Off: the scale is held.
+  bool estimate_scale = false;
   unsigned seed = 0;
   void Check() const;  // throws InputError naming the option
 };
 
 struct FieldAlignmentResult {
-  Rigid3d target_from_source;
+  Rigid3d target_from_source;               // with `scale`: x_target = scale * R x_source + t
+  double scale = 1.0;                       // the scale given, or refined (estimate_scale)
   double initial_cost = 0, final_cost = 0;  // mean squared occupancy difference over the samples inside the other box
   int iterations = 0;
   int samples = 0;  // with weight at the final pose
@@ -90,7 +94,8 @@ struct FieldAlignmentResult {
 Eigen::Matrix3Xd SurfaceBandSamples(const Eigen::Matrix3Xd& points, double spread, int max_samples, std::mt19937& rng);
 
 // source_points [3, Ns], target_points [3, Nt]: surface points in each block's frame (a grid's
-// MaskedXyz). `scale` (a Sim(3) solve's) is held fixed: T y = scale * R y + t. Returns the
+// MaskedXyz). `scale` (a Sim(3) solve's) is held fixed unless options.estimate_scale:
+// T y = scale * R y + t. Returns the
 // initial pose unchanged (iterations 0) when fewer than 10 samples land in both boxes.
 FieldAlignmentResult AlignFields(const DensityField& source, const DensityField& target,
                                  const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,

@@ -97,6 +97,19 @@ TEST(FieldAlignment, RecoversAKnownTransformFromAFewDegreesOff) {
   const FieldAlignmentResult rs = AlignFields(
       src, big, ps, pt * s, Perturb(truth_scaled, 3.0, Eigen::Vector3d(0, 1, 1), Eigen::Vector3d::Zero()), o, s);
   EXPECT_LT(RotationErrorDeg(rs.target_from_source.rotation, truth.rotation), 0.05);
+  EXPECT_EQ(rs.scale, s);  // held
+
+  // The scale refined too, from 5 % off (and 2 deg): it ends at the truth's.
+  FieldAlignmentOptions os = o;
+  os.estimate_scale = true;
+  const Rigid3d start_scaled = Perturb(truth_scaled, 2.0, Eigen::Vector3d(1, 0, 1), Eigen::Vector3d(0.02, 0, -0.01));
+  const FieldAlignmentResult free = AlignFields(src, big, ps, pt * s, start_scaled, os, 0.95 * s);
+  std::printf("[field, scale] %d iterations, scale %.4f -> %.5f (truth %.2f), rotation error %.4f deg\n",
+              free.iterations, 0.95 * s, free.scale, s,
+              RotationErrorDeg(free.target_from_source.rotation, truth.rotation));
+  EXPECT_NEAR(free.scale / s, 1.0, 2e-3);
+  EXPECT_LT(RotationErrorDeg(free.target_from_source.rotation, truth.rotation), 0.1);
+  EXPECT_LT((free.target_from_source.translation - truth_scaled.translation).norm(), 5e-3);
 }
 
 // A block knows its box only: samples carried outside the other box carry no weight, so a target

@@ -1,5 +1,8 @@
 #include "nerfreg/reg/registration_input.h"
 
+#include <fmt/format.h>
+
+#include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/reg/reg_grid.h"
@@ -79,13 +82,30 @@ Eigen::Matrix3Xd SplatInput::OccupiedPoints(double min_density, unsigned seed, b
 std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
                                                          const SplatFieldOptions& splat_options,
                                                          const torch::Device& device) {
-  if (IsSplatPly(path)) return std::make_unique<SplatInput>(ReadSplatPly(path), splat_options);
+  std::unique_ptr<RegistrationInput> input;
+  if (IsSplatPly(path)) {
+    const Splats splats = ReadSplatPly(path);
+    if (splats.size() < kMinSplats) {
+      ThrowInputError(path, "vertex", fmt::format("at least {} splats to register, got {}", kMinSplats, splats.size()));
+    }
+    input = std::make_unique<SplatInput>(splats, splat_options);
+    input->SetPath(path);
+    return input;
+  }
   if (LowerExtension(path) == ".ply") {
     ThrowInputError(path, "",
                     "a NeRF block checkpoint or a 3D Gaussian splat PLY (vertex properties f_dc_0, opacity, "
                     "scale_0, rot_0; this PLY has none)");
   }
-  return std::make_unique<NerfBlockInput>(LoadNerfBlock(path, nullptr, device));
+  input = std::make_unique<NerfBlockInput>(LoadNerfBlock(path, nullptr, device));
+  input->SetPath(path);
+  return input;
+}
+
+void SplatInput::Move(const Sim3d& new_from_old) {
+  const SplatFieldOptions options = field_.options();
+  splats_ = TransformSplats(splats_, new_from_old);
+  field_ = SplatField(splats_, options);
 }
 
 }  // namespace nerfreg

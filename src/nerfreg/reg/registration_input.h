@@ -30,6 +30,18 @@ class RegistrationInput {
   // shell: only the boundary of that dense set (a block's solid as the surface a capture of
   // splats is; splats are a surface already and ignore it).
   virtual Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) = 0;
+  // Moves the input into another frame, x_new = new_from_old * x_old: every later query takes and
+  // answers points of the new frame. Scale-free registration brings each input to a common size
+  // this way before any method sees it (registration/scale_normalization.h), and back after.
+  virtual void Move(const Sim3d& new_from_old) = 0;
+
+  // The file the input was read from (LoadRegistrationInput), which errors about it name; "" for
+  // an input built in memory.
+  const std::string& Path() const { return path_; }
+  void SetPath(std::string path) { path_ = std::move(path); }
+
+ private:
+  std::string path_;
 };
 
 // A NeRF block, borrowed or owned.
@@ -42,6 +54,8 @@ class NerfBlockInput : public RegistrationInput {
   DensityField Field() override { return BlockDensityField(*block_); }
   RegGrid ExtractGrid(const GridExtractionOptions& options) override { return ExtractRegGrid(*block_, options); }
   Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) override;
+  // MoveNerfBlock: the field is not resampled, its densities are per unit length of the new frame.
+  void Move(const Sim3d& new_from_old) override { MoveNerfBlock(block_, new_from_old); }
   NerfBlock& block() { return *block_; }
 
  private:
@@ -55,22 +69,31 @@ class NerfBlockInput : public RegistrationInput {
 class SplatInput : public RegistrationInput {
  public:
   static constexpr int kSplatOccupancyResolution = 128;
-  SplatInput(const Splats& splats, const SplatFieldOptions& options) : field_(splats, options) {}
+  SplatInput(const Splats& splats, const SplatFieldOptions& options) : splats_(splats), field_(splats, options) {}
   std::string Kind() const override { return "splats"; }
   DensityField Field() override;
   RegGrid ExtractGrid(const GridExtractionOptions& options) override;
   Eigen::Matrix3Xd OccupiedPoints(double min_density, unsigned seed, bool shell = false) override;
+  // The splats moved (TransformSplats) and the field rebuilt from them with the same options: a
+  // splat's density is its opacity-weighted Gaussian, so densities do not change with the scale;
+  // the blur (options().blur) is in the new frame's units.
+  void Move(const Sim3d& new_from_old) override;
   const SplatField& field() const { return field_; }
 
  private:
+  Splats splats_;
   SplatField field_;
 };
 
 // positions [N, 3] (any float dtype) -> sigma [N] float32, and rgb [N, 3] with `rgb`.
 torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positions, torch::Tensor* rgb = nullptr);
 
+// Fewer splats than this in a splat PLY is no capture to register (InputError naming the file).
+inline constexpr int kMinSplats = 100;
+
 // A splat PLY (data/splat_ply.h: IsSplatPly) or else a NeRF block checkpoint, loaded; InputError
-// naming the file when it is neither. The block's field goes to `device`.
+// naming the file when it is neither, or a splat PLY with fewer than kMinSplats splats. The
+// block's field goes to `device`. The input's Path() is `path`.
 std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
                                                          const SplatFieldOptions& splat_options,
                                                          const torch::Device& device = torch::kCPU);

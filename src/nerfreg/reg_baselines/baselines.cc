@@ -9,6 +9,7 @@
 #include <open3d/utility/Random.h>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "nerfreg/util/timer.h"
@@ -20,7 +21,7 @@ namespace reg = open3d::pipelines::registration;
 void ClassicalRegistrationOptions::Check() const {
   if ((method != "ransac" && method != "fgr") || !(voxel_size > 0) || !(normal_radius > 0) || !(feature_radius > 0) ||
       max_correspondence_distance < 0 || ransac_iterations < 1 || !(ransac_confidence > 0 && ransac_confidence <= 1) ||
-      icp_distance < 0 || max_points < 0) {
+      icp_distance < 0 || max_points < 0 || !(max_scale_change >= 1)) {
     throw std::invalid_argument("ClassicalRegistrationOptions: out of range (method ransac or fgr)");
   }
 }
@@ -50,8 +51,11 @@ ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t so
                                      double seconds) {
   ClassicalRegistrationResult out;
   // Open3D may return a numerically slightly non-orthonormal rotation: project it.
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.transformation_.topLeftCorner<3, 3>(),
-                                        Eigen::ComputeFullU | Eigen::ComputeFullV);
+  // A similarity's scale is the cube root of det(sR) (1 for a rigid result).
+  const Eigen::Matrix3d sr = r.transformation_.topLeftCorner<3, 3>();
+  const double det = sr.determinant();
+  out.scale = det > 0 ? std::cbrt(det) : 1.0;
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sr / out.scale, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d rot = svd.matrixU() * svd.matrixV().transpose();
   if (rot.determinant() < 0) rot = -rot;
   out.target_from_source = Rigid3d(rot, r.transformation_.topRightCorner<3, 1>());
@@ -61,6 +65,29 @@ ClassicalRegistrationResult ToResult(const reg::RegistrationResult& r, size_t so
   out.source_points = static_cast<int>(source_points);
   out.target_points = static_cast<int>(target_points);
   return out;
+}
+
+// Whether the similarity m's scale is within a factor max_change of 1.
+bool WithinScaleChange(const Eigen::Matrix4d& m, double max_change) {
+  const double scale = std::cbrt(m.topLeftCorner<3, 3>().determinant());
+  return scale <= max_change && scale >= 1 / max_change;
+}
+
+// Point-to-plane ICP from `start`; with_scaling: point-to-point ICP with scaling first (the
+// point-to-plane pass composes rigid updates with its start, so it keeps that scale).
+reg::RegistrationResult Icp(const open3d::geometry::PointCloud& src, const open3d::geometry::PointCloud& tgt,
+                            double distance, const Eigen::Matrix4d& start, const ClassicalRegistrationOptions& o) {
+  Eigen::Matrix4d init = start;
+  if (o.with_scaling) {
+    const Eigen::Matrix4d scaled =
+        reg::RegistrationICP(src, tgt, distance, start, reg::TransformationEstimationPointToPoint(true),
+                             reg::ICPConvergenceCriteria(1e-7, 1e-7, 100))
+            .transformation_;
+    const double start_scale = std::cbrt(start.topLeftCorner<3, 3>().determinant());
+    if (WithinScaleChange(scaled / start_scale, o.max_scale_change)) init = scaled;
+  }
+  return reg::RegistrationICP(src, tgt, distance, init, reg::TransformationEstimationPointToPlane(),
+                              reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
 }
 
 }  // namespace
@@ -94,9 +121,13 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
     const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance * k : 1.5 * voxel;
     reg::CorrespondenceCheckerBasedOnEdgeLength edge(0.9);
     reg::CorrespondenceCheckerBasedOnDistance distance(dist);
-    r = reg::RegistrationRANSACBasedOnFeatureMatching(
-        *src, *tgt, *f_src, *f_tgt, true, dist, reg::TransformationEstimationPointToPoint(false), 3, {edge, distance},
-        reg::RANSACConvergenceCriteria(o.ransac_iterations, o.ransac_confidence));
+    auto ransac = [&](bool with_scaling) {
+      return reg::RegistrationRANSACBasedOnFeatureMatching(
+          *src, *tgt, *f_src, *f_tgt, true, dist, reg::TransformationEstimationPointToPoint(with_scaling), 3,
+          {edge, distance}, reg::RANSACConvergenceCriteria(o.ransac_iterations, o.ransac_confidence));
+    };
+    r = ransac(o.with_scaling);
+    if (o.with_scaling && !WithinScaleChange(r.transformation_, o.max_scale_change)) r = ransac(false);
   } else {
     reg::FastGlobalRegistrationOption fgr;
     fgr.maximum_correspondence_distance_ = o.max_correspondence_distance > 0 ? o.max_correspondence_distance : 0.5;
@@ -106,8 +137,7 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
     const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
     const auto src_icp = voxel == o.voxel_size ? src : Prepare(src_full, o, o.voxel_size);
     const auto tgt_icp = voxel == o.voxel_size ? tgt : Prepare(tgt_full, o, o.voxel_size);
-    r = reg::RegistrationICP(*src_icp, *tgt_icp, d, r.transformation_, reg::TransformationEstimationPointToPlane(),
-                             reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
+    r = Icp(*src_icp, *tgt_icp, d, r.transformation_, o);
   }
   ClassicalRegistrationResult out = ToResult(r, src->points_.size(), tgt->points_.size(), timer.Seconds());
   out.feature_voxel = voxel;
@@ -133,8 +163,7 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
   std::vector<ClassicalRegistrationResult> out;
   for (const Rigid3d& start : starts) {
     Timer one;
-    const auto r = reg::RegistrationICP(*src, *tgt, d, start.ToMatrix(), reg::TransformationEstimationPointToPlane(),
-                                        reg::ICPConvergenceCriteria(1e-7, 1e-7, 60));
+    const auto r = Icp(*src, *tgt, d, start.ToMatrix(), o);
     out.push_back(
         ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (out.empty() ? prepare_seconds : 0)));
   }

@@ -25,16 +25,28 @@ struct ClassicalRegistrationOptions {
   // RANSAC distance scale with it) and ICP still runs at voxel_size. 0: no cap.
   int max_points = 0;
   unsigned seed = 0;
+  // Estimate a scale too (Umeyama): RANSAC's hypotheses are similarities, and ICP runs
+  // point-to-point with scaling (Open3D's TransformationEstimationPointToPoint(true)) before the
+  // point-to-plane pass, which keeps the scale it starts from. For inputs whose units differ.
+  bool with_scaling = false;
+  // with_scaling: a scale further than this factor from 1 (RANSAC) or from ICP's start is dropped
+  // (RANSAC runs again rigid; ICP keeps its rigid pass): the clouds are meant to be of about one
+  // size (registration/scale_normalization.h), and on clouds that do not match, point-to-point
+  // ICP with scaling shrinks the source towards a point.
+  double max_scale_change = 1.5;
   void Check() const;  // throws std::invalid_argument
 };
 
 struct ClassicalRegistrationResult {
+  // x_target = scale * target_from_source * x_source; scale is 1 unless options.with_scaling.
   Rigid3d target_from_source;
+  double scale = 1.0;
   double fitness = 0;  // fraction of source points with a target point within the inlier distance
   double inlier_rmse = 0;
   double seconds = 0;
   int source_points = 0, target_points = 0;  // after downsampling (for the features)
   double feature_voxel = 0;                  // the voxel the features were computed at (voxel_size unless capped)
+  Sim3d TargetFromSource() const { return Sim3d(scale, target_from_source.rotation, target_from_source.translation); }
 };
 
 // source, target: [3, N] points (block frames). Throws std::invalid_argument on empty clouds.
@@ -43,7 +55,8 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
 
 // Point-to-plane ICP alone from an initial estimate (the refinement of a learned registration),
 // on the same downsampled clouds and normals as RegisterPointClouds. Uses voxel_size,
-// normal_radius and icp_distance of `options`.
+// normal_radius and icp_distance of `options` (and with_scaling: the result's scale is relative to
+// the source as given).
 ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                           const Rigid3d& initial_target_from_source,
                                           const ClassicalRegistrationOptions& options);

@@ -19,11 +19,12 @@ RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::M
   c.icp = o.refine != RegistrationRefinement::kNone;
   c.seed = o.seed;
   c.max_points = o.max_points;
+  c.with_scaling = o.scale == ScaleMode::kFree;
   ClassicalRegistrationResult r;
   if (source.cols() >= 3 && target.cols() >= 3) r = RegisterPointClouds(source, target, c);
   RegistrationResult out;
   out.method = c.method + (c.icp ? "+icp" : "");
-  out.target_from_source = Sim3d(r.target_from_source);
+  out.target_from_source = r.TargetFromSource();
   out.method_score = r.fitness;
   out.seconds = r.seconds;
   out.source_points = static_cast<int>(source.cols());
@@ -40,19 +41,21 @@ RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::M
 // polishes a pose already in its basin. The recorded fitness is no overlap check (blocks of
 // different objects reach high fitness too).
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
-                          Json* json) {
+                          Json* json, bool with_scaling) {
   if (src.cols() < 3 || tgt.cols() < 3) {
     LOG_WARN("block ICP: fewer than 3 occupied points in a block; pose left as it was");
     *json = {{"fitness", 0.0}, {"seconds", 0.0}, {"source_points", src.cols()}, {"target_points", tgt.cols()}};
     return start;
   }
-  // A Sim(3) start (the paper config's scale solve): the rigid ICP aligns the scaled source.
-  const ClassicalRegistrationResult r = RefineWithIcp(start.scale * src, tgt, start.ToRigid(), FpfhOptions(voxel));
+  // A Sim(3) start: ICP aligns the scaled source (and with scaling, scales it further).
+  ClassicalRegistrationOptions c = FpfhOptions(voxel);
+  c.with_scaling = with_scaling;
+  const ClassicalRegistrationResult r = RefineWithIcp(start.scale * src, tgt, start.ToRigid(), c);
   *json = {{"fitness", r.fitness},
            {"inlier_rmse", r.inlier_rmse},
            {"seconds", r.seconds},
            {"before", MatrixToJson(start.ToMatrix())}};
-  return Sim3d(start.scale, r.target_from_source.rotation, r.target_from_source.translation);
+  return Sim3d(start.scale * r.scale, r.target_from_source.rotation, r.target_from_source.translation);
 }
 
 }  // namespace nerfreg

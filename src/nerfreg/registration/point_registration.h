@@ -18,16 +18,18 @@ ClassicalRegistrationOptions FpfhOptions(double voxel);
 
 // FPFH + RANSAC (kRansac) or FGR (kFgr) on occupied points `source`, `target` ([3, N], each input's
 // frame) at options.voxel, capped at options.max_points, then point-to-plane ICP unless
-// options.refine is kNone. method "ransac+icp", ...; method_score the fitness; details the record
+// options.refine is kNone; with options.scale kFree, RANSAC and ICP estimate a scale too
+// (ClassicalRegistrationOptions::with_scaling). method "ransac+icp", ...; method_score the fitness; details the record
 // T.json keeps (inlier_rmse, register_seconds, source_points, target_points, feature_voxel,
 // feature_points). Fewer than 3 points in a cloud: identity with method_score 0.
 RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                   RegistrationMethod method, const BlockRegistrationOptions& options);
 
 // ICP on the blocks' occupied points (`src`, `tgt`: [3, N]) from `start`, after ICP on the grids:
-// point-to-plane at `voxel`, correspondences within 2 voxels; the start's scale is kept. `json`
-// records it (fitness, inlier_rmse, seconds, before).
+// point-to-plane at `voxel`, correspondences within 2 voxels; the start's scale is kept unless
+// `with_scaling` (then point-to-point ICP with scaling first). `json` records it (fitness,
+// inlier_rmse, seconds, before).
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
-                          Json* json);
+                          Json* json, bool with_scaling = false);
 
 }  // namespace nerfreg

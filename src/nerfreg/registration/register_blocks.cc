@@ -2,10 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <stdexcept>
 
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
@@ -15,10 +17,28 @@ namespace nerfreg {
 
 namespace {
 
-// Two poses within 2 deg and `cell` of each other converge to the same place under the field
-// refinement (its basin is a few degrees): they count as the same answer.
+// Two poses within 2 deg, `cell` and 5 % in scale of each other converge to the same place under
+// the field refinement (its basin is a few degrees): they count as the same answer.
 bool SamePose(const Sim3d& a, const Sim3d& b, double cell) {
-  return RotationErrorDeg(a.rotation, b.rotation) < 2 && TranslationError(a.translation, b.translation) < cell;
+  return RotationErrorDeg(a.rotation, b.rotation) < 2 && TranslationError(a.translation, b.translation) < cell &&
+         std::abs(std::log(a.scale / b.scale)) < 0.05;
+}
+
+// Each input's occupied points in its own frame, as the pair extracts them (a block against
+// splats: its shell), for its normalisation.
+Sim3d NormalizationOf(RegistrationInput& input, bool mixed, const BlockRegistrationOptions& o, const char* role,
+                      Json* record) {
+  const std::string name = input.Path().empty() ? role : input.Path();
+  const Eigen::Matrix3Xd points = input.OccupiedPoints(o.min_density, o.seed, mixed);
+  CheckOccupied(points.cols(), name, o.min_density);
+  const Sim3d n = NormalizationFor(points, name);
+  *record = NormalizationJson(n, OccupiedRadius(points));
+  return n;
+}
+
+// A candidate found between the normalised frames, carried back to the inputs' own.
+void Denormalize(const Sim3d& source_n, const Sim3d& target_n, RegistrationResult* r) {
+  r->target_from_source = target_n.Inverse() * r->target_from_source * source_n;
 }
 
 // One registration job's state: the pair (its grids and occupied points, shared by every
@@ -27,10 +47,15 @@ class BlockRegistration {
  public:
   BlockRegistration(RegistrationInput& source, RegistrationInput& target, const BlockRegistrationOptions& options,
                     DregNet* net)
-      : pair_(source, target, options), o_(options), net_(net) {}
+      : source_(&source), target_(&target), pair_(source, target, options), o_(options), net_(net) {}
 
   BlockRegistrationResult Run() {
     Timer timer;
+    const auto name = [](RegistrationInput* input, const char* role) {
+      return input && !input->Path().empty() ? input->Path() : std::string(role);
+    };
+    CheckOccupied(pair_.SourcePoints().cols(), name(source_, "source"), o_.min_density);
+    CheckOccupied(pair_.TargetPoints().cols(), name(target_, "target"), o_.min_density);
     result_.options = o_;
     result_.source_kind = pair_.SourceKind();
     result_.target_kind = pair_.TargetKind();
@@ -39,6 +64,7 @@ class BlockRegistration {
     if (run_classical) RunClassical();
     if (o_.refine == RegistrationRefinement::kField) RefineCandidatesOnFields();
     Choose();
+    JudgeRegistration(&result_);
     result_.seconds = timer.Seconds();
     return std::move(result_);
   }
@@ -181,6 +207,7 @@ class BlockRegistration {
     }
   }
 
+  RegistrationInput *source_, *target_;
   RegistrationPair pair_;
   const BlockRegistrationOptions& o_;
   DregNet* net_;
@@ -189,12 +216,60 @@ class BlockRegistration {
 
 }  // namespace
 
+void JudgeRegistration(BlockRegistrationResult* r) {
+  const bool confirmed = r->agreeing_candidates > 0;
+  const double threshold = r->source_kind == r->target_kind ? kUntrustedConfidence : kUntrustedConfidenceMixed;
+  if (confirmed || r->confidence >= threshold) {
+    r->status = "registered";
+    r->status_reason.clear();
+    return;
+  }
+  r->status = "untrusted";
+  r->status_reason = fmt::format(
+      "confidence {:.2f} < {:.2f} and {}: the inputs may not overlap, or show different things", r->confidence,
+      threshold,
+      r->agreeing_candidates == 0 ? "no other candidate ended at the kept pose" : "no other candidate to confirm it");
+}
+
+void CheckOccupied(Eigen::Index points, const std::string& name, double min_density) {
+  if (points < kMinOccupiedPoints) {
+    ThrowInputError(name, "occupied cells",
+                    fmt::format("at least {} cells with density > {:g} (--min-density) to register, got {}",
+                                kMinOccupiedPoints, min_density, points));
+  }
+}
+
 BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
                                        const BlockRegistrationOptions& options, DregNet* net) {
   options.Check();
   if (options.UsesNetwork() && !net)
     throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
-  return BlockRegistration(source, target, options, net).Run();
+  if (options.scale == ScaleMode::kFixed) return BlockRegistration(source, target, options, net).Run();
+  const bool mixed = source.Kind() != target.Kind();
+  Json normalization;
+  const Sim3d source_n = NormalizationOf(source, mixed, options, "source", &normalization["source"]);
+  const Sim3d target_n = NormalizationOf(target, mixed, options, "target", &normalization["target"]);
+  BlockRegistrationResult r;
+  {
+    const ScopedNormalization s(source, source_n), t(target, target_n);
+    r = BlockRegistration(source, target, options, net).Run();
+  }
+  Denormalize(source_n, target_n, &r);
+  for (RegistrationResult& c : r.candidates) Denormalize(source_n, target_n, &c);
+  auto back = [](const Sim3d& n, Eigen::Matrix3Xd* cloud) {
+    const Sim3d input_from_n = n.Inverse();
+    *cloud =
+        (input_from_n.scale * input_from_n.rotation.toRotationMatrix() * *cloud).colwise() + input_from_n.translation;
+  };
+  back(source_n, &r.source_cloud);
+  back(target_n, &r.target_cloud);
+  r.normalization = normalization;
+  // Each input's extent is in range, but not necessarily the ratio of the two.
+  const auto name = [](const RegistrationInput& input, const char* role) {
+    return input.Path().empty() ? std::string(role) : input.Path();
+  };
+  CheckScaleInRange(r.target_from_source.scale, name(source, "source"), "scale to " + name(target, "target"));
+  return r;
 }
 
 BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
@@ -221,7 +296,10 @@ Json BlockRegistrationResult::ToJson() const {
             {"agreeing_candidates", agreeing_candidates >= 0 ? Json(agreeing_candidates) : Json()},
             {"warnings", warnings},
             {"source_kind", source_kind},
-            {"target_kind", target_kind}};
+            {"target_kind", target_kind},
+            {"status", status},
+            {"status_reason", status_reason},
+            {"normalization", normalization}};
   j.update(details);
   j["options"] = options.ToJson();
   return j;

@@ -33,10 +33,18 @@ struct BlockRegistrationResult : RegistrationResult {
   // the kept pose; -1 when not checked.
   int agreeing_candidates = -1;
   Json fallback;  // auto without kField: the dreg answer dropped for ransac (null: none)
+  // "registered", or "untrusted": the job does not believe its own answer (JudgeRegistration);
+  // `reg register` then exits with kExitUntrusted. status_reason says why ("" when registered).
+  std::string status = "registered";
+  std::string status_reason;
   std::vector<std::string> warnings;
   BlockRegistrationOptions options;
   std::string source_kind = "nerf", target_kind = "nerf";  // RegistrationInput::Kind()
-  Eigen::Matrix3Xd source_cloud, target_cloud;             // [3, N]: the points the kept candidate registered
+  // ScaleMode::kFree: each input's normalisation, {"source": {scale, centroid, radius}, "target":
+  // ...} (scale_normalization.h); the stages' own records (block_icp and field "before") are poses
+  // between the normalised frames. Null with kFixed.
+  Json normalization;
+  Eigen::Matrix3Xd source_cloud, target_cloud;  // [3, N]: the points the kept candidate registered
 
   const RegistrationResult& Chosen() const { return candidates.at(chosen); }
   // T.json: target_from_source, scale, method, confidence, method_score, agreement, field,
@@ -49,12 +57,39 @@ struct BlockRegistrationResult : RegistrationResult {
 // scored above it, blocks of different objects below).
 inline constexpr double kLowConfidence = 0.65;
 
+// A kept pose is untrusted when no other candidate ended at it (agreeing_candidates 0, or a
+// single candidate) and its confidence is below kUntrustedConfidence, or kUntrustedConfidenceMixed
+// for a NeRF block against splats: a block's density fills the object's inside, a capture's is a
+// shell, so even right mixed pairs agree less. On the measured pairs (docs/registration.md, "When
+// the result is untrusted") right pairs that no candidate confirmed scored above these and pairs
+// of different objects below; the margins are narrow, so an untrusted result may still be right
+// and a registered one wrong.
+inline constexpr double kUntrustedConfidence = 0.6;
+inline constexpr double kUntrustedConfidenceMixed = 0.3;
+
+// `reg register`'s exit code for an untrusted result (T.json and the pictures are written): no
+// other code means this (2 bad input, 3 internal error, 4 a lost distributed process; docs/cli.md).
+inline constexpr int kExitUntrusted = 5;
+
+// Sets result->status and status_reason by the rule above.
+void JudgeRegistration(BlockRegistrationResult* result);
+
+// Fewer occupied points than this (cells with density > --min-density) in an input is no capture
+// to register: an InputError naming it, not a pose.
+inline constexpr int kMinOccupiedPoints = 10;
+// Throws that InputError (`name`: the input's file, or "source" / "target").
+void CheckOccupied(Eigen::Index points, const std::string& name, double min_density);
+
 // The network for dreg / auto: the weights must exist (InputError naming them, or --weights) and,
 // with options.config, be of that config; moved to options.device.
 DregNet LoadCheckedDregNet(const BlockRegistrationOptions& options);
 
 // Any two inputs: NeRF blocks, splat sets, or one of each (reg/registration_input.h). `net`: needed
-// when options.UsesNetwork() (std::invalid_argument when null). Checks `options`.
+// when options.UsesNetwork() (std::invalid_argument when null). Checks `options`. With
+// options.scale kFree the inputs are moved into their normalised frames while it runs and moved
+// back before it returns; the result (every candidate's pose, the clouds) is in their own frames.
+// InputError for an input with fewer than kMinOccupiedPoints occupied points, and for a scale
+// outside [kMinSim3Scale, kMaxSim3Scale] (an input's extent or the result's).
 BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
                                        const BlockRegistrationOptions& options, DregNet* net);
 BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,

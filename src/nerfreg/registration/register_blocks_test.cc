@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "nerfreg/data/splat_test_util.h"
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/util/error.h"
 
@@ -188,6 +189,72 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   bad = j;
   bad.erase("voxel");
   EXPECT_THROW(BlockRegistrationOptions::FromJson(bad, "T.json"), InputError);
+}
+
+// The scale mode is recorded; a T.json written before it (no "scale") was rigid.
+TEST(RegisterBlocks, ScaleModeRoundTripsAndOlderFilesReadAsFixed) {
+  EXPECT_EQ(BlockRegistrationOptions().scale, ScaleMode::kFree);
+  BlockRegistrationOptions o;
+  o.scale = ScaleMode::kFixed;
+  Json j = o.ToJson();
+  EXPECT_EQ(j["scale"], "fixed");
+  EXPECT_EQ(BlockRegistrationOptions::FromJson(j, "T.json").scale, ScaleMode::kFixed);
+  j["scale"] = "free";
+  EXPECT_EQ(BlockRegistrationOptions::FromJson(j, "T.json").scale, ScaleMode::kFree);
+  j.erase("scale");
+  EXPECT_EQ(BlockRegistrationOptions::FromJson(j, "T.json").scale, ScaleMode::kFixed);
+  j["scale"] = "elastic";
+  EXPECT_THROW(BlockRegistrationOptions::FromJson(j, "T.json"), InputError);
+}
+
+// Untrusted: nothing confirmed the kept pose and its confidence is low for the inputs' kinds.
+TEST(RegisterBlocks, AResultIsUntrustedWhenNothingConfirmsALowConfidence) {
+  BlockRegistrationResult r;
+  r.source_kind = r.target_kind = "splats";
+  r.agreeing_candidates = 0;
+  r.confidence = kUntrustedConfidence - 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_NE(r.status_reason.find("no other candidate ended at the kept pose"), std::string::npos) << r.status_reason;
+  EXPECT_EQ(r.ToJson()["status"], "untrusted");
+  r.agreeing_candidates = 1;  // confirmed
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  EXPECT_TRUE(r.status_reason.empty());
+  r.agreeing_candidates = -1;  // one candidate: the confidence alone
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  r.confidence = kUntrustedConfidence;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  // A block against splats agrees less when right: its own threshold.
+  r.target_kind = "nerf";
+  r.agreeing_candidates = 0;
+  r.confidence = kUntrustedConfidenceMixed + 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  r.confidence = kUntrustedConfidenceMixed - 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+}
+
+// A capture with nothing dense (splats all but transparent) is a named error, not a pose, in
+// either scale mode.
+TEST(RegisterBlocks, AnInputWithoutOccupiedCellsIsANamedError) {
+  Splats empty = RandomSplats(200, 0, 1);
+  empty.opacity.setConstant(-30.f);
+  SplatInput source(empty, SplatFieldOptions()), target(RandomSplats(200, 0, 2), SplatFieldOptions());
+  for (const ScaleMode mode : {ScaleMode::kFree, ScaleMode::kFixed}) {
+    BlockRegistrationOptions o;
+    o.method = RegistrationMethod::kRansac;
+    o.scale = mode;
+    try {
+      RegisterBlocks(source, target, o, nullptr);
+      FAIL() << "no error for an empty capture";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("source: occupied cells: expected at least 10 cells", 0), 0u) << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "nerfreg/registration/registration_chain.h"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "nerfreg/nerf/nerf_block.h"
@@ -137,8 +138,8 @@ RegistrationResult RegisterCoarse(RegistrationPair& pair, RegistrationMethod met
 
 void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
   Json& record = r->details["block_icp"];
-  r->target_from_source =
-      RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel, &record);
+  r->target_from_source = RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source,
+                                              options.voxel, &record, options.scale == ScaleMode::kFree);
   r->seconds += record["seconds"].get<double>();
   r->method += "+block";
 }
@@ -149,8 +150,10 @@ void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& opti
     source.seen = SeenFromGrid(pair.SourceGrid());
     target.seen = SeenFromGrid(pair.TargetGrid());
   }
+  FieldAlignmentOptions field = options.field;
+  field.estimate_scale = options.scale == ScaleMode::kFree;
   r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud),
-                                         r->target_from_source, options.field, pair.GridCell(), &r->field);
+                                         r->target_from_source, field, pair.GridCell(), &r->field);
   r->seconds += r->field["seconds"].get<double>();
   r->method += "+field";
 }
@@ -181,7 +184,14 @@ Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_fiel
   *json = {{"iterations", f.iterations}, {"initial_cost", f.initial_cost}, {"final_cost", f.final_cost},
            {"samples", f.samples},       {"seconds", f.seconds},           {"before", MatrixToJson(start.ToMatrix())}};
   if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
-  return Sim3d(start.scale, f.target_from_source.rotation, f.target_from_source.translation);
+  if (options.estimate_scale) (*json)["scale"] = f.scale;
+  // A polish, not a search: a scale that moved by more than kMaxFieldScaleChange is not trusted.
+  if (std::abs(std::log(f.scale / start.scale)) > std::log(kMaxFieldScaleChange)) {
+    LOG_WARN("field refinement: the scale moved from {:.4g} to {:.4g}; pose left as it was", start.scale, f.scale);
+    (*json)["rejected"] = true;
+    return start;
+  }
+  return Sim3d(f.scale, f.target_from_source.rotation, f.target_from_source.translation);
 }
 
 }  // namespace nerfreg

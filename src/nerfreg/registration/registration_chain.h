@@ -86,8 +86,8 @@ RegistrationResult RegisterCoarse(RegistrationPair& pair, RegistrationMethod met
 // Stage 2: ICP on the occupied points from the result's pose ("+block"; details["block_icp"]).
 void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
 // Stage 3: the fields aligned from the result's pose, samples around the result's cloud ("+field";
-// `field` records it). With options.field.overlap_only and the pair's grids, each field's `seen`
-// is its grid's mask (SeenFromGrid).
+// `field` records it); with options.scale kFree the scale is refined too. With options.field.overlap_only and the
+// pair's grids, each field's `seen` is its grid's mask (SeenFromGrid).
 void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
 // Stages 2 and 3 as options ask, after a coarse stage (or a start given by the caller, e.g. the
 // truth in reg eval --pairs).
@@ -97,8 +97,11 @@ RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, R
                             const BlockRegistrationOptions& options, DregNet* net);
 
 // The field refinement's driver on any two density fields: AlignFields from `start` (its scale
-// held), samples around `src_points` / `tgt_points` with spread `spread`; `json` records it
-// (iterations, initial_cost, final_cost, samples, seconds, before, overlap_fraction).
+// held unless options.estimate_scale), samples around `src_points` / `tgt_points` with spread
+// `spread`; `json` records it (iterations, initial_cost, final_cost, samples, seconds, before,
+// overlap_fraction, scale). A refined scale more than kMaxFieldScaleChange from the start's is
+// refused (the start returned, "rejected": true): the refinement polishes, it does not search.
+inline constexpr double kMaxFieldScaleChange = 1.1;
 Sim3d RefineOnFields(const DensityField& source, const DensityField& target, const Eigen::Matrix3Xd& src_points,
                      const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
                      double spread, Json* json);

@@ -15,6 +15,7 @@ const EnumNames<RegistrationRefinement> kRefinementNames{{{RegistrationRefinemen
                                                           {RegistrationRefinement::kField, "field"}}};
 const EnumNames<DregSolver> kSolverNames{{{DregSolver::kProcrustes, "procrustes"}, {DregSolver::kRansac, "ransac"}}};
 const EnumNames<IcpPoints> kIcpPointsNames{{{IcpPoints::kOccupied, "occupied"}, {IcpPoints::kMask, "mask"}}};
+const EnumNames<ScaleMode> kScaleModeNames{{{ScaleMode::kFree, "free"}, {ScaleMode::kFixed, "fixed"}}};
 
 }  // namespace
 
@@ -22,6 +23,7 @@ std::string RegistrationMethodName(RegistrationMethod m) { return kMethodNames.N
 std::string RegistrationRefinementName(RegistrationRefinement r) { return kRefinementNames.Name(r); }
 std::string DregSolverName(DregSolver s) { return kSolverNames.Name(s); }
 std::string IcpPointsName(IcpPoints p) { return kIcpPointsNames.Name(p); }
+std::string ScaleModeName(ScaleMode m) { return kScaleModeNames.Name(m); }
 RegistrationMethod RegistrationMethodFromName(const std::string& name, const std::string& option) {
   return kMethodNames.FromName(name, option);
 }
@@ -33,6 +35,9 @@ DregSolver DregSolverFromName(const std::string& name, const std::string& option
 }
 IcpPoints IcpPointsFromName(const std::string& name, const std::string& option) {
   return kIcpPointsNames.FromName(name, option);
+}
+ScaleMode ScaleModeFromName(const std::string& name, const std::string& option) {
+  return kScaleModeNames.FromName(name, option);
 }
 
 void BlockRegistrationOptions::Check() const {
@@ -56,6 +61,7 @@ void BlockRegistrationOptions::Check() const {
 Json BlockRegistrationOptions::ToJson() const {
   return {{"method", RegistrationMethodName(method)},
           {"refine", RegistrationRefinementName(refine)},
+          {"scale", ScaleModeName(scale)},
           {"min_confidence", min_confidence},
           {"field_iterations", field.iterations},
           {"field_occupancy_scale", field.occupancy_scale},
@@ -82,6 +88,8 @@ BlockRegistrationOptions BlockRegistrationOptions::FromJson(const Json& json, co
   BlockRegistrationOptions o;
   o.method = RegistrationMethodFromName(j["method"].String(), file + ": method");
   o.refine = RegistrationRefinementFromName(j["refine"].String(), file + ": refine");
+  // Absent in T.json files written before Sim(3) registration, which was rigid.
+  o.scale = ScaleModeFromName(j.StringOr("scale", "fixed"), file + ": scale");
   o.min_confidence = j["min_confidence"].Double();
   o.field.iterations = j["field_iterations"].Int();
   o.field.occupancy_scale = j["field_occupancy_scale"].Double();

@@ -25,6 +25,11 @@ enum class RegistrationMethod { kAuto, kDreg, kRansac, kFgr };
 enum class RegistrationRefinement { kNone, kIcp, kField };
 // dreg's pose from its correspondences: weighted Kabsch over all (the paper's), or RANSAC.
 enum class DregSolver { kProcrustes, kRansac };
+// kFree: the inputs' units may differ. Each input is brought to a common size by its own occupied
+// extent before any method sees it (ScaleNormalization, registration/scale_normalization.h), and
+// the point stages estimate a scale too (RANSAC and ICP with scaling); the result is a Sim(3).
+// kFixed: both inputs in their own units, rigid stages only (the result's scale is 1).
+enum class ScaleMode { kFree, kFixed };
 // The points ICP on the grids aligns: every voxel over the density threshold, or the surface mask
 // the network and the features see (GridRegistrationOptions::icp_points).
 enum class IcpPoints { kOccupied, kMask };
@@ -35,10 +40,12 @@ std::string RegistrationMethodName(RegistrationMethod method);
 std::string RegistrationRefinementName(RegistrationRefinement refinement);
 std::string DregSolverName(DregSolver solver);
 std::string IcpPointsName(IcpPoints points);
+std::string ScaleModeName(ScaleMode mode);
 RegistrationMethod RegistrationMethodFromName(const std::string& name, const std::string& option = "--method");
 RegistrationRefinement RegistrationRefinementFromName(const std::string& name, const std::string& option = "--refine");
 DregSolver DregSolverFromName(const std::string& name, const std::string& option = "--dreg-solver");
 IcpPoints IcpPointsFromName(const std::string& name, const std::string& option = "--icp-points");
+ScaleMode ScaleModeFromName(const std::string& name, const std::string& option = "--scale");
 
 // An enum's spellings, in the order an error lists them: Name and FromName for any enum (the
 // functions above, and the other jobs' own lists such as reg eval's methods).
@@ -71,6 +78,9 @@ inline constexpr double kDefaultIcpDistance = 2.0;
 struct BlockRegistrationOptions {
   RegistrationMethod method = RegistrationMethod::kRansac;         // --method
   RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine
+  // --scale. The jobs without inputs to normalise (reg eval --pairs on grids, register-many) set
+  // kFixed.
+  ScaleMode scale = ScaleMode::kFree;
   // --min-confidence: auto without kField falls back to ransac when the network's own score is
   // below this.
   double min_confidence = 0.3;
