@@ -12,9 +12,9 @@
 #            (added 2026-11-26: low-texture sets of 10 views were the pose network's weakest);
 #            val 3001-3012 textured (choose models and settings on these), 3013-3016 low-texture,
 #            3017-3020 repetitive, 3021-3024 spread 0.7; val_extra 3025-3030 low-texture, 10 views.
-#   TRAJECTORY  forward (default: look-at views, the shipped weights' data) or llff (hand-held,
+#   TRAJECTORY  forward (default: look-at views, the shipped weights' data), llff (hand-held,
 #          nearly parallel axes, layered depth: render --trajectory llff; SPREAD 0 keeps its own
-#          default, 0.25).
+#          default, 0.25) or room (a walk through a room; SPREAD is not used, give 0).
 #   Seeds 201-203 are the held-out test scenes (bench/dbarf_novel_views.sh) and 5000 and above the
 #   benches' (bench/dbarf_poses_bench.sh): never rendered here, never trained or chosen on.
 # Writes DATA/SPLIT_SEED/ and the lists DATA/train.txt, DATA/val.txt (one transforms.json a line;

@@ -38,6 +38,35 @@ void ParseScaleRange(const std::string& range, BlockFrameOptions* frame) {
   }
 }
 
+// The mesh to render: the file's (normalised; before a backdrop for the forward-facing kinds) or
+// the procedural object / scene of the seed for the trajectory; sets the options' trajectory seed
+// and the material's texture modulation.
+TriangleMesh RenderMesh(const std::string& mesh_path, long procedural, const std::string& material,
+                        RenderDatasetOptions* options) {
+  TriangleMesh mesh;
+  if (!mesh_path.empty()) {
+    options->trajectory_seed = options->seed;
+    mesh = LoadMesh(mesh_path);
+    NormalizeMesh(&mesh, 2.5f);
+    if (options->trajectory != "orbit") mesh = WithBackdrop(mesh);
+    return mesh;
+  }
+  const unsigned seed = static_cast<unsigned>(procedural);
+  const SceneMaterial scene_material = ParseSceneMaterial(material);
+  options->trajectory_seed = seed;  // each scene its own path
+  if (options->trajectory == "orbit") {
+    mesh = ProceduralObject(seed);
+  } else if (options->trajectory == "llff") {
+    mesh = ProceduralLayeredScene(seed, scene_material);
+  } else if (options->trajectory == "room") {
+    mesh = ProceduralRoom(seed, scene_material);
+  } else {
+    mesh = ProceduralForwardScene(seed, 2.0f, scene_material);
+  }
+  options->render.texture_modulation = MaterialTextureModulation(scene_material);
+  return mesh;
+}
+
 }  // namespace
 
 int RunRender(int argc, char** argv) {
@@ -55,13 +84,14 @@ int RunRender(int argc, char** argv) {
   RenderDatasetOptions options;
   auto* mesh_opt = app.add_option("--mesh", mesh_path, "Mesh file (OFF, PLY, OBJ, STL, glTF, GLB)");
   auto* proc_opt =
-      app.add_option("--procedural", procedural, "Seed of a procedural object (orbit) or scene (forward, llff)");
+      app.add_option("--procedural", procedural, "Seed of a procedural object (orbit) or scene (forward, llff, room)");
   mesh_opt->excludes(proc_opt);
   app.add_option("--trajectory", options.trajectory,
-                 "orbit (objects), forward (look-at scenes) or llff (hand-held, parallel axes, layered depth)")
-      ->check(CLI::IsMember({"orbit", "forward", "llff"}));
-  app.add_option("--views", options.views, "Number of views (default 120 orbit, 20 forward and llff)");
-  app.add_option("--size", size, "Image size W or WxH (default 100 orbit, 128x96 forward and llff)");
+                 "orbit (objects), forward (look-at scenes), llff (hand-held, parallel axes, layered depth) or "
+                 "room (a walk through a room)")
+      ->check(CLI::IsMember({"orbit", "forward", "llff", "room"}));
+  app.add_option("--views", options.views, "Number of views (default 120 orbit, 20 forward and llff, 30 room)");
+  app.add_option("--size", size, "Image size W or WxH (default 100 orbit, 128x96 scenes)");
   app.add_option("--blocks", options.blocks, "Split the views into K blocks by k-means on camera centres");
   app.add_option("--block-rotation", options.block_frame.max_rotation_deg,
                  "Cap on each block's random rotation, degrees (default: unbounded)");
@@ -91,28 +121,12 @@ int RunRender(int argc, char** argv) {
   options.force = common.force;
   if (!distortion.empty()) options.k1 = distortion[0], options.k2 = distortion.size() > 1 ? distortion[1] : 0.0;
   if (mesh_path.empty() && procedural < 0) throw InputError("render: give --mesh FILE or --procedural SEED");
+  if (!mesh_path.empty() && options.trajectory == "room")
+    ThrowInputError("--trajectory", "", "orbit, forward or llff with --mesh (room is procedural)");
   CheckCanWriteOutput(out, common.force, {mesh_path});
   ParseRenderSize(size, &options);
   ParseScaleRange(scale_range, &options.block_frame);
-  TriangleMesh mesh;
-  if (!mesh_path.empty()) {
-    options.trajectory_seed = options.seed;
-    mesh = LoadMesh(mesh_path);
-    NormalizeMesh(&mesh, 2.5f);
-    if (options.trajectory != "orbit") mesh = WithBackdrop(mesh);
-  } else {
-    const unsigned seed = static_cast<unsigned>(procedural);
-    const SceneMaterial scene_material = ParseSceneMaterial(material);
-    if (options.trajectory == "orbit") {
-      mesh = ProceduralObject(seed);
-    } else if (options.trajectory == "llff") {
-      mesh = ProceduralLayeredScene(seed, scene_material);
-      options.trajectory_seed = seed;  // each scene its own hand-held path (a mesh's: --seed)
-    } else {
-      mesh = ProceduralForwardScene(seed, 2.0f, scene_material);
-    }
-    options.render.texture_modulation = MaterialTextureModulation(scene_material);
-  }
+  const TriangleMesh mesh = RenderMesh(mesh_path, procedural, material, &options);
   const auto summary = RenderDataset(mesh, options, out);
   LOG_INFO("rendered {} views into {} block(s) at {} in {:.1f} s", summary.views, summary.blocks, out, summary.seconds);
   return 0;

@@ -301,4 +301,76 @@ TriangleMesh ProceduralLayeredScene(unsigned seed, SceneMaterial material, const
   return scene;
 }
 
+void RoomOptions::Check() const {
+  if (!(walk_radius_x > 0.5f) || !(walk_radius_y > 0.5f) || !(width > 2 * walk_radius_x + 1.f) ||
+      !(depth > 2 * walk_radius_y + 1.f) || !(height > 1.8f)) {
+    throw std::invalid_argument("RoomOptions: out of range");
+  }
+}
+
+TriangleMesh ProceduralRoom(unsigned seed, SceneMaterial material, const RoomOptions& o) {
+  o.Check();
+  if (material == SceneMaterial::kRepetitive) ThrowInputError("--material", "", "textured or low-texture for rooms");
+  std::mt19937 rng(seed * 2654435761u + 71u);
+  std::uniform_real_distribution<float> u(0, 1);
+  const float w = o.width, d = o.depth, h = o.height;
+  // A surface: MakeBackdrop's plane (x-z, normal -y) of size a x b, placed by rotation and
+  // translation, its albedo baked in room coordinates so that no two surfaces repeat.
+  TriangleMesh room;
+  const auto add_surface = [&](float a, float b, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& t) {
+    const int cells_a = static_cast<int>(std::ceil(a / 0.1f)), cells_b = static_cast<int>(std::ceil(b / 0.1f));
+    TriangleMesh s = MakeBackdrop(a, b, cells_a, cells_b, 1.f);
+    TransformMesh(&s, rotation, t);
+    const float scale = 1.5f + u(rng);
+    for (size_t k = 0; k < s.vertices.size(); ++k) s.vertex_colors[k] = ProceduralAlbedo(s.vertices[k], scale);
+    if (material == SceneMaterial::kLowTexture)
+      for (auto& c : s.vertex_colors) c = Eigen::Vector3f(0.75f, 0.73f, 0.70f);
+    room.Append(s);
+  };
+  const Eigen::Matrix3f rz90 = Eigen::AngleAxisf(float(M_PI / 2), Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3f rx90 = Eigen::AngleAxisf(float(M_PI / 2), Eigen::Vector3f::UnitX()).toRotationMatrix();
+  add_surface(w, h, Eigen::Matrix3f::Identity(), {0, d / 2, h / 2});   // back wall
+  add_surface(w, h, Eigen::Matrix3f::Identity(), {0, -d / 2, h / 2});  // front wall
+  add_surface(d, h, rz90, {w / 2, 0, h / 2});                          // right wall
+  add_surface(d, h, rz90, {-w / 2, 0, h / 2});                         // left wall
+  add_surface(w, d, rx90, {0, 0, 0});                                  // floor
+  add_surface(w, d, rx90, {0, 0, h});                                  // ceiling
+  // Furniture: 1-3 pieces in the middle (inside the walk), 4-7 along the walls (outside it), each
+  // in its own box of the floor clear of the walk's ellipse by `clear`, shrunk to fit the box and
+  // a height below the ceiling, stood on the floor.
+  const float clear = 0.35f, rx = o.walk_radius_x, ry = o.walk_radius_y;
+  const int middle = std::uniform_int_distribution<int>(1, 3)(rng);
+  const int along = std::uniform_int_distribution<int>(4, 7)(rng);
+  for (int k = 0; k < middle + along; ++k) {
+    TriangleMesh p = RandomPrimitive(rng);
+    TransformMesh(&p, RandomRotationMatrix(rng), Eigen::Vector3f::Zero(), 1.0f + 0.8f * u(rng));
+    const int wall = k < middle ? -1 : std::uniform_int_distribution<int>(0, 3)(rng);
+    Eigen::Vector2f lo, hi;  // the floor box, x and y
+    if (wall < 0) {          // the box inscribed in the ellipse shrunk by `clear`
+      lo = {-(rx - clear) / std::sqrt(2.f), -(ry - clear) / std::sqrt(2.f)};
+    } else if (wall < 2) {  // back (+y) or front (-y) wall
+      lo = {-w / 2 + 0.05f, ry + clear};
+    } else {  // right (+x) or left (-x) wall
+      lo = {rx + clear, -d / 2 + 0.05f};
+    }
+    hi = wall < 0 ? Eigen::Vector2f(-lo) : Eigen::Vector2f(w / 2 - 0.05f, d / 2 - 0.05f);
+    if (wall == 1 || wall == 3) {  // the mirror images
+      const Eigen::Vector2f m = wall == 1 ? Eigen::Vector2f(1, -1) : Eigen::Vector2f(-1, 1);
+      const Eigen::Vector2f a = lo.cwiseProduct(m), b = hi.cwiseProduct(m);
+      lo = a.cwiseMin(b), hi = a.cwiseMax(b);
+    }
+    Eigen::Vector3f mn, mx;
+    p.Bounds(&mn, &mx);
+    const Eigen::Vector3f size = mx - mn;
+    const float fit =
+        std::min({1.f, (hi.x() - lo.x()) / size.x(), (hi.y() - lo.y()) / size.y(), (h - 0.4f) / size.z()});
+    const float fx = u(rng), fy = u(rng);
+    const Eigen::Vector2f corner(lo.x() + fx * (hi.x() - lo.x() - fit * size.x()),
+                                 lo.y() + fy * (hi.y() - lo.y() - fit * size.y()));
+    TransformMesh(&p, Eigen::Matrix3f::Identity(), Eigen::Vector3f(corner.x(), corner.y(), 0) - fit * mn, fit);
+    room.Append(p);
+  }
+  return room;
+}
+
 }  // namespace nerfreg

@@ -67,4 +67,17 @@ struct LayeredSceneOptions {
 TriangleMesh ProceduralLayeredScene(unsigned seed, SceneMaterial material = SceneMaterial::kTextured,
                                     const LayeredSceneOptions& options = {});
 
+// A room for RoomWalkTrajectory: floor (z = 0), ceiling, four walls, each with its own procedural
+// albedo, furniture (primitives up to a metre or so) along the walls and a group in the middle,
+// clear of the walk's ellipse. Scene units are metres-like: 6 x 5 x 2.6. Materials: textured or
+// low-texture (repetitive throws InputError naming --material).
+struct RoomOptions {
+  float width = 6.f, depth = 5.f, height = 2.6f;  // x, y, z extents
+  // The walk's ellipse (RoomWalkOptions::radius_x, radius_y), which the furniture keeps clear of.
+  float walk_radius_x = 1.6f, walk_radius_y = 1.2f;
+  void Check() const;  // throws std::invalid_argument
+};
+TriangleMesh ProceduralRoom(unsigned seed, SceneMaterial material = SceneMaterial::kTextured,
+                            const RoomOptions& options = {});
+
 }  // namespace nerfreg

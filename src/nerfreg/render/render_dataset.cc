@@ -22,8 +22,8 @@ namespace fs = std::filesystem;
 namespace nerfreg {
 
 void RenderDatasetOptions::Check() const {
-  if (trajectory != "orbit" && trajectory != "forward" && trajectory != "llff")
-    ThrowInputError("--trajectory", "", "orbit, forward or llff, got " + trajectory);
+  if (trajectory != "orbit" && trajectory != "forward" && trajectory != "llff" && trajectory != "room")
+    ThrowInputError("--trajectory", "", "orbit, forward, llff or room, got " + trajectory);
   if (views < 0 || views > 100000) ThrowInputError("--views", "", "a count in 1..100000");
   if (width < 0 || height < 0 || width > 8192 || height > 8192) ThrowInputError("--size", "", "W[xH] in 1..8192");
   if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
@@ -79,7 +79,7 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     o.height = options.height ? options.height : o.width;
     cams = OrbitTrajectory(o);
   } else {
-    // Both forward-facing kinds: 128x96 by default, the height 3/4 of a given width.
+    // Scenes: 128x96 by default, the height 3/4 of a given width.
     const auto set_size = [&](int* width, int* height) {
       if (options.width) *width = options.width;
       if (options.height)
@@ -94,6 +94,12 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
       o.seed = options.trajectory_seed;
       set_size(&o.width, &o.height);
       cams = HandheldTrajectory(o);
+    } else if (options.trajectory == "room") {
+      RoomWalkOptions o;
+      if (options.views) o.num_views = options.views;
+      o.seed = options.trajectory_seed;
+      set_size(&o.width, &o.height);
+      cams = RoomWalkTrajectory(o);
     } else {
       ForwardOptions o;
       if (options.views) o.num_views = options.views;

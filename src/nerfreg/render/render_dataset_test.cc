@@ -118,5 +118,28 @@ TEST(RenderDataset, LlffScenesHaveLayeredDepthAndRenderDeterministically) {
   EXPECT_NE(ReadFileToString(dir.File("a/transforms.json")), ReadFileToString(dir.File("c/transforms.json")));
 }
 
+// A room walk: no view starts inside or against a surface (the furniture keeps clear of the walk),
+// and every view sees the room (depths within its diagonal).
+TEST(RenderDataset, RoomWalksStayClearOfTheFurniture) {
+  ScopedTempDir dir;
+  RenderDatasetOptions opt;
+  opt.trajectory = "room";
+  opt.views = 12;
+  opt.width = 32;
+  opt.render.supersample = 1;
+  for (unsigned seed : {1u, 2u, 3u}) {
+    opt.trajectory_seed = seed;
+    const std::string out = dir.File("room" + std::to_string(seed));
+    RenderDataset(ProceduralRoom(seed), opt, out);
+    const Dataset d = ReadTransformsJson(out + "/transforms.json");
+    ASSERT_EQ(d.frames.size(), 12u);
+    for (const auto& f : d.frames) {
+      EXPECT_GT(f.near, 0.9 * 0.3) << seed << " " << f.name;
+      EXPECT_LT(f.far, 1.1 * std::sqrt(6.0 * 6.0 + 5.0 * 5.0 + 2.6 * 2.6)) << seed << " " << f.name;
+    }
+  }
+  EXPECT_THROW(ProceduralRoom(1, SceneMaterial::kRepetitive), InputError);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -28,6 +28,13 @@ void HandheldOptions::Check() const {
   }
 }
 
+void RoomWalkOptions::Check() const {
+  if (num_views < 1 || width < 1 || height < 1 || !(focal_factor > 0) || !(radius_x > 0) || !(radius_y > 0) ||
+      !(swing_deg >= 0 && swing_deg <= 180) || !(std::abs(pitch_deg) < 80) || !(wobble_deg >= 0 && wobble_deg < 10)) {
+    throw std::invalid_argument("RoomWalkOptions: out of range");
+  }
+}
+
 void OrbitAngles(const OrbitOptions& o, int i, double* elevation, double* azimuth) {
   const double deg = M_PI / 180.0;
   const double tilt = i == 0 ? 0.0 : o.max_tilt * (std::cos(o.tilt_period_step_deg * (i - 1) * deg) + 1.0) / 2.0;
@@ -95,6 +102,34 @@ std::vector<PosedCamera> HandheldTrajectory(const HandheldOptions& o) {
     cam_from_world.rotation = wobble * level.rotation;
     cam_from_world.translation = -(cam_from_world.rotation * eye);
     out.push_back({camera, cam_from_world});
+  }
+  return out;
+}
+
+std::vector<PosedCamera> RoomWalkTrajectory(const RoomWalkOptions& o) {
+  o.Check();
+  std::mt19937 rng(o.seed * 2654435761u + 13u);
+  std::uniform_real_distribution<double> phase(0, 2 * M_PI);
+  double p[4];
+  for (double& x : p) x = phase(rng);
+  const double f = o.focal_factor * o.width;
+  const Camera camera = Camera::Pinhole(o.width, o.height, f, f, 0.5 * o.width, 0.5 * o.height);
+  const double deg = M_PI / 180;
+  std::vector<PosedCamera> out;
+  for (int i = 0; i < o.num_views; ++i) {
+    // One loop, counter-clockwise, not closing on the first view.
+    const double a = 2 * M_PI * i / o.num_views + p[0];
+    const Eigen::Vector3d eye(o.radius_x * std::cos(a), o.radius_y * std::sin(a), o.eye_height);
+    const double walking = std::atan2(o.radius_y * std::cos(a), -o.radius_x * std::sin(a));
+    // Positive swing turns left, towards the centre of a counter-clockwise loop.
+    const double heading = walking + o.swing_deg * deg * std::sin(6 * M_PI * i / o.num_views + p[1]);
+    const double pitch = (o.pitch_deg + o.wobble_deg * std::sin(5 * M_PI * i / o.num_views + p[2])) * deg;
+    const Eigen::Vector3d forward(std::cos(pitch) * std::cos(heading), std::cos(pitch) * std::sin(heading),
+                                  std::sin(pitch));
+    const Rigid3d level = LookAt(eye, eye + forward, Eigen::Vector3d::UnitZ());
+    const double roll = o.wobble_deg * deg * std::sin(7 * M_PI * i / o.num_views + p[3]);
+    const Eigen::Quaterniond rotation = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()) * level.rotation;
+    out.push_back({camera, Rigid3d(rotation, -(rotation * eye))});
   }
   return out;
 }

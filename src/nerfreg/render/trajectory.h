@@ -71,4 +71,23 @@ struct HandheldOptions {
 
 std::vector<PosedCamera> HandheldTrajectory(const HandheldOptions& options);
 
+// A walk through a room as ScanNet's captures: one loop around an ellipse at eye height in the
+// room of ProceduralRoom (z up, the floor at z = 0, centred on the origin), the heading swinging
+// from the direction of walking towards the room's centre and out towards the walls, so the set
+// holds inward and outward views with wide baselines between them.
+struct RoomWalkOptions {
+  int num_views = 30;
+  int width = 128, height = 96;
+  double focal_factor = 0.7;              // focal length = factor * width (a wide lens, 71 deg across)
+  double radius_x = 1.6, radius_y = 1.2;  // the ellipse's half-axes, scene units
+  double eye_height = 1.5;
+  double swing_deg = 75;  // amplitude of the heading's swing about the walking direction
+  double pitch_deg = -8;  // looking slightly down (negative: down)
+  double wobble_deg = 2;  // hand-held wobble of pitch and roll
+  unsigned seed = 0;      // the phases of the swing and the wobble
+  void Check() const;     // throws std::invalid_argument
+};
+
+std::vector<PosedCamera> RoomWalkTrajectory(const RoomWalkOptions& options);
+
 }  // namespace nerfreg

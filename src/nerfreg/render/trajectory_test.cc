@@ -100,5 +100,32 @@ TEST(Trajectory, HandheldCamerasHaveParallelAxesAndCentresInAPlane) {
   EXPECT_GT((CameraCenter(HandheldTrajectory(o)[0].cam_from_world) - centres[0]).norm(), 1e-3);
 }
 
+// The room walk: centres on the ellipse at eye height, one loop; the heading swings, so the set
+// holds views towards the room's centre and views towards the walls; seeded.
+TEST(Trajectory, RoomWalkLooksInwardAndOutward) {
+  RoomWalkOptions o;
+  o.seed = 3;
+  const auto cams = RoomWalkTrajectory(o);
+  ASSERT_EQ(cams.size(), 30u);
+  int inward = 0, outward = 0;
+  for (const auto& c : cams) {
+    const Eigen::Vector3d centre = CameraCenter(c.cam_from_world);
+    EXPECT_NEAR(std::pow(centre.x() / o.radius_x, 2) + std::pow(centre.y() / o.radius_y, 2), 1.0, 1e-9);
+    EXPECT_NEAR(centre.z(), o.eye_height, 1e-9);
+    const Eigen::Vector3d axis = c.cam_from_world.rotation.conjugate() * Eigen::Vector3d::UnitZ();
+    EXPECT_LT(axis.z(), 0.0);  // looking slightly down
+    EXPECT_GT(axis.z(), -std::sin(12 * M_PI / 180));
+    const Eigen::Vector3d to_centre = Eigen::Vector3d(-centre.x(), -centre.y(), 0).normalized();
+    const double c_in = axis.dot(to_centre) / Eigen::Vector3d(axis.x(), axis.y(), 0).norm();
+    inward += c_in > 0.5;    // within 60 deg of the centre
+    outward += c_in < -0.5;  // within 60 deg of straight out
+  }
+  EXPECT_GE(inward, 4);
+  EXPECT_GE(outward, 4);
+  const auto again = RoomWalkTrajectory(o);
+  for (size_t i = 0; i < cams.size(); ++i)
+    EXPECT_EQ(again[i].cam_from_world.ToMatrix(), cams[i].cam_from_world.ToMatrix()) << i;
+}
+
 }  // namespace
 }  // namespace nerfreg
