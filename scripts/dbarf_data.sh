@@ -12,6 +12,9 @@
 #            (added 2026-11-26: low-texture sets of 10 views were the pose network's weakest);
 #            val 3001-3012 textured (choose models and settings on these), 3013-3016 low-texture,
 #            3017-3020 repetitive, 3021-3024 spread 0.7; val_extra 3025-3030 low-texture, 10 views.
+#   TRAJECTORY  forward (default: look-at views, the shipped weights' data), llff (hand-held,
+#          nearly parallel axes, layered depth: render --trajectory llff; SPREAD 0 keeps its own
+#          default, 0.25) or room (a walk through a room; SPREAD is not used, give 0).
 #   Seeds 201-203 are the held-out test scenes (bench/dbarf_novel_views.sh) and 5000 and above the
 #   benches' (bench/dbarf_poses_bench.sh): never rendered here, never trained or chosen on.
 # Writes DATA/SPLIT_SEED/ and the lists DATA/train.txt, DATA/val.txt (one transforms.json a line;
@@ -22,6 +25,7 @@ cd "$(dirname "$0")/.."
 BIN=${BIN:-build/nerfreg}
 DATA=${DATA:-data/dbarf_poses}
 VIEWS=${VIEWS:-20}
+TRAJECTORY=${TRAJECTORY:-forward}
 SETS=${SETS:-"train:2001:300:textured:0.35 train:2301:100:low-texture:0.35 train:2401:100:repetitive:0.35 train:2501:100:textured:0.7 train:2601:150:low-texture:0.35:10 train:2751:50:textured:0.35:10 val:3001:12:textured:0.35 val:3013:4:low-texture:0.35 val:3017:4:repetitive:0.35 val:3021:4:textured:0.7 val_extra:3025:6:low-texture:0.35:10"}
 mkdir -p "$DATA"
 for s in $SETS; do
@@ -41,7 +45,7 @@ for s in $SETS; do
   IFS=: read -r split first count material spread views <<< "$s"
   for seed in $(seq "$first" $((first + count - 1))); do
     d=$DATA/${split}_${seed}
-    [ -f "$d/transforms.json" ] || "$BIN" render --procedural "$seed" --trajectory forward --views "${views:-$VIEWS}" \
+    [ -f "$d/transforms.json" ] || "$BIN" render --procedural "$seed" --trajectory "$TRAJECTORY" --views "${views:-$VIEWS}" \
       --material "$material" --spread "$spread" --test-every 8 --quiet --out "$d" --force
     echo "$d/transforms.json" >> "$DATA/$split.txt.tmp"
     if [ "$split" = val ] && [ "$material" = textured ] && [ "$spread" = 0.35 ]; then

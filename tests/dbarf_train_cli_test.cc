@@ -109,6 +109,11 @@ TEST(DbarfTrainCli, SupervisedPosesFromTheIdentityAndEvalNet) {
   EXPECT_EQ(e["rows"].size(), 1u);
   EXPECT_GT(e["start_rotation_deg"].get<double>(), 0.0);
   EXPECT_NEAR(e["start_translation_direction_deg"].get<double>(), 90.0, 1e-6);
+  // The network's depth as a normalised disparity; |t| / |t_true| only where the truth is in the
+  // depth range's units (ground-truth scene cameras), which estimated cameras are not.
+  EXPECT_GE(e["disparity"].get<double>(), 0.0);
+  EXPECT_LE(e["disparity"].get<double>(), 1.0);
+  EXPECT_FALSE(e.contains("translation_ratio"));
 }
 
 // What models/dbarf_pose_cpu.pt must reach on the held-out scene below from the identity: the

@@ -670,12 +670,15 @@ namespace {
 
 // Errors of predicted relative poses (one call per target) accumulated over a scene.
 struct PoseErrorSum {
-  double rot = 0, trans = 0, dir = 0;
+  double rot = 0, trans = 0, dir = 0, norm = 0, true_norm = 0, disparity = 0;
+  int targets = 0;
   RelativePoseError e;
   void Add(const torch::Tensor& p, const torch::Tensor& g) {
     rot += RotationAngleDeg(p, g).sum().item<double>();
     const torch::Tensor tp = p.slice(1, 0, 3).select(2, 3), tg = g.slice(1, 0, 3).select(2, 3);  // [N, 3]
     trans += (tp - tg).norm(2, 1).sum().item<double>();
+    norm += tp.norm(2, 1).sum().item<double>();
+    true_norm += tg.norm(2, 1).sum().item<double>();
     const torch::Tensor cosine = (tp * tg).sum(1) / (tp.norm(2, 1) * tg.norm(2, 1)).clamp_min(1e-12);
     dir += (torch::acos(cosine.clamp(-1, 1)) * (180.0 / M_PI)).sum().item<double>();
     e.pairs += static_cast<int>(p.size(0));
@@ -685,7 +688,9 @@ struct PoseErrorSum {
       e.rotation_deg = rot / e.pairs;
       e.translation = trans / e.pairs;
       e.translation_deg = dir / e.pairs;
+      e.translation_ratio = true_norm > 0 ? norm / true_norm : 0;
     }
+    if (targets > 0) e.disparity = disparity / targets;
     return e;
   }
 };
@@ -753,6 +758,9 @@ RelativePoseError EvaluateRelativePoses(DbarfModel& model, const DbarfScene& sce
                                 scene.images.index_select(0, idx).to(device), scene.intrinsics[t].to(device), init);
     sum.Add(pred.src_from_tgt.back().to(true_cam_from_world.device()),
             RelativeCameras(true_cam_from_world, t, sources));
+    const double lo = 1.0 / scene.far, hi = 1.0 / scene.near;
+    sum.disparity += ((pred.inv_depths.back() - lo) / (hi - lo)).mean().item<double>();
+    ++sum.targets;
   }
   return sum.Result();
 }

@@ -275,6 +275,12 @@ struct RelativePoseError {
   // Mean angle between predicted and true translation directions: the photometric loss fixes a
   // translation only up to the scale of the depth, so this is what self-supervision can recover.
   double translation_deg = 0;
+  // sum |t_pred| / sum |t_true| over the pairs: the static (collapsed) solution has a few %, the
+  // identity 0. Meaningful where the truth is in the units of the scene's depth range.
+  double translation_ratio = 0;
+  // The network's mean normalised target disparity (0 = the far bound, 1 = the near bound), over the
+  // targets; -1 where no network predicted (the identity, the cameras).
+  double disparity = -1;
   int pairs = 0;
 };
 // The pose network's last prediction for every usable target and its sources, against the relative

@@ -124,6 +124,19 @@ TEST(DbarfTrainer, AnUntrainedNetworkReturnsTheCamerasItStartsFrom) {
   // Without cameras it starts at the identity.
   const RelativePoseError identity = EvaluateRelativePoses(model, scene, truth, 3, "network");
   EXPECT_GT(identity.translation, 3 * cameras.translation);
+  // |t| / |t_true|: the network returns the cameras' (which are off by noise), the identity's is 0;
+  // the true cameras' is 1, halved translations' 0.5 (the static solution's signature is a small
+  // ratio). The network's disparity is a mean inside the normalised range, the cameras' none.
+  EXPECT_GT(cameras.translation_ratio, 0.5);
+  EXPECT_NEAR(network.translation_ratio, cameras.translation_ratio, 1e-3);
+  EXPECT_EQ(EvaluateIdentityRelativePoses(scene, truth, 3).translation_ratio, 0.0);
+  EXPECT_EQ(cameras.disparity, -1.0);
+  EXPECT_GE(network.disparity, 0.0);
+  EXPECT_LE(network.disparity, 1.0);
+  scene.cam_from_world = truth.clone();
+  EXPECT_NEAR(EvaluateCameraRelativePoses(scene, truth, 3).translation_ratio, 1.0, 1e-5);
+  scene.cam_from_world.slice(1, 0, 3).select(2, 3).mul_(0.5);
+  EXPECT_NEAR(EvaluateCameraRelativePoses(scene, truth, 3).translation_ratio, 0.5, 1e-5);
 }
 
 TEST(DbarfTrainer, PerturbRelativePosesHasTheRequestedSpreadAndIsSeeded) {

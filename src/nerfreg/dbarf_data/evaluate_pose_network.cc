@@ -20,7 +20,9 @@ Json EvaluatePoseNetwork(const PoseNetworkEvaluationOptions& o, const std::funct
   DbarfModel model = LoadDbarfWeights(o.weights);
   model.To(o.device);
   Json rows = Json::array();
-  double sum_rot = 0, sum_dir = 0, sum_start_rot = 0, sum_start_dir = 0;
+  double sum_rot = 0, sum_dir = 0, sum_start_rot = 0, sum_start_dir = 0, sum_ratio = 0, sum_disparity = 0;
+  // The truth is in the depth range's units only where the scene's cameras are the dataset's own.
+  const bool same_units = o.scene.cameras == "ground-truth";
   for (const std::string& dataset : o.datasets) {
     const LoadedDbarfScene loaded = LoadDbarfScene(dataset, o.scene);
     if (!loaded.ground_truth.defined())
@@ -36,21 +38,27 @@ Json EvaluatePoseNetwork(const PoseNetworkEvaluationOptions& o, const std::funct
                     {"start_rotation_deg", start.rotation_deg},
                     {"rotation_deg", net.rotation_deg},
                     {"start_translation_direction_deg", start.translation_deg},
-                    {"translation_direction_deg", net.translation_deg}});
+                    {"translation_direction_deg", net.translation_deg},
+                    {"disparity", net.disparity}});
+    if (same_units) rows.back()["translation_ratio"] = net.translation_ratio;
     if (on_row) on_row(rows.back());
     sum_rot += net.rotation_deg, sum_dir += net.translation_deg;
+    sum_ratio += net.translation_ratio, sum_disparity += net.disparity;
     sum_start_rot += start.rotation_deg, sum_start_dir += start.translation_deg;
   }
   const double n = static_cast<double>(o.datasets.size());
-  return {{"weights", o.weights},
-          {"pose_init", o.pose_init},
-          {"sources", o.num_sources},
-          {"datasets", o.datasets.size()},
-          {"start_rotation_deg", sum_start_rot / n},
-          {"rotation_deg", sum_rot / n},
-          {"start_translation_direction_deg", sum_start_dir / n},
-          {"translation_direction_deg", sum_dir / n},
-          {"rows", rows}};
+  Json result = {{"weights", o.weights},
+                 {"pose_init", o.pose_init},
+                 {"sources", o.num_sources},
+                 {"datasets", o.datasets.size()},
+                 {"start_rotation_deg", sum_start_rot / n},
+                 {"rotation_deg", sum_rot / n},
+                 {"start_translation_direction_deg", sum_start_dir / n},
+                 {"translation_direction_deg", sum_dir / n},
+                 {"disparity", sum_disparity / n},
+                 {"rows", rows}};
+  if (same_units) result["translation_ratio"] = sum_ratio / n;
+  return result;
 }
 
 }  // namespace nerfreg

@@ -26,10 +26,13 @@ struct PoseNetworkEvaluationOptions {
   void Check() const;  // throws InputError naming the flag
 };
 
-// Returns {"weights", "pose_init", "sources", "datasets", the four means ("start_rotation_deg",
-// "rotation_deg", "start_translation_direction_deg", "translation_direction_deg") and "rows" (one
-// per dataset with "dataset", "pairs" and the four)}. on_row, if given, sees each row as it is done.
-// Throws InputError on bad input (a dataset without ground-truth poses, unreadable weights).
+// Returns {"weights", "pose_init", "sources", "datasets", the means ("start_rotation_deg",
+// "rotation_deg", "start_translation_direction_deg", "translation_direction_deg", the network's
+// mean normalised target "disparity" (0 = the far bound) and, with ground-truth scene cameras (the
+// truth then in the depth range's units), "translation_ratio" = sum |t| / sum |t_true| (a few % is
+// the collapsed, static solution)) and "rows" (one per dataset with "dataset", "pairs" and those)}. on_row, if given,
+// sees each row as it is done. Throws InputError on bad input (a dataset without ground-truth poses, unreadable
+// weights).
 Json EvaluatePoseNetwork(const PoseNetworkEvaluationOptions& options,
                          const std::function<void(const Json& row)>& on_row = {});
 

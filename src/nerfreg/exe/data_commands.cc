@@ -38,6 +38,35 @@ void ParseScaleRange(const std::string& range, BlockFrameOptions* frame) {
   }
 }
 
+// The mesh to render: the file's (normalised; before a backdrop for the forward-facing kinds) or
+// the procedural object / scene of the seed for the trajectory; sets the options' trajectory seed
+// and the material's texture modulation.
+TriangleMesh RenderMesh(const std::string& mesh_path, long procedural, const std::string& material,
+                        RenderDatasetOptions* options) {
+  TriangleMesh mesh;
+  if (!mesh_path.empty()) {
+    options->trajectory_seed = options->seed;
+    mesh = LoadMesh(mesh_path);
+    NormalizeMesh(&mesh, 2.5f);
+    if (options->trajectory != "orbit") mesh = WithBackdrop(mesh);
+    return mesh;
+  }
+  const unsigned seed = static_cast<unsigned>(procedural);
+  const SceneMaterial scene_material = ParseSceneMaterial(material);
+  options->trajectory_seed = seed;  // each scene its own path
+  if (options->trajectory == "orbit") {
+    mesh = ProceduralObject(seed);
+  } else if (options->trajectory == "llff") {
+    mesh = ProceduralLayeredScene(seed, scene_material);
+  } else if (options->trajectory == "room") {
+    mesh = ProceduralRoom(seed, scene_material);
+  } else {
+    mesh = ProceduralForwardScene(seed, 2.0f, scene_material);
+  }
+  options->render.texture_modulation = MaterialTextureModulation(scene_material);
+  return mesh;
+}
+
 }  // namespace
 
 int RunRender(int argc, char** argv) {
@@ -46,20 +75,23 @@ int RunRender(int argc, char** argv) {
   AddCommonOptions(app, &common);
   DescribeCommand(app,
                   "Render a mesh (OFF/PLY/OBJ/STL/glTF) or a procedural object/scene into a NeRF dataset: the "
-                  "DReg-NeRF orbit or LLFF-like forward-facing views, optionally split into blocks each in its own "
-                  "random frame with the ground truth in ground_truth.json.",
+                  "DReg-NeRF orbit, forward-facing look-at views or LLFF-like hand-held ones, optionally split into "
+                  "blocks each in its own random frame with the ground truth in ground_truth.json.",
                   "nerfreg render --mesh /usr/share/assimp/models/OBJ/spider.obj --blocks 2 --out data/spider");
   std::string mesh_path, out, size;
   long procedural = -1;
   std::string scale_range;
   RenderDatasetOptions options;
   auto* mesh_opt = app.add_option("--mesh", mesh_path, "Mesh file (OFF, PLY, OBJ, STL, glTF, GLB)");
-  auto* proc_opt = app.add_option("--procedural", procedural, "Seed of a procedural object (orbit) or scene (forward)");
+  auto* proc_opt =
+      app.add_option("--procedural", procedural, "Seed of a procedural object (orbit) or scene (forward, llff, room)");
   mesh_opt->excludes(proc_opt);
-  app.add_option("--trajectory", options.trajectory, "orbit (objects) or forward (scenes)")
-      ->check(CLI::IsMember({"orbit", "forward"}));
-  app.add_option("--views", options.views, "Number of views (default 120 orbit, 20 forward)");
-  app.add_option("--size", size, "Image size W or WxH (default 100 orbit, 128x96 forward)");
+  app.add_option("--trajectory", options.trajectory,
+                 "orbit (objects), forward (look-at scenes), llff (hand-held, parallel axes, layered depth) or "
+                 "room (a walk through a room)")
+      ->check(CLI::IsMember({"orbit", "forward", "llff", "room"}));
+  app.add_option("--views", options.views, "Number of views (default 120 orbit, 20 forward and llff, 30 room)");
+  app.add_option("--size", size, "Image size W or WxH (default 100 orbit, 128x96 scenes)");
   app.add_option("--blocks", options.blocks, "Split the views into K blocks by k-means on camera centres");
   app.add_option("--block-rotation", options.block_frame.max_rotation_deg,
                  "Cap on each block's random rotation, degrees (default: unbounded)");
@@ -70,7 +102,7 @@ int RunRender(int argc, char** argv) {
   app.add_option("--material", material,
                  "Procedural forward scenes: textured, low-texture or repetitive (default textured)");
   app.add_option("--spread", options.forward_spread,
-                 "Forward: half-extent of the camera spiral (default 0.35; wider baselines above)");
+                 "Forward: half-extent of the camera spiral (default 0.35); llff: of the hand-held path (0.25)");
   app.add_option("--test-every", options.test_every, "Every n-th view of a block is a test view (default 20)");
   app.add_option("--supersample", options.render.supersample, "Rays per pixel side (default 2)");
   app.add_flag("--depth", options.write_depth, "Also write z-depth maps as depth/r_XXX.npy");
@@ -89,20 +121,12 @@ int RunRender(int argc, char** argv) {
   options.force = common.force;
   if (!distortion.empty()) options.k1 = distortion[0], options.k2 = distortion.size() > 1 ? distortion[1] : 0.0;
   if (mesh_path.empty() && procedural < 0) throw InputError("render: give --mesh FILE or --procedural SEED");
+  if (!mesh_path.empty() && options.trajectory == "room")
+    ThrowInputError("--trajectory", "", "orbit, forward or llff with --mesh (room is procedural)");
   CheckCanWriteOutput(out, common.force, {mesh_path});
   ParseRenderSize(size, &options);
   ParseScaleRange(scale_range, &options.block_frame);
-  TriangleMesh mesh;
-  if (!mesh_path.empty()) {
-    mesh = LoadMesh(mesh_path);
-    NormalizeMesh(&mesh, 2.5f);
-    if (options.trajectory == "forward") mesh = WithBackdrop(mesh);
-  } else {
-    mesh = options.trajectory == "orbit"
-               ? ProceduralObject(static_cast<unsigned>(procedural))
-               : ProceduralForwardScene(static_cast<unsigned>(procedural), 2.0f, ParseSceneMaterial(material));
-    options.render.texture_modulation = MaterialTextureModulation(ParseSceneMaterial(material));
-  }
+  const TriangleMesh mesh = RenderMesh(mesh_path, procedural, material, &options);
   const auto summary = RenderDataset(mesh, options, out);
   LOG_INFO("rendered {} views into {} block(s) at {} in {:.1f} s", summary.views, summary.blocks, out, summary.seconds);
   return 0;

@@ -1,6 +1,7 @@
 // dbarf eval-net: the pose network's relative poses against ground truth (dbarf_data/
 // evaluate_pose_network.h). In the learned-core build too, so a GPU machine scores what it trained.
 #include <cstdio>
+#include <string>
 
 #include "nerfreg/dbarf_data/evaluate_pose_network.h"
 #include "nerfreg/exe/command.h"
@@ -40,23 +41,28 @@ int RunDbarfEvalNet(int argc, char** argv) {
   o.device = ParseDevice(device);
   o.scene.estimate_cameras = cameras.Estimator();
   if (!json_out.empty()) CheckCanWriteOutput(json_out, common.force, o.datasets);
-  const char* row_format = "%-40s %7s %12.3f %12.3f %12.2f %12.2f\n";
-  if (!common.json)
-    std::printf("%-40s %7s %12s %12s %12s %12s\n", "dataset", "pairs", "start rot", "net rot", "start dir", "net dir");
-  const Json result = EvaluatePoseNetwork(o, [&](const Json& row) {
-    if (common.json) return;
-    std::printf(row_format, row["dataset"].get<std::string>().c_str(), std::to_string(row["pairs"].get<int>()).c_str(),
-                row["start_rotation_deg"].get<double>(), row["rotation_deg"].get<double>(),
-                row["start_translation_direction_deg"].get<double>(), row["translation_direction_deg"].get<double>());
+  // |t| / |t_true| only with ground-truth scene cameras (the truth in the depth range's units).
+  const auto print_row = [](const std::string& name, const std::string& pairs, const Json& r) {
+    char ratio[32] = "-";
+    if (r.contains("translation_ratio"))
+      std::snprintf(ratio, sizeof(ratio), "%.3f", r["translation_ratio"].get<double>());
+    std::printf("%-40s %7s %12.3f %12.3f %12.2f %12.2f %10.3f %10s\n", name.c_str(), pairs.c_str(),
+                r["start_rotation_deg"].get<double>(), r["rotation_deg"].get<double>(),
+                r["start_translation_direction_deg"].get<double>(), r["translation_direction_deg"].get<double>(),
+                r["disparity"].get<double>(), ratio);
     std::fflush(stdout);
+  };
+  if (!common.json)
+    std::printf("%-40s %7s %12s %12s %12s %12s %10s %10s\n", "dataset", "pairs", "start rot", "net rot", "start dir",
+                "net dir", "disparity", "|t|/|t*|");
+  const Json result = EvaluatePoseNetwork(o, [&](const Json& row) {
+    if (!common.json) print_row(row["dataset"].get<std::string>(), std::to_string(row["pairs"].get<int>()), row);
   });
   if (!json_out.empty()) WriteJsonFile(json_out, result);
   if (common.json) {
     std::printf("%s\n", result.dump().c_str());
   } else {
-    std::printf(row_format, "mean", "", result["start_rotation_deg"].get<double>(),
-                result["rotation_deg"].get<double>(), result["start_translation_direction_deg"].get<double>(),
-                result["translation_direction_deg"].get<double>());
+    print_row("mean", "", result);
   }
   return 0;
 }

@@ -48,4 +48,36 @@ float MaterialTextureModulation(SceneMaterial material);
 TriangleMesh ProceduralForwardScene(unsigned seed, float backdrop_y = 2.0f,
                                     SceneMaterial material = SceneMaterial::kTextured);
 
+// A scene with layered depth in front of cameras whose optical axes are near +y from the plane
+// y = camera_y (HandheldTrajectory's): objects at several depths, log-uniform between near_depth
+// and half the backdrop's depth (one of them in the nearest layer), each sized and placed in
+// proportion to its depth so that it covers a similar part of the image and stays in view, and a
+// backdrop at backdrop_depth large enough to fill every view. Depths are measured from the camera
+// plane, scene units; backdrop_depth / near_depth is the near / far ratio of LLFF's captures (about
+// 10 or more). The backdrop's pattern is scaled with its depth so it shows as fine in the image as
+// the forward scenes' does.
+struct LayeredSceneOptions {
+  float camera_y = -4.f;           // the cameras' plane (HandheldOptions::distance)
+  float near_depth = 1.5f;         // the nearest layer's depth from the camera plane
+  float backdrop_depth = 16.f;     // the backdrop's depth from the camera plane
+  float tan_half_fov_x = 0.4545f;  // the views' half field of view (HandheldOptions: 0.5 / 1.1)
+  float aspect = 0.75f;            // height / width of the views
+  void Check() const;              // throws std::invalid_argument
+};
+TriangleMesh ProceduralLayeredScene(unsigned seed, SceneMaterial material = SceneMaterial::kTextured,
+                                    const LayeredSceneOptions& options = {});
+
+// A room for RoomWalkTrajectory: floor (z = 0), ceiling, four walls, each with its own procedural
+// albedo, furniture (primitives up to a metre or so) along the walls and a group in the middle,
+// clear of the walk's ellipse. Scene units are metres-like: 6 x 5 x 2.6. Materials: textured or
+// low-texture (repetitive throws InputError naming --material).
+struct RoomOptions {
+  float width = 6.f, depth = 5.f, height = 2.6f;  // x, y, z extents
+  // The walk's ellipse (RoomWalkOptions::radius_x, radius_y), which the furniture keeps clear of.
+  float walk_radius_x = 1.6f, walk_radius_y = 1.2f;
+  void Check() const;  // throws std::invalid_argument
+};
+TriangleMesh ProceduralRoom(unsigned seed, SceneMaterial material = SceneMaterial::kTextured,
+                            const RoomOptions& options = {});
+
 }  // namespace nerfreg

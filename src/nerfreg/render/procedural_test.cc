@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 #include <tuple>
 
@@ -70,6 +71,37 @@ TEST(Procedural, MaterialsChangeOnlyTheBackdropsColours) {
   for (size_t k = 0; k + 12 < 121; ++k) EXPECT_EQ(tiles.vertex_colors[k], tiles.vertex_colors[k + 12]) << k;
   EXPECT_LT(MaterialTextureModulation(SceneMaterial::kLowTexture), MaterialTextureModulation(SceneMaterial::kTextured));
   EXPECT_THROW(ParseSceneMaterial("marble"), InputError);
+}
+
+// Layered depth: the backdrop is the farthest surface at backdrop_depth from the camera plane, one
+// object reaches into the nearest layer and others lie between; the scene is the seed's.
+TEST(Procedural, LayeredScenesSpanTheDepthRange) {
+  const LayeredSceneOptions o;
+  const TriangleMesh s = ProceduralLayeredScene(5);
+  Eigen::Vector3f mn, mx;
+  s.Bounds(&mn, &mx);
+  EXPECT_NEAR(mx.y() - o.camera_y, o.backdrop_depth, 1e-4);
+  EXPECT_TRUE(s.HasColors());
+  EXPECT_NO_THROW(s.Check("layered"));
+  // The backdrop fills the widest view (half-width depth * tan, plus the path's extent) at its depth.
+  EXPECT_GT(mx.x(), o.backdrop_depth * o.tan_half_fov_x + 1.f);
+  EXPECT_LT(mn.x(), -o.backdrop_depth * o.tan_half_fov_x - 1.f);
+  EXPECT_GT(mx.z(), o.backdrop_depth * o.tan_half_fov_x * o.aspect + 1.f);
+  // Depths of the objects' vertices (everything in front of the backdrop's plane).
+  std::vector<float> depths;
+  for (const auto& v : s.vertices)
+    if (v.y() < mx.y() - 1e-3f) depths.push_back(v.y() - o.camera_y);
+  ASSERT_FALSE(depths.empty());
+  const auto [lo, hi] = std::minmax_element(depths.begin(), depths.end());
+  EXPECT_GT(*lo, 0.5f * o.near_depth);  // in front of the cameras
+  EXPECT_LT(*lo, 1.3f * o.near_depth);  // the nearest layer is occupied
+  EXPECT_GT(*hi, 3 * o.near_depth);     // and a farther one
+  EXPECT_LT(*hi, o.backdrop_depth);
+  const TriangleMesh again = ProceduralLayeredScene(5);
+  ASSERT_EQ(again.vertices.size(), s.vertices.size());
+  for (size_t k = 0; k < s.vertices.size(); ++k) ASSERT_EQ(again.vertices[k], s.vertices[k]) << k;
+  const TriangleMesh other = ProceduralLayeredScene(6);
+  EXPECT_TRUE(other.vertices.size() != s.vertices.size() || other.vertices.back() != s.vertices.back());
 }
 
 }  // namespace

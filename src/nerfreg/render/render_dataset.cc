@@ -22,8 +22,8 @@ namespace fs = std::filesystem;
 namespace nerfreg {
 
 void RenderDatasetOptions::Check() const {
-  if (trajectory != "orbit" && trajectory != "forward")
-    ThrowInputError("--trajectory", "", "orbit or forward, got " + trajectory);
+  if (trajectory != "orbit" && trajectory != "forward" && trajectory != "llff" && trajectory != "room")
+    ThrowInputError("--trajectory", "", "orbit, forward, llff or room, got " + trajectory);
   if (views < 0 || views > 100000) ThrowInputError("--views", "", "a count in 1..100000");
   if (width < 0 || height < 0 || width > 8192 || height > 8192) ThrowInputError("--size", "", "W[xH] in 1..8192");
   if (blocks < 1 || blocks > 64) ThrowInputError("--blocks", "", "1..64");
@@ -50,6 +50,7 @@ Json RenderDatasetOptions::ToJson() const {
           {"test_every", test_every},
           {"seed", seed},
           {"forward_spread", forward_spread},
+          {"trajectory_seed", trajectory_seed},
           {"block_max_rotation_deg", block_frame.max_rotation_deg},
           {"block_max_translation", block_frame.max_translation},
           {"block_min_scale", block_frame.min_scale},
@@ -78,15 +79,34 @@ RenderDatasetSummary RenderDataset(const TriangleMesh& mesh, const RenderDataset
     o.height = options.height ? options.height : o.width;
     cams = OrbitTrajectory(o);
   } else {
-    ForwardOptions o;
-    if (options.views) o.num_views = options.views;
-    if (options.forward_spread > 0) o.spread = options.forward_spread;
-    if (options.width) o.width = options.width;
-    if (options.height)
-      o.height = options.height;
-    else if (options.width)
-      o.height = options.width * 3 / 4;
-    cams = ForwardTrajectory(o);
+    // Scenes: 128x96 by default, the height 3/4 of a given width.
+    const auto set_size = [&](int* width, int* height) {
+      if (options.width) *width = options.width;
+      if (options.height)
+        *height = options.height;
+      else if (options.width)
+        *height = options.width * 3 / 4;
+    };
+    if (options.trajectory == "llff") {
+      HandheldOptions o;
+      if (options.views) o.num_views = options.views;
+      if (options.forward_spread > 0) o.spread = options.forward_spread;
+      o.seed = options.trajectory_seed;
+      set_size(&o.width, &o.height);
+      cams = HandheldTrajectory(o);
+    } else if (options.trajectory == "room") {
+      RoomWalkOptions o;
+      if (options.views) o.num_views = options.views;
+      o.seed = options.trajectory_seed;
+      set_size(&o.width, &o.height);
+      cams = RoomWalkTrajectory(o);
+    } else {
+      ForwardOptions o;
+      if (options.views) o.num_views = options.views;
+      if (options.forward_spread > 0) o.spread = options.forward_spread;
+      set_size(&o.width, &o.height);
+      cams = ForwardTrajectory(o);
+    }
   }
   for (PosedCamera& c : cams) c.camera.k1 = options.k1, c.camera.k2 = options.k2;
   const int n = static_cast<int>(cams.size());

@@ -19,13 +19,19 @@
 namespace nerfreg {
 
 struct RenderDatasetOptions {
-  std::string trajectory = "orbit";  // "orbit" (objects, RGBA) or "forward" (scenes, RGB)
-  int views = 0;                     // 0: 120 for orbit, 20 for forward
-  int width = 0, height = 0;         // 0: 100x100 for orbit, 128x96 for forward
-  double forward_spread = 0;         // forward: half-extent of the camera spiral (0: ForwardOptions' 0.35)
-  int blocks = 1;                    // K >= 2 writes block_k folders and ground_truth.json
-  int test_every = 20;               // every n-th view of a block (or of all views if K = 1) is a test view
-  unsigned seed = 0;                 // block split and block frames
+  // "orbit" (objects, RGBA), "forward" (scenes, RGB: look-at views, ForwardTrajectory), "llff"
+  // (scenes, RGB: a hand-held capture with nearly parallel axes, HandheldTrajectory) or "room"
+  // (a room, RGB: a walk through it, RoomWalkTrajectory).
+  std::string trajectory = "orbit";
+  int views = 0;              // 0: 120 for orbit, 20 for forward and llff, 30 for room
+  int width = 0, height = 0;  // 0: 100x100 for orbit, 128x96 for the others
+  // forward: half-extent of the camera spiral; llff: of the hand-held path in x (0: the options'
+  // default, 0.35 forward, 0.25 llff)
+  double forward_spread = 0;
+  unsigned trajectory_seed = 0;  // llff, room: the phases of the path and the wobble
+  int blocks = 1;                // K >= 2 writes block_k folders and ground_truth.json
+  int test_every = 20;           // every n-th view of a block (or of all views if K = 1) is a test view
+  unsigned seed = 0;             // block split and block frames
   BlockFrameOptions block_frame;
   RenderOptions render;
   // Photo-like degradations (forward scenes and orbits alike): the cameras' radial distortion

@@ -87,5 +87,59 @@ TEST(RenderDataset, ForwardScenesRecordDepthBounds) {
   }
 }
 
+// An LLFF-like set: each view's depth range spans a near / far ratio like LLFF's, and rendering
+// again gives the same files byte for byte.
+TEST(RenderDataset, LlffScenesHaveLayeredDepthAndRenderDeterministically) {
+  ScopedTempDir dir;
+  RenderDatasetOptions opt;
+  opt.trajectory = "llff";
+  opt.views = 6;
+  opt.width = 48;
+  opt.trajectory_seed = 4;
+  opt.render.supersample = 1;
+  const TriangleMesh scene = ProceduralLayeredScene(4);
+  RenderDataset(scene, opt, dir.File("a"));
+  RenderDataset(scene, opt, dir.File("b"));
+  const Dataset d = ReadTransformsJson(dir.File("a/transforms.json"));
+  ASSERT_EQ(d.frames.size(), 6u);
+  CheckImagesMatchCameras(d);
+  for (const auto& f : d.frames) {
+    EXPECT_EQ(f.camera.height, 36);
+    EXPECT_GT(f.far / f.near, 8.0) << f.name;     // 12 here; the look-at scenes about 2.5
+    EXPECT_NEAR(f.far, 1.1 * 16, 1.0) << f.name;  // the backdrop, 16 units ahead
+    // Nearly parallel axes: the optical axis within a few degrees of +y.
+    EXPECT_GT((f.cam_from_world.rotation.conjugate() * Eigen::Vector3d::UnitZ()).y(), std::cos(4 * M_PI / 180));
+  }
+  for (const std::string file : {"transforms.json", "images/r_000.png", "images/r_005.png"})
+    EXPECT_EQ(ReadFileToString(dir.File("a/" + file)), ReadFileToString(dir.File("b/" + file))) << file;
+  // Another seed's path: other cameras.
+  opt.trajectory_seed = 5;
+  RenderDataset(scene, opt, dir.File("c"));
+  EXPECT_NE(ReadFileToString(dir.File("a/transforms.json")), ReadFileToString(dir.File("c/transforms.json")));
+}
+
+// A room walk: no view starts inside or against a surface (the furniture keeps clear of the walk),
+// and every view sees the room (depths within its diagonal).
+TEST(RenderDataset, RoomWalksStayClearOfTheFurniture) {
+  ScopedTempDir dir;
+  RenderDatasetOptions opt;
+  opt.trajectory = "room";
+  opt.views = 12;
+  opt.width = 32;
+  opt.render.supersample = 1;
+  for (unsigned seed : {1u, 2u, 3u}) {
+    opt.trajectory_seed = seed;
+    const std::string out = dir.File("room" + std::to_string(seed));
+    RenderDataset(ProceduralRoom(seed), opt, out);
+    const Dataset d = ReadTransformsJson(out + "/transforms.json");
+    ASSERT_EQ(d.frames.size(), 12u);
+    for (const auto& f : d.frames) {
+      EXPECT_GT(f.near, 0.9 * 0.3) << seed << " " << f.name;
+      EXPECT_LT(f.far, 1.1 * std::sqrt(6.0 * 6.0 + 5.0 * 5.0 + 2.6 * 2.6)) << seed << " " << f.name;
+    }
+  }
+  EXPECT_THROW(ProceduralRoom(1, SceneMaterial::kRepetitive), InputError);
+}
+
 }  // namespace
 }  // namespace nerfreg
