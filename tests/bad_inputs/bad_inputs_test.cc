@@ -48,6 +48,16 @@ const std::vector<BadInputCase>& Cases() {
        "bad.off: face 0: expected a line", "out"},
       {"render_bad_size", [](const std::string& d) { return "render --procedural 1 --size 0x5 --out " + d + "/out"; },
        "--size", "out"},
+      {"render_room_of_a_mesh",
+       [](const std::string& d) {
+         return "render --mesh /usr/share/assimp/models/OBJ/spider.obj --trajectory room --out " + d + "/out";
+       },
+       "--trajectory: expected orbit, forward or llff with --mesh", "out"},
+      {"render_room_of_tiles",
+       [](const std::string& d) {
+         return "render --procedural 1 --trajectory room --material repetitive --views 2 --size 8 --out " + d + "/out";
+       },
+       "--material: expected textured or low-texture for rooms", "out"},
       {"render_existing_output",
        [](const std::string& d) {
          CreateDirectories(d + "/out");
