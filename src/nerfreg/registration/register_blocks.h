@@ -65,7 +65,7 @@ inline constexpr double kLowConfidence = 0.65;
 // of different objects below; the margins are narrow, so an untrusted result may still be right
 // and a registered one wrong.
 inline constexpr double kUntrustedConfidence = 0.6;
-inline constexpr double kUntrustedConfidenceMixed = 0.3;
+inline constexpr double kUntrustedConfidenceMixed = 0.32;
 
 // `reg register`'s exit code for an untrusted result (T.json and the pictures are written): no
 // other code means this (2 bad input, 3 internal error, 4 a lost distributed process; docs/cli.md).
