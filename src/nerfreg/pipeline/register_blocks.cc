@@ -37,7 +37,7 @@ std::string RegistrationSummary(const BlockRegistrationResult& r, const std::str
   const Eigen::AngleAxisd aa(r.target_from_source.rotation);
   const Eigen::Vector3d& t = r.target_from_source.translation;
   const std::string stem = out.substr(0, out.size() - LowerExtension(out).size());
-  std::string agree = "no other candidate";
+  std::string agree = "one candidate only";
   if (r.agreeing_candidates >= 0) {
     agree = fmt::format("{} of {} other candidates agree", r.agreeing_candidates, r.candidates.size() - 1);
   }

@@ -16,7 +16,7 @@ void WriteRegistrationOverlays(const std::string& out, const BlockRegistrationRe
 //   rotation    123.45 deg about (0.123, -0.456, 0.789)
 //   translation (0.1234, -0.5678, 0.9012), |t| 1.0912 (target units)
 //   scale       0.9981
-//   confidence  0.77, 2 of 2 other candidates agree
+//   confidence  0.77, 2 of 2 other candidates agree ("one candidate only" with one)
 //   written     T.json, T_before.png, T_after.png
 // and, when untrusted, "untrusted   REASON" in place of the first word.
 std::string RegistrationSummary(const BlockRegistrationResult& result, const std::string& out);
