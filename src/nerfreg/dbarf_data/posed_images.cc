@@ -42,8 +42,7 @@ void WritePosedImages(const std::string& path, const PosedImages& posed) {
     json["confidence_doc"] =
         "per frame: the median angles (deg) between the image's pairwise relative rotations / translation "
         "directions and those of the accepted poses, over `edges` of them. sfm: its view-graph (essential-matrix) "
-        "edges to other SfM-posed images (0 for an edge whose matches the SfM's cameras explain: 80 % within 2 px), "
-        "plus its triangulated observations and their mean reprojection error. "
+        "edges to other SfM-posed images, plus its triangulated observations and their mean reprojection error. "
         "network, method network: its view-graph edges against the averaged cameras (its network edges where it has "
         "none). network, method auto: the network's relative "
         "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "

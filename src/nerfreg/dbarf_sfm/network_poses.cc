@@ -348,27 +348,14 @@ bool SfmDepthRange(const SfmResult& sfm, const std::string& source, double* near
   }
 }
 
-// An edge whose matches the SfM's cameras explain (this share within this many pixels) agrees with
-// them, whatever its own essential matrix says.
-constexpr double kEdgeAgreementPx = 2.0;
-constexpr double kEdgeAgreementShare = 0.8;
-
 void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, ImagePosesResult* result) {
   const int n = static_cast<int>(cameras.size());
   std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   for (const ViewGraphEdge& e : sfm.view_graph.edges) {
     if (!sfm.posed[e.i] || !sfm.posed[e.j]) continue;
     const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
-    double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
-    double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    // An edge contradicts the poses only if its matches do: where the SfM's cameras explain the
-    // matches the essential matrix was fitted to about as well as it does, the two-view estimate was
-    // one of several that fit them (low-texture photos: most of the edges of Castle-simu).
-    if (!e.panoramic && !e.inlier_matches.empty() &&
-        MatchesAgreeingWithPoses(e, sfm.view_graph.keypoints, cameras, sfm.cam_from_world, kEdgeAgreementPx).size() >=
-            kEdgeAgreementShare * e.inlier_matches.size()) {
-      angle = direction = 0;
-    }
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
     for (int k : {e.i, e.j}) {
       residuals[k].push_back(angle);
       if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none

@@ -20,9 +20,8 @@
 // image's pairwise measurements disagree with the accepted poses, as a median rotation angle over
 // `edges` measurements:
 //   sfm:                 its view-graph edges (essential matrices) to other SfM-posed images, against
-//                        the final cameras (an edge whose matches the cameras explain, 80 % within
-//                        2 px, agrees whatever its essential matrix says); plus its triangulated
-//                        observations and their mean reprojection error.
+//                        the final cameras; plus its triangulated observations and their mean
+//                        reprojection error.
 //   network (network):   its view-graph edges (essential matrices) against the averaged cameras
 //                        where images were matched and it has any (an independent check: a network
 //                        wrong the same way everywhere agrees with itself around every cycle); else
