@@ -16,8 +16,9 @@
 namespace nerfreg {
 namespace {
 
-TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
-  ScopedTempDir dir;
+// Object 7 rendered from 60 views of 64 x 64 in two blocks, each with its splat capture
+// (DIR/data/block_{0,1}/splats.ply); returns block 1 from block 0, the truth.
+Sim3d RenderTwoSplatCaptures(const ScopedTempDir& dir) {
   RenderDatasetOptions ro;
   ro.views = 60;
   ro.width = ro.height = 64;
@@ -25,7 +26,12 @@ TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
   ro.blocks = 2;
   ro.write_splats = true;
   RenderDataset(ProceduralObject(7), ro, dir.File("data"));
-  const Sim3d truth = GroundTruthFile(dir.File("data/ground_truth.json")).TargetFromSource(0, 1);
+  return GroundTruthFile(dir.File("data/ground_truth.json")).TargetFromSource(0, 1);
+}
+
+TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
+  ScopedTempDir dir;
+  const Sim3d truth = RenderTwoSplatCaptures(dir);
   const SplatFieldOptions so;
   SplatInput source(ReadSplatPly(dir.File("data/block_0/splats.ply")), so);
   SplatInput target(ReadSplatPly(dir.File("data/block_1/splats.ply")), so);
@@ -49,14 +55,7 @@ TEST(SplatRegistration, TwoSplatCapturesOfOneObjectRegisterToTheTruth) {
 // scale within 1 %; kFixed, rigid, returns scale 1 and misses.
 TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScales) {
   ScopedTempDir dir;
-  RenderDatasetOptions ro;
-  ro.views = 60;
-  ro.width = ro.height = 64;
-  ro.render.supersample = 1;
-  ro.blocks = 2;
-  ro.write_splats = true;
-  RenderDataset(ProceduralObject(7), ro, dir.File("data"));
-  const Sim3d truth = GroundTruthFile(dir.File("data/ground_truth.json")).TargetFromSource(0, 1);
+  const Sim3d truth = RenderTwoSplatCaptures(dir);
   const Splats source_splats = ReadSplatPly(dir.File("data/block_0/splats.ply"));
   const SplatFieldOptions so;
   SplatInput target(ReadSplatPly(dir.File("data/block_1/splats.ply")), so);

@@ -24,11 +24,16 @@ bool SamePose(const Sim3d& a, const Sim3d& b, double cell) {
          std::abs(std::log(a.scale / b.scale)) < 0.05;
 }
 
+// How errors name an input: its file, else its role ("source", "target").
+std::string InputName(const RegistrationInput* input, const char* role) {
+  return input != nullptr && !input->Path().empty() ? input->Path() : std::string(role);
+}
+
 // Each input's occupied points in its own frame, as the pair extracts them (a block against
 // splats: its shell), for its normalisation.
 Sim3d NormalizationOf(RegistrationInput& input, bool mixed, const BlockRegistrationOptions& o, const char* role,
                       Json* record) {
-  const std::string name = input.Path().empty() ? role : input.Path();
+  const std::string name = InputName(&input, role);
   const Eigen::Matrix3Xd points = input.OccupiedPoints(o.min_density, o.seed, mixed);
   CheckOccupied(points.cols(), name, o.min_density);
   const Sim3d n = NormalizationFor(points, name);
@@ -51,11 +56,8 @@ class BlockRegistration {
 
   BlockRegistrationResult Run() {
     Timer timer;
-    const auto name = [](RegistrationInput* input, const char* role) {
-      return input && !input->Path().empty() ? input->Path() : std::string(role);
-    };
-    CheckOccupied(pair_.SourcePoints().cols(), name(source_, "source"), o_.min_density);
-    CheckOccupied(pair_.TargetPoints().cols(), name(target_, "target"), o_.min_density);
+    CheckOccupied(pair_.SourcePoints().cols(), InputName(source_, "source"), o_.min_density);
+    CheckOccupied(pair_.TargetPoints().cols(), InputName(target_, "target"), o_.min_density);
     result_.options = o_;
     result_.source_kind = pair_.SourceKind();
     result_.target_kind = pair_.TargetKind();
@@ -265,10 +267,8 @@ BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationIn
   back(target_n, &r.target_cloud);
   r.normalization = normalization;
   // Each input's extent is in range, but not necessarily the ratio of the two.
-  const auto name = [](const RegistrationInput& input, const char* role) {
-    return input.Path().empty() ? std::string(role) : input.Path();
-  };
-  CheckScaleInRange(r.target_from_source.scale, name(source, "source"), "scale to " + name(target, "target"));
+  CheckScaleInRange(r.target_from_source.scale, InputName(&source, "source"),
+                    "scale to " + InputName(&target, "target"));
   return r;
 }
 

@@ -36,31 +36,6 @@ void SfmOptions::Check() const {
     if (!(t > 0)) throw std::invalid_argument("SfmOptions: round_reprojection_error_px must be positive");
 }
 
-std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
-                                                          const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
-                                                          const std::vector<Camera>& cameras,
-                                                          const std::vector<Rigid3d>& cam_from_world, double max_px) {
-  std::vector<std::pair<int, int>> kept;
-  const Rigid3d j_from_i = cam_from_world[edge.j] * cam_from_world[edge.i].Inverse();
-  if (j_from_i.translation.norm() < 1e-12) return kept;  // no epipolar geometry
-  const Eigen::Vector3d t = j_from_i.translation.normalized();
-  Eigen::Matrix3d tx;
-  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-  const Eigen::Matrix3d essential = tx * j_from_i.rotation.toRotationMatrix();
-  const double max_normalized = max_px / cameras[edge.j].fx;
-  for (const auto& [a, b] : edge.inlier_matches) {
-    Eigen::Vector3d xa = cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
-    Eigen::Vector3d xb = cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
-    xa /= xa.z();
-    xb /= xb.z();
-    const Eigen::Vector3d ea = essential * xa, etb = essential.transpose() * xb;
-    const double r = xb.dot(ea);
-    const double denominator = ea.head<2>().squaredNorm() + etb.head<2>().squaredNorm();
-    if (denominator > 0 && r * r < max_normalized * max_normalized * denominator) kept.push_back({a, b});
-  }
-  return kept;
-}
-
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction) {
   const size_t n = cam_from_world.size();
@@ -118,6 +93,33 @@ double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vecto
   if (angles.empty()) return 0;
   std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
   return angles[angles.size() / 2];
+}
+
+// The edge's inlier matches whose Sampson distance to the epipolar geometry of the two posed
+// cameras is below max_px (pixels, at image j's focal length); none when the two centres coincide.
+std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
+                                                          const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                                          const std::vector<Camera>& cameras,
+                                                          const std::vector<Rigid3d>& cam_from_world, double max_px) {
+  std::vector<std::pair<int, int>> kept;
+  const Rigid3d j_from_i = cam_from_world[edge.j] * cam_from_world[edge.i].Inverse();
+  if (j_from_i.translation.norm() < 1e-12) return kept;  // no epipolar geometry
+  const Eigen::Vector3d t = j_from_i.translation.normalized();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  const Eigen::Matrix3d essential = tx * j_from_i.rotation.toRotationMatrix();
+  const double max_normalized = max_px / cameras[edge.j].fx;
+  for (const auto& [a, b] : edge.inlier_matches) {
+    Eigen::Vector3d xa = cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    Eigen::Vector3d xb = cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    xa /= xa.z();
+    xb /= xb.z();
+    const Eigen::Vector3d ea = essential * xa, etb = essential.transpose() * xb;
+    const double r = xb.dot(ea);
+    const double denominator = ea.head<2>().squaredNorm() + etb.head<2>().squaredNorm();
+    if (denominator > 0 && r * r < max_normalized * max_normalized * denominator) kept.push_back({a, b});
+  }
+  return kept;
 }
 
 // The graph's edges with their inlier matches checked again against solved poses
@@ -218,14 +220,12 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       break;
     }
     std::vector<Track> tracks = first_tracks;
-    ViewGraph verified;
-    const ViewGraph* track_graph = &graph;
     for (size_t round = 0; round < options.round_reprojection_error_px.size(); ++round) {
       const double threshold = options.round_reprojection_error_px[round];
       if (round == 1 && options.reverify_matches_px > 0) {
-        verified = PoseVerifiedGraph(graph, s.cameras, s.cam_from_world, s.posed, options.reverify_matches_px);
-        tracks = BuildTracks(verified, {}, options.tracks);
-        track_graph = &verified;
+        tracks =
+            BuildTracks(PoseVerifiedGraph(graph, s.cameras, s.cam_from_world, s.posed, options.reverify_matches_px), {},
+                        options.tracks);
       }
       stage.Restart();
       TriangulationOptions tri;
@@ -234,7 +234,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       s.points.clear();
       for (const Track& track : tracks) {
         SfmPoint point;
-        if (TriangulateTrack(track, track_graph->keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
+        if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
           s.points.push_back(std::move(point));
       }
       seconds_triangulation += stage.Seconds();

@@ -20,7 +20,6 @@
 // OpenCV axes) and the scale makes the mean distance of the other posed cameras to it 1. Images
 // are only known up to a similarity, so evaluations align by Sim(3) anyway.
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "nerfreg/geometry/camera.h"
@@ -110,15 +109,6 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
 SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, const SfmOptions& options,
                      const std::vector<int>& camera_group = {});
-
-// The edge's inlier matches whose Sampson distance to the epipolar geometry of the two posed
-// cameras is below max_px (pixels, at image j's focal length); none when the two centres
-// coincide. An edge whose essential matrix is wrong may still hold right matches: low-texture
-// photos often fit several two-view solutions.
-std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
-                                                          const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
-                                                          const std::vector<Camera>& cameras,
-                                                          const std::vector<Rigid3d>& cam_from_world, double max_px);
 
 // Per image, another posed image whose camera centre coincides with its own (closer than
 // `fraction` of the root-mean-square spread of the posed centres), or -1. A solution with such

@@ -16,17 +16,23 @@
 namespace nerfreg {
 namespace {
 
-TEST(GlobalSfm, SyntheticCorrespondencesWithWrongEdgesAndMatchesGiveTheTrueCameras) {
+// 12 cameras, 400 points, 0.5 px keypoint noise, two-view estimates 0.5 deg / 2 deg off, a
+// fraction of the edges wrong and 10 % wrong matches on every edge.
+SyntheticScene NoisyScene(double outlier_edge_fraction, unsigned seed) {
   SyntheticSceneOptions o;
   o.num_cameras = 12;
   o.num_points = 400;
   o.keypoint_noise_px = 0.5;
   o.rotation_noise_deg = 0.5;
   o.direction_noise_deg = 2.0;
-  o.outlier_edge_fraction = 0.1;
+  o.outlier_edge_fraction = outlier_edge_fraction;
   o.outlier_match_fraction = 0.1;
-  o.seed = 11;
-  SyntheticScene s = MakeSyntheticScene(o);
+  o.seed = seed;
+  return MakeSyntheticScene(o);
+}
+
+TEST(GlobalSfm, SyntheticCorrespondencesWithWrongEdgesAndMatchesGiveTheTrueCameras) {
+  SyntheticScene s = NoisyScene(0.1, 11);
   // An image with no edge is reported by name and left out.
   s.graph.names.push_back("lonely.png");
   s.graph.keypoints.emplace_back();
@@ -69,16 +75,7 @@ TEST(GlobalSfm, SyntheticCorrespondencesWithWrongEdgesAndMatchesGiveTheTrueCamer
 // solved, those matches are checked against them and join the tracks: here half the points are
 // matched only across wrong edges, and become points; the wrong matches still do not survive.
 TEST(GlobalSfm, MatchesOfEdgesLeftOutByRotationAveragingJoinTheTracksOnceThePosesAgree) {
-  SyntheticSceneOptions o;
-  o.num_cameras = 12;
-  o.num_points = 400;
-  o.keypoint_noise_px = 0.5;
-  o.rotation_noise_deg = 0.5;
-  o.direction_noise_deg = 2.0;
-  o.outlier_edge_fraction = 0.5;
-  o.outlier_match_fraction = 0.1;
-  o.seed = 5;
-  SyntheticScene s = MakeSyntheticScene(o);
+  SyntheticScene s = NoisyScene(0.5, 5);
   // Half the points are matched only across the wrong edges.
   for (size_t e = 0; e < s.graph.edges.size(); ++e) {
     if (s.outlier_edge[e]) continue;
