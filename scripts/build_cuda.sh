@@ -8,7 +8,8 @@
 #   TORCH_DIR        a CUDA LibTorch's TorchConfig.cmake folder (default: the pinned PyPI wheel,
 #                    fetched once by scripts/fetch_libtorch.sh)
 #   CUDA_SCOPE       full (default) or core
-#   CUDA_BUILD_DIR   build folder (default build-cuda, build-cuda-core for core)
+#   CUDA_BUILD_DIR   build folder (default build-cuda, build-cuda-core for core; `make test`'s
+#                    unoptimised compile check: build-cuda-check)
 #   CUDA_ARCHS       CMAKE_CUDA_ARCHITECTURES (default 90-real;90-virtual: H100, PTX for newer)
 #   CUDA_TARGETS     build only these targets (default: all). `make test` builds the two binaries
 #                    and the kernels' tests: the other tests are the CPU build's, compiled there

