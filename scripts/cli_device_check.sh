@@ -14,6 +14,7 @@
 # command failed.
 #   CLI_CHECK_ITERS         block training iterations (default 1000)
 #   CLI_CHECK_PRESET        block training preset (default fast)
+#   CLI_CHECK_SAMPLES       block training samples per step (default: the preset's)
 #   CLI_CHECK_CONFIG        reg train --config (default paper)
 #   CLI_CHECK_DBARF_STEPS   dbarf pretrain steps (default 40; finetune: a quarter)
 #   CLI_CHECK_DBARF_CONFIG  dbarf pretrain --config (default paper)
@@ -25,6 +26,7 @@ fi
 NERFREG=$1 DATASET=$2 WORK=$3 DEVICE=$4 OUT=$5 PAIRS=${6:-}
 ITERS=${CLI_CHECK_ITERS:-1000}
 PRESET=${CLI_CHECK_PRESET:-fast}
+SAMPLES=${CLI_CHECK_SAMPLES:-}
 PYTHON=${PYTHON:-python3}
 [ -x "${NERFREG}" ] || { echo "error: ${NERFREG}: expected the nerfreg binary" >&2; exit 2; }
 [ -f "${DATASET}/transforms.json" ] || { echo "error: ${DATASET}: expected a folder with transforms.json" >&2; exit 2; }
@@ -70,9 +72,9 @@ PY
 
 HALF=$((ITERS / 2))
 step nerf_train_half "${NERFREG}" nerf train "${DATASET}" --out "${WORK}/block.ckpt" --preset "${PRESET}" \
-  --iters "${ITERS}" --stop-after "${HALF}" --device "${DEVICE}"
+  --iters "${ITERS}" --stop-after "${HALF}" --device "${DEVICE}" ${SAMPLES:+--samples "${SAMPLES}"}
 step nerf_train_resume "${NERFREG}" nerf train "${DATASET}" --out "${WORK}/block.ckpt" --preset "${PRESET}" \
-  --iters "${ITERS}" --resume --device "${DEVICE}"
+  --iters "${ITERS}" --resume --device "${DEVICE}" ${SAMPLES:+--samples "${SAMPLES}"}
 step nerf_eval "${NERFREG}" nerf eval "${WORK}/block.ckpt" "${DATASET}" --device "${DEVICE}"
 step nerf_eval_cpu "${NERFREG}" nerf eval "${WORK}/block.ckpt" "${DATASET}" --device cpu
 step nerf_render "${NERFREG}" nerf render "${WORK}/block.ckpt" --transforms "${DATASET}/transforms.json" \
