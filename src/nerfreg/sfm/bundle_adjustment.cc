@@ -5,6 +5,7 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
@@ -192,6 +193,38 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
   summary.final_rms_px =
       std::sqrt(SquaredErrorSum(*cameras, keypoints, posed, *cam_from_world, *points) / summary.num_observations);
   return summary;
+}
+
+std::vector<int> SpreadPointSubset(const std::vector<SfmPoint>& points,
+                                   const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                   const std::vector<Camera>& cameras, const std::vector<bool>& posed,
+                                   int cells_per_side, int per_cell) {
+  if (cells_per_side < 1 || per_cell < 1 || keypoints.size() != cameras.size() || posed.size() != cameras.size())
+    throw std::invalid_argument("SpreadPointSubset: out of range or inconsistent sizes");
+  std::vector<int> order(points.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return points[a].elements.size() > points[b].elements.size(); });
+  const int cells = cells_per_side * cells_per_side;
+  std::vector<int> taken_in(cameras.size() * cells, 0);
+  auto cell_of = [&](const TrackElement& e) {
+    const Camera& c = cameras[e.image];
+    const Eigen::Vector2d& uv = keypoints[e.image][e.keypoint];
+    const int x = std::clamp(static_cast<int>(uv.x() * cells_per_side / std::max(1, c.width)), 0, cells_per_side - 1);
+    const int y = std::clamp(static_cast<int>(uv.y() * cells_per_side / std::max(1, c.height)), 0, cells_per_side - 1);
+    return static_cast<size_t>(e.image) * cells + y * cells_per_side + x;
+  };
+  std::vector<int> subset;
+  for (int k : order) {
+    bool wanted = false;
+    for (const auto& e : points[k].elements) wanted = wanted || (posed[e.image] && taken_in[cell_of(e)] < per_cell);
+    if (!wanted) continue;
+    subset.push_back(k);
+    for (const auto& e : points[k].elements)
+      if (posed[e.image]) ++taken_in[cell_of(e)];
+  }
+  std::sort(subset.begin(), subset.end());
+  return subset;
 }
 
 BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,

@@ -57,6 +57,16 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
                                      std::vector<Rigid3d>* cam_from_world, std::vector<SfmPoint>* points,
                                      const BundleAdjustmentOptions& options);
 
+// The indices of a subset of `points` spread over every posed image: each image is cut into
+// cells_per_side x cells_per_side cells and points are taken longest track first while one of
+// their observations falls in a cell holding fewer than per_cell taken points. Self-calibration
+// refines the intrinsics on such a subset first (the focal length's slow valley costs many
+// iterations, each over every observation), so the adjustment over all points starts close.
+std::vector<int> SpreadPointSubset(const std::vector<SfmPoint>& points,
+                                   const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                                   const std::vector<Camera>& cameras, const std::vector<bool>& posed,
+                                   int cells_per_side, int per_cell);
+
 // The same with fixed intrinsics.
 BundleAdjustmentSummary BundleAdjust(const std::vector<Camera>& cameras,
                                      const std::vector<std::vector<Eigen::Vector2d>>& keypoints,

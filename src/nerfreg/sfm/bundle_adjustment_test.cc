@@ -79,5 +79,29 @@ TEST(BundleAdjustment, RecoversPerturbedCamerasAndPointsFromNoisyKeypoints) {
   for (double c : e.center_error) EXPECT_LT(c / e.widest_baseline, 0.003);
 }
 
+TEST(BundleAdjustment, SpreadPointSubsetCoversEveryCellLongestTracksFirst) {
+  // Two 100x100 images cut into 2x2 cells, one point per cell: the long track in the top-left cells
+  // is taken, the short ones in the same cells are not, the one alone in a cell is, and an
+  // observation in an unposed image fills nothing.
+  const std::vector<Camera> cameras(3, Camera::Pinhole(100, 100, 100, 100, 50, 50));
+  std::vector<std::vector<Eigen::Vector2d>> keypoints(3);
+  auto add = [&](int image, double x, double y) {
+    keypoints[image].push_back({x, y});
+    return TrackElement{image, static_cast<int>(keypoints[image].size()) - 1};
+  };
+  std::vector<SfmPoint> points(5);
+  points[0].elements = {add(0, 10, 10), add(1, 12, 11)};                  // short, top-left in both
+  points[1].elements = {add(0, 20, 20), add(1, 22, 21), add(2, 30, 30)};  // long, top-left in both
+  points[2].elements = {add(0, 80, 80), add(1, 81, 82)};                  // bottom-right in both
+  points[3].elements = {add(0, 85, 85), add(2, 10, 90)};                  // bottom-right in 0, taken there already
+  points[4].elements = {add(1, 90, 10), add(2, 90, 10)};                  // top-right in 1: a free cell
+  const std::vector<bool> posed = {true, true, false};
+  EXPECT_EQ(SpreadPointSubset(points, keypoints, cameras, posed, 2, 1), (std::vector<int>{1, 2, 4}));
+  // Two per cell: the short top-left track joins; one cell per image keeps everything.
+  EXPECT_EQ(SpreadPointSubset(points, keypoints, cameras, posed, 2, 2), (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(SpreadPointSubset(points, keypoints, cameras, posed, 1, 1), (std::vector<int>{1}));
+  EXPECT_THROW(SpreadPointSubset(points, keypoints, cameras, posed, 0, 1), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -29,7 +29,8 @@ void SfmOptions::Check() const {
   tracks.Check();
   bundle_adjustment.Check();
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
-      !(reverify_matches_px >= 0) || collapse_retries < 0) {
+      !(reverify_matches_px >= 0) || collapse_retries < 0 || intrinsics_subset_cells < 0 ||
+      intrinsics_subset_per_cell < 1) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
@@ -239,6 +240,17 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       }
       seconds_triangulation += stage.Seconds();
       stage.Restart();
+      const bool self_calibrating = options.refine_focal || options.refine_distortion;
+      const bool last_round = round + 1 == options.round_reprojection_error_px.size();
+      if (!last_round && self_calibrating && options.intrinsics_subset_cells > 0) {
+        // Before the last round the poses and intrinsics only serve to verify the matches and
+        // triangulate again: a spread subset of the points will do.
+        std::vector<SfmPoint> subset;
+        for (int k : SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.intrinsics_subset_cells,
+                                       options.intrinsics_subset_per_cell))
+          subset.push_back(std::move(s.points[k]));
+        s.points = std::move(subset);
+      }
       BundleAdjustmentOptions ba = options.bundle_adjustment;
       if (round == 0 && positioning == SfmPositioning::kGlobalPositioning) {
         // Positions first, orientations held (GLOMAP): the averaged rotations are better than the
@@ -249,9 +261,33 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       }
       ba.refine_focal = options.refine_focal && round > 0;
       ba.refine_distortion = options.refine_distortion && round > 0;
+      double seconds_retriangulation = 0;
+      if ((ba.refine_focal || ba.refine_distortion) && options.intrinsics_subset_cells > 0) {
+        // The intrinsics on a spread subset, then every track again with them.
+        const std::vector<int> chosen =
+            SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.intrinsics_subset_cells,
+                              options.intrinsics_subset_per_cell);
+        if (chosen.size() < s.points.size()) {
+          std::vector<SfmPoint> subset;
+          for (int k : chosen) subset.push_back(s.points[k]);
+          const auto sub =
+              BundleAdjust(&s.cameras, groups, graph.keypoints, s.posed, root, &s.cam_from_world, &subset, ba);
+          LOG_DEBUG("sfm intrinsics on {} of {} points: rms {:.3f} -> {:.3f} px, {} iterations", subset.size(),
+                    s.points.size(), sub.initial_rms_px, sub.final_rms_px, sub.iterations);
+          const Timer retriangulation;
+          s.points.clear();
+          for (const Track& track : tracks) {
+            SfmPoint point;
+            if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
+              s.points.push_back(std::move(point));
+          }
+          seconds_retriangulation = retriangulation.Seconds();
+        }
+      }
       [[maybe_unused]] const auto summary =
           BundleAdjust(&s.cameras, groups, graph.keypoints, s.posed, root, &s.cam_from_world, &s.points, ba);
-      seconds_ba += stage.Seconds();
+      seconds_ba += stage.Seconds() - seconds_retriangulation;
+      seconds_triangulation += seconds_retriangulation;
       LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
                 s.points.size(), summary.initial_rms_px, summary.final_rms_px, summary.iterations, stage.Seconds());
     }

@@ -11,7 +11,11 @@
 //   -> rounds of triangulation + bundle adjustment (pixels, Huber), the first with rotations held,
 //      each round re-triangulating every track with a tighter reprojection threshold, so
 //      observations rejected with rough poses come back once the poses are good; the last rounds
-//      refine the intrinsics when asked (self-calibration; triangulation.h, bundle_adjustment.h)
+//      refine the intrinsics when asked (self-calibration; triangulation.h, bundle_adjustment.h).
+//      Self-calibrating, the rounds before the last adjust a subset of the points spread over every
+//      image, and the last refines the intrinsics on that subset before all points: the focal
+//      length's shallow valley costs many iterations, which then run over a fraction of the
+//      observations.
 //   -> a check for a collapsed solution (camera centres that coincide although the two images' own
 //      matches show parallax): solved again by global positioning from another random start, and
 //      images still collapsed are left unposed with the reason.
@@ -68,6 +72,12 @@ struct SfmOptions {
   // radial distortion (k1, k2) of each camera group.
   bool refine_focal = false;
   bool refine_distortion = false;
+  // Self-calibrating, the rounds before the last adjust only a subset of the points spread over
+  // every image (SpreadPointSubset: cells per image side, points per cell), and the last refines
+  // the intrinsics with the poses on that subset, re-triangulates every track and then adjusts
+  // all points (intrinsics refined again); 0 cells adjusts all points in every round.
+  int intrinsics_subset_cells = 8;
+  int intrinsics_subset_per_cell = 4;
   // Camera centres closer than this fraction of the centres' rms spread count as coincident (a
   // collapsed solution: no capture has two photos from one point); 0 turns the check off.
   double collapse_fraction = 0.01;
