@@ -101,7 +101,10 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
                             chain);
       RegistrationResult r = RunChain(pair, RegistrationMethod::kRansac, RegistrationCloud::kOccupied, chain, nullptr);
       const bool used = r.method_score >= options.min_confidence;
-      if (used && field) RefineOnFields(pair, chain, &r);
+      if (used && field) {
+        RefineOnFields(pair, chain, &r);
+        PolishWithScaleHeld(pair, chain, &r);
+      }
       // In the inputs' own units: target_from_normalized * T * normalized_from_source.
       const Sim3d in_units = normalized_from[j].Inverse() * r.target_from_source * normalized_from[i];
       edges_json.push_back({{"source", i},
