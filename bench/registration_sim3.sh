@@ -12,8 +12,8 @@
 # OBJECT --blocks 2 --block-scale-range 0.35,2.8 --seed SEED` (SEED 0: no scale range, both blocks
 # at scale 1), each block trained as the CLI tests train theirs (`nerf train --iters 400 --samples
 # 8192`), and `reg register` (default auto, field refinement) run both ways (block 0 -> 1 and 1 ->
-# 0: relative scales s and 1 / s) with `--scale free`, and with `--scale fixed` too on the scale-1
-# sets; scored against ground_truth.json by `reg eval --pair` (extent 2.5 in the target's units
+# 0: relative scales s and 1 / s) with `--scale free`; the scale-1 sets one way, with `--scale free`
+# and `--scale fixed`; scored against ground_truth.json by `reg eval --pair` (extent 2.5 in the target's units
 # times its block scale).
 # Writes OUT_JSON (default results/registration_sim3.json) and OUT_MD (results/registration_sim3.md).
 # Usage: bench/registration_sim3.sh [SEEDS (default "6000 6001 6002 6003")] [SCALES (default "0.25 0.5 1 2 4")]
@@ -24,6 +24,7 @@ NERFREG=${NERFREG:-$ROOT/build/nerfreg}
 SEEDS=${1:-"6000 6001 6002 6003"}
 SCALES=${2:-"0.25 0.5 1 2 4"}
 BLOCK_SETS=${3-"6000:16 6001:13 6000:0"}
+# WORK given again: its renders, checkpoints and results (T.json with its exit code) are reused.
 WORK=${WORK:-$(mktemp -d /tmp/registration_sim3.XXXXXX)}
 OUT_JSON=${OUT_JSON:-$ROOT/results/registration_sim3.json}
 OUT_MD=${OUT_MD:-$ROOT/results/registration_sim3.md}
@@ -63,8 +64,12 @@ for seed in $SEEDS; do
     for mode in $modes; do
       out=$d/t_${s}_$mode.json
       rc=0
-      "$NERFREG" reg register "$d/s0_$s.ply" "$d/block_1/splats.ply" --scale "$mode" --seed 0 --quiet --force \
-        --out "$out" > /dev/null 2>&1 || rc=$?
+      # A result already in WORK (a WORK given again) is read back, with its exit code.
+      if [ -f "$out" ] && [ -f "$out.rc" ]; then rc=$(cat "$out.rc"); else
+        "$NERFREG" reg register "$d/s0_$s.ply" "$d/block_1/splats.ply" --scale "$mode" --seed 0 --quiet --force \
+          --out "$out" > /dev/null 2>&1 || rc=$?
+        echo "$rc" > "$out.rc"
+      fi
       line=$("$NERFREG" reg eval --pair "$out" --ground-truth "$d/gt_$s.json" 2>/dev/null | tail -1)
       echo "$seed $s $mode $rc $line $(python3 - "$out" "$d/gt_$s.json" <<'PY'
 import json, sys
@@ -95,15 +100,20 @@ for set in $BLOCK_SETS; do
     [ -f "$d/b$k.ckpt" ] || "$NERFREG" nerf train "$d/data/block_$k" --out "$d/b$k.ckpt" --iters 400 --samples 8192 \
       --quiet
   done
+  # Scaled sets both ways (s and 1 / s); the scale-1 sets one way, free against fixed.
   modes=free
-  if [ "$seed" = 0 ]; then modes="free fixed"; fi
-  for dir in "0 1" "1 0"; do
+  dirs=("0 1" "1 0")
+  if [ "$seed" = 0 ]; then modes="free fixed"; dirs=("0 1"); fi
+  for dir in "${dirs[@]}"; do
     read -r a b <<< "$dir"
     for mode in $modes; do
       out=$d/t_${a}${b}_$mode.json
       rc=0
-      "$NERFREG" reg register "$d/b$a.ckpt" "$d/b$b.ckpt" --scale "$mode" --seed 0 --quiet --force --out "$out" \
-        > /dev/null 2>&1 || rc=$?
+      if [ -f "$out" ] && [ -f "$out.rc" ]; then rc=$(cat "$out.rc"); else
+        "$NERFREG" reg register "$d/b$a.ckpt" "$d/b$b.ckpt" --scale "$mode" --seed 0 --quiet --force --out "$out" \
+          > /dev/null 2>&1 || rc=$?
+        echo "$rc" > "$out.rc"
+      fi
       line=$("$NERFREG" reg eval --pair "$out" --ground-truth "$d/data/ground_truth.json" 2>/dev/null | tail -1)
       echo "$object:$seed $a$b $mode $rc $line $(python3 - "$out" "$d/data/ground_truth.json" "$a" "$b" <<'PY'
 import json, sys
