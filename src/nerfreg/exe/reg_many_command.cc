@@ -13,12 +13,14 @@ int RunRegRegisterMany(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
   AddCommonOptions(app, &common);
-  DescribeCommand(app,
-                  "Register many NeRF blocks into one frame (block 0's): every pair is registered (FPFH + RANSAC + "
-                  "ICP, then by default refined on the two fields), pairs that agree "
-                  "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
-                  "from a cycle-consistent spanning tree. Writes {world_from_block: [4x4...], edges: [...]}.",
-                  "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
+  DescribeCommand(
+      app,
+      "Register many NeRF blocks into one frame (block 0's): every pair is registered (FPFH + RANSAC + "
+      "ICP, then by default refined on the two fields), pairs that agree "
+      "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
+      "from a cycle-consistent spanning tree; with --scale free (default) every block's scale too (a Sim(3) "
+      "graph). Writes {world_from_block: [4x4...], scale: [...], edges: [...]}.",
+      "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
   std::vector<std::string> paths;
   std::string out, refine = "field";
   ManyBlockRegistrationOptions o;
@@ -38,11 +40,17 @@ int RunRegRegisterMany(int argc, char** argv) {
   app.add_option("--seed", o.seed, "Random seed");
   app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
       ->check(CLI::IsMember({"icp", "field"}));
+  std::string scale = "free";
+  app.add_option("--scale", scale,
+                 "free (default: the blocks may be in different units; each is normalised by its own occupied extent "
+                 "and the pose graph estimates every block's scale) or fixed (a rigid graph: the blocks share a unit)")
+      ->check(CLI::IsMember({"free", "fixed"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   CheckCanWriteOutput(out, common.force, paths);
   if (!merged.empty()) CheckCanWriteOutput(merged, common.force, paths);
   if (!merged_cameras.empty()) CheckCanWriteOutput(merged_cameras, common.force, paths);
   o.refine = RegistrationRefinementFromName(refine);
+  o.scale = ScaleModeFromName(scale);
   const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
   WriteJsonFile(out, r.json);
   if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 
@@ -14,6 +15,7 @@
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/registration_input.h"
 #include "nerfreg/registration/registration_chain.h"
+#include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
@@ -37,6 +39,7 @@ Json ManyBlockRegistrationOptions::ToJson() const {
           {"min_confidence", min_confidence},
           {"seed", seed},
           {"refine", RegistrationRefinementName(refine)},
+          {"scale", ScaleModeName(scale)},
           {"splat_density_scale", splats.density_scale},
           {"splat_blur", splats.blur}};
 }
@@ -53,12 +56,28 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     result.warnings.push_back(std::move(message));
   };
   const int n = static_cast<int>(paths.size());
+  const bool free_scale = options.scale == ScaleMode::kFree;
   std::vector<Eigen::Matrix3Xd> clouds;
   std::vector<std::unique_ptr<RegistrationInput>> blocks;  // kept for --refine field only
+  // normalized_from_block per input (identity with kFixed): every pair, and the graph, work in the
+  // normalised frames.
+  std::vector<Sim3d> normalized_from;
+  Json normalization = Json::array();
   for (const auto& p : paths) {
     std::unique_ptr<RegistrationInput> b = LoadRegistrationInput(p, options.splats);
-    clouds.push_back(b->OccupiedPoints(options.min_density, options.seed));
-    if (clouds.back().cols() < 100) warn("{}: only {} occupied points", p, clouds.back().cols());
+    Eigen::Matrix3Xd cloud = b->OccupiedPoints(options.min_density, options.seed);
+    if (cloud.cols() < 100) warn("{}: only {} occupied points", p, cloud.cols());
+    Sim3d nk;
+    if (free_scale && cloud.cols() >= 3) {
+      nk = NormalizationFor(cloud, p);
+      normalization.push_back(NormalizationJson(nk, OccupiedRadius(cloud)));
+      cloud = (nk.scale * nk.rotation.toRotationMatrix() * cloud).colwise() + nk.translation;
+      if (options.refine == RegistrationRefinement::kField) b->Move(nk);
+    } else {
+      normalization.push_back(nullptr);
+    }
+    normalized_from.push_back(nk);
+    clouds.push_back(std::move(cloud));
     if (options.refine == RegistrationRefinement::kField) blocks.push_back(std::move(b));
   }
   // Each pair through reg register's chain: FPFH + RANSAC + ICP on the occupied points, then, for
@@ -66,7 +85,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   BlockRegistrationOptions chain;
   chain.method = RegistrationMethod::kRansac;
   chain.refine = RegistrationRefinement::kIcp;
-  chain.scale = ScaleMode::kFixed;  // a rigid pose graph: the blocks share a unit
+  chain.scale = options.scale;
   chain.min_density = options.min_density;
   chain.voxel = options.voxel;
   chain.max_points = options.max_points;
@@ -82,10 +101,16 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
                             chain);
       RegistrationResult r = RunChain(pair, RegistrationMethod::kRansac, RegistrationCloud::kOccupied, chain, nullptr);
       const bool used = r.method_score >= options.min_confidence;
-      if (used && field) RefineOnFields(pair, chain, &r);
+      if (used && field) {
+        RefineOnFields(pair, chain, &r);
+        PolishWithScaleHeld(pair, chain, &r);
+      }
+      // In the inputs' own units: target_from_normalized * T * normalized_from_source.
+      const Sim3d in_units = normalized_from[j].Inverse() * r.target_from_source * normalized_from[i];
       edges_json.push_back({{"source", i},
                             {"target", j},
-                            {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+                            {"target_from_source", MatrixToJson(in_units.ToMatrix())},
+                            {"scale", in_units.scale},
                             {"confidence", r.method_score},
                             {"used", used},
                             {"field", r.field}});
@@ -93,7 +118,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       PoseGraphEdge e;
       e.i = i;
       e.j = j;
-      e.j_from_i = r.target_from_source.ToRigid();
+      e.j_from_i = r.target_from_source;
       e.weight = r.method_score;
       edges.push_back(e);
     }
@@ -101,11 +126,16 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   // Pairs that disagree with their loops are dropped (a block of another object, a wrong
   // registration), and named: the graph never silently fuses them.
   std::vector<bool> dropped;
-  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, PoseGraphOptions{}, &dropped);
-  Json world_from_block = Json::array(), connected = Json::array();
+  PoseGraphOptions graph;
+  graph.estimate_scale = free_scale;
+  const PoseGraphResult g = OptimizePoseGraphWithoutOutliers(n, edges, graph, &dropped);
+  Json world_from_block = Json::array(), scales = Json::array(), connected = Json::array();
   for (int k = 0; k < n; ++k) {
-    // The graph's nodes are block_from_world-like: x_in_world = world_from_node * x_in_block.
-    world_from_block.push_back(MatrixToJson(g.world_from_node[k].ToMatrix()));
+    // The graph's world is block 0's normalised frame: x_in_block_0 = normalized_from[0]^-1 *
+    // world_from_node * normalized_from[k] * x_in_block_k.
+    result.world_from_block.push_back(normalized_from[0].Inverse() * g.world_from_node[k] * normalized_from[k]);
+    world_from_block.push_back(MatrixToJson(result.world_from_block.back().ToMatrix()));
+    scales.push_back(result.world_from_block.back().scale);
     connected.push_back(static_cast<bool>(g.connected[k]));
     if (!g.connected[k]) warn("{}: no confident registration links it to block 0; left at identity", paths[k]);
   }
@@ -116,6 +146,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     edges_json[e]["inlier"] = static_cast<bool>(g.edge_inlier[k]);
     edges_json[e]["rotation_residual_deg"] = g.edge_rotation_error_deg[k];
     edges_json[e]["translation_residual"] = g.edge_translation_error[k];
+    edges_json[e]["scale_residual"] = g.edge_log_scale_error[k];
     const int i = edges[k].i, j = edges[k].j;
     if (dropped[k]) {
       edges_json[e]["used"] = false;
@@ -123,9 +154,9 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       ++dropped_edges_of[i];
       ++dropped_edges_of[j];
       warn(
-          "{} -> {}: registration disagrees with its loops by {:.1f} deg; not used (one of these blocks may not "
-          "belong to the scene)",
-          paths[i], paths[j], g.edge_rotation_error_deg[k]);
+          "{} -> {}: registration disagrees with its loops by {:.1f} deg, {:.1f} % in scale; not used (one of these "
+          "blocks may not belong to the scene)",
+          paths[i], paths[j], g.edge_rotation_error_deg[k], 100 * (std::exp(g.edge_log_scale_error[k]) - 1));
     } else {
       ++kept_edges_of[i];
       ++kept_edges_of[j];
@@ -140,12 +171,13 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     }
   }
   result.json = {{"world_from_block", world_from_block},
+                 {"scale", scales},
                  {"connected", connected},
+                 {"normalization", free_scale ? normalization : Json()},
                  {"edges", edges_json},
                  {"seconds", timer.Seconds()},
                  {"blocks", paths}};
   result.json["options"] = options.ToJson();
-  for (int k = 0; k < n; ++k) result.world_from_block.push_back(Sim3d(g.world_from_node[k]));
   result.used_edges = static_cast<int>(used);
   result.pairs = static_cast<int>(edges_json.size());
   return result;

@@ -4,7 +4,11 @@
 // occupied points (then, with kField, refined on the two fields); pairs whose fitness reaches
 // min_confidence become edges of a pose graph, solved with a robust loss from a cycle-consistent
 // spanning tree; edges that disagree with their loops are dropped and named (a block of another
-// object, a wrong registration).
+// object, a wrong registration). With ScaleMode::kFree (the default) the inputs may be in
+// different units: each is normalised by its own occupied extent once (as reg register does,
+// registration/scale_normalization.h), every pair's chain estimates the scale, and the pose graph
+// is a Sim(3) graph solved in the normalised frames (so its thresholds mean the same for every
+// input); the per-block similarities are then carried back to the inputs' own units.
 #include <string>
 #include <vector>
 
@@ -23,19 +27,24 @@ struct ManyBlockRegistrationOptions {
   double min_confidence = 0.3;  // --min-confidence: pairs below this RANSAC fitness are not edges
   unsigned seed = 0;            // --seed
   RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine: kIcp or kField
+  // --scale: kFree, each block's scale estimated (a Sim(3) graph); kFixed, a rigid graph of blocks
+  // that share a unit (as before Sim(3)).
+  ScaleMode scale = ScaleMode::kFree;
   SplatFieldOptions splats;  // --splat-density-scale, --splat-blur: splat PLY inputs as fields
   void Check() const;        // throws InputError naming the flag
   Json ToJson() const;
 };
 
 struct ManyBlockRegistrationResult {
-  // {world_from_block: [4x4...], connected, edges: [{source, target, target_from_source,
-  // confidence, used, field, inlier, rotation_residual_deg, translation_residual, dropped}],
-  // seconds, blocks}, as reg register-many writes it.
+  // {world_from_block: [4x4...], scale: [...], connected, edges: [{source, target,
+  // target_from_source, scale, confidence, used, field, inlier, rotation_residual_deg,
+  // translation_residual, scale_residual, dropped}], normalization, seconds, blocks}, as reg
+  // register-many writes it. Poses in the inputs' own units; the residuals in the graph's
+  // (normalised with kFree) units.
   Json json;
   int used_edges = 0;                   // pairs kept in the graph
   int pairs = 0;                        // pairs tried
-  std::vector<Sim3d> world_from_block;  // as in json, one per input
+  std::vector<Sim3d> world_from_block;  // as in json, one per input: x_in_block_0 = world_from_block[k] * x_in_k
   std::vector<std::string> warnings;
 };
 

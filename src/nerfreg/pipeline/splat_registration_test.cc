@@ -8,6 +8,7 @@
 #include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/pipeline/register_blocks.h"
+#include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/registration_success.h"
 #include "nerfreg/render/procedural.h"
 #include "nerfreg/render/render_dataset.h"
@@ -93,6 +94,60 @@ TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScal
                   RotationErrorDeg(rigid.target_from_source.rotation, want.rotation), rigid.confidence);
     }
   }
+}
+
+// register-many on three captures in three units: object 7's two captures (block 1's scaled by
+// 0.4) and block 0's again, scaled by 2.5, turned and shifted (a loop of one real registration
+// and two of one capture's copies). The Sim(3) pose graph brings each into block 0's frame, its
+// scale within 1 %; the rigid graph (--scale fixed) places neither.
+TEST(SplatRegistration, RegisterManyBringsCapturesAtThreeScalesIntoOneFrame) {
+  ScopedTempDir dir;
+  const Sim3d block0_from_block1 = RenderTwoSplatCaptures(dir).Inverse();
+  const std::vector<double> scales = {1.0, 0.4, 2.5};
+  const std::vector<int> capture = {0, 1, 0};
+  std::vector<std::string> paths;
+  std::vector<Sim3d> want;                // block 0 from input k
+  std::vector<Eigen::Vector3d> centroid;  // of input k's splats, its frame
+  for (int k = 0; k < 3; ++k) {
+    const Sim3d scaled_from_block(
+        scales[k], Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * k, Eigen::Vector3d(1, -2, 0.5).normalized())),
+        Eigen::Vector3d(1, -1, 2) * k);
+    paths.push_back(dir.File("s" + std::to_string(k) + ".ply"));
+    const Splats splats = TransformSplats(
+        ReadSplatPly(dir.File("data/block_" + std::to_string(capture[k]) + "/splats.ply")), scaled_from_block);
+    WriteSplatPly(splats, paths.back());
+    centroid.push_back(splats.position.cast<double>().rowwise().mean());
+    want.push_back((capture[k] == 0 ? Sim3d() : block0_from_block1) * scaled_from_block.Inverse());
+  }
+  ManyBlockRegistrationOptions o;
+  o.refine = RegistrationRefinement::kIcp;
+  o.max_points = 1000;  // FPFH + RANSAC's cost, 6 pairs in all
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  ASSERT_EQ(r.world_from_block.size(), 3u);
+  EXPECT_EQ(r.used_edges, 3) << r.json.dump();
+  for (int k = 1; k < 3; ++k) {
+    const Sim3d& est = r.world_from_block[k];
+    const double rot = RotationErrorDeg(est.rotation, want[k].rotation);
+    // Where the object lands (the frames' origins lie far from it, where a small turn moves much).
+    const double trans = (est * centroid[k] - want[k] * centroid[k]).norm();
+    const double scale_error = std::abs(est.scale / want[k].scale - 1);
+    EXPECT_LE(rot, 2.0) << k << "\n" << r.json.dump();
+    EXPECT_LE(trans / kObjectExtent, 0.02) << k << "\n" << r.json.dump();
+    EXPECT_LE(scale_error, 0.01) << k << "\n" << r.json.dump();
+    std::printf("register-many, input %d at scale %.1f: %.3f deg, %.4f of the extent, scale error %.3f %%\n", k,
+                scales[k], rot, trans / kObjectExtent, 100 * scale_error);
+  }
+  std::printf("register-many: %.1f s\n", r.json["seconds"].get<double>());
+  o.scale = ScaleMode::kFixed;
+  const ManyBlockRegistrationResult rigid = RegisterManyBlocks(paths, o);
+  int placed = 0;
+  for (int k = 1; k < 3; ++k) {
+    const Sim3d& est = rigid.world_from_block[k];
+    EXPECT_EQ(est.scale, 1.0);
+    placed += RegistrationSucceeded(RotationErrorDeg(est.rotation, want[k].rotation),
+                                    (est * centroid[k] - want[k] * centroid[k]).norm());
+  }
+  EXPECT_EQ(placed, 0) << rigid.json.dump();
 }
 
 }  // namespace

@@ -170,7 +170,10 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
       xt = Columns(xt, keep_t);
     }
   }
-  const Eigen::VectorXd os = Occupancy(source, ys, o.occupancy_scale);
+  // A density is per unit length: the source's, in target units, is sigma / scale. Converted at the
+  // start's scale (with estimate_scale, the scale moves by at most a few percent).
+  const double source_occupancy = o.occupancy_scale / scale;
+  const Eigen::VectorXd os = Occupancy(source, ys, source_occupancy);
   const Eigen::VectorXd ot = Occupancy(target, xt, o.occupancy_scale);
   const double h = o.gradient_step * o.sample_spread;
 
@@ -182,14 +185,14 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
     // Samples carried into `field` at `mapped`, against their own occupancy `reference`;
     // jacobian_row(i, g) is d residual_i / d increment given the field's gradient g there;
     // scale_row(i, g) the same for the log-scale increment.
-    auto accumulate = [&](const DensityField& field, const Eigen::Matrix3Xd& mapped, const Eigen::VectorXd& reference,
-                          auto jacobian_row, auto scale_row) {
+    auto accumulate = [&](const DensityField& field, double occupancy_scale, const Eigen::Matrix3Xd& mapped,
+                          const Eigen::VectorXd& reference, auto jacobian_row, auto scale_row) {
       Eigen::VectorXd occ;
       Eigen::Matrix3Xd grad;
       if (jacobian) {
-        OccupancyAndGradient(field, mapped, o.occupancy_scale, h, &occ, &grad);
+        OccupancyAndGradient(field, mapped, occupancy_scale, h, &occ, &grad);
       } else {
-        occ = Occupancy(field, mapped, o.occupancy_scale);
+        occ = Occupancy(field, mapped, occupancy_scale);
       }
       for (Eigen::Index i = 0; i < mapped.cols(); ++i) {
         if (!field.box.contains(Eigen::Vector3d(mapped.col(i)))) continue;
@@ -211,7 +214,7 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
     // for the log-scale: the increment scales z about the origin).
     const Eigen::Matrix3Xd z = ((scale * r) * ys).colwise() + t;
     accumulate(
-        target, z, os,
+        target, o.occupancy_scale, z, os,
         [&](Eigen::Index i, const Eigen::Vector3d& g) {
           Vector6 j;
           j << Eigen::Vector3d(z.col(i)).cross(g), g;
@@ -222,7 +225,7 @@ FieldAlignmentResult AlignFields(const DensityField& source, const DensityField&
     // carried into the target frame (g_t = R g / scale), J = [g_t x x, -g_t].
     const Eigen::Matrix3Xd p = (r.transpose() * (xt.colwise() - t)) / scale;
     accumulate(
-        source, p, ot,
+        source, source_occupancy, p, ot,
         [&](Eigen::Index i, const Eigen::Vector3d& g) {
           const Eigen::Vector3d gt = r * g / scale;
           Vector6 j;

@@ -95,7 +95,8 @@ Eigen::Matrix3Xd SurfaceBandSamples(const Eigen::Matrix3Xd& points, double sprea
 
 // source_points [3, Ns], target_points [3, Nt]: surface points in each block's frame (a grid's
 // MaskedXyz). `scale` (a Sim(3) solve's) is held fixed unless options.estimate_scale:
-// T y = scale * R y + t. Returns the
+// T y = scale * R y + t. A density is per unit length, so the source's is compared in target
+// units (sigma / scale, at the scale given). Returns the
 // initial pose unchanged (iterations 0) when fewer than 10 samples land in both boxes.
 FieldAlignmentResult AlignFields(const DensityField& source, const DensityField& target,
                                  const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,

@@ -163,13 +163,13 @@ class BlockRegistration {
   // confidence means the same whichever method found it.
   void Score() {
     auto& cs = result_.candidates;
-    const FieldAgreementSamples samples = DrawFieldAgreementSamples(pair_.SourcePoints(), pair_.TargetPoints(),
-                                                                    pair_.GridCell(), o_.field.max_samples, o_.seed);
+    samples_ = DrawFieldAgreementSamples(pair_.SourcePoints(), pair_.TargetPoints(), pair_.GridCell(),
+                                         o_.field.max_samples, o_.seed);
     const DensityField src = pair_.SourceField(), tgt = pair_.TargetField();
     std::vector<Sim3d> poses;
     for (const auto& c : cs) poses.push_back(c.target_from_source);
     std::vector<FieldAgreement> scores;
-    const size_t best = ChooseCandidate(src, tgt, samples, poses, o_.field.occupancy_scale, &scores);
+    const size_t best = ChooseCandidate(src, tgt, samples_, poses, o_.field.occupancy_scale, &scores);
     for (size_t k = 0; k < cs.size(); ++k) {
       cs[k].agreement = scores[k];
       cs[k].confidence = scores[k].confidence;
@@ -179,9 +179,23 @@ class BlockRegistration {
     result_.chosen = o_.refine == RegistrationRefinement::kField ? best : 0;
   }
 
+  // With a free scale and kField, the kept pose polished with its scale held (PolishWithScaleHeld,
+  // registration/registration_chain.h) and scored again on the same samples. Only the kept one:
+  // the polish costs a field refinement.
+  void PolishChosen() {
+    RegistrationResult& c = result_.candidates[result_.chosen];
+    const std::string method = c.method;
+    PolishWithScaleHeld(pair_, o_, &c);
+    if (c.method == method) return;  // not run, or not kept
+    c.agreement = ScoreFieldAgreement(pair_.SourceField(), pair_.TargetField(), samples_, c.target_from_source,
+                                      o_.field.occupancy_scale);
+    c.confidence = c.agreement.confidence;
+  }
+
   void Choose() {
     auto& cs = result_.candidates;
     Score();
+    PolishChosen();
     const size_t best = result_.chosen;
     const RegistrationResult& c = cs[best];
     static_cast<RegistrationResult&>(result_) = c;
@@ -213,6 +227,7 @@ class BlockRegistration {
   RegistrationPair pair_;
   const BlockRegistrationOptions& o_;
   DregNet* net_;
+  FieldAgreementSamples samples_;  // Score's, kept for the polished pose
   BlockRegistrationResult result_;
 };
 

@@ -158,12 +158,43 @@ void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& opti
   r->method += "+field";
 }
 
+void PolishWithScaleHeld(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
+  if (options.scale != ScaleMode::kFree || options.refine != RegistrationRefinement::kField) return;
+  if (pair.SourceCloud(r->cloud).cols() < 3 || pair.TargetCloud(r->cloud).cols() < 3) return;
+  BlockRegistrationOptions held = options;
+  held.scale = ScaleMode::kFixed;  // the rigid stages, on the source scaled by the result's scale
+  Json polish = {{"before", MatrixToJson(r->target_from_source.ToMatrix())}};
+  Sim3d pose = RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel,
+                                   &polish["block_icp"], false);
+  DensityField source = pair.SourceField(), target = pair.TargetField();
+  if (options.field.overlap_only && pair.HasGrids()) {
+    source.seen = SeenFromGrid(pair.SourceGrid());
+    target.seen = SeenFromGrid(pair.TargetGrid());
+  }
+  FieldAlignmentOptions field = options.field;
+  field.estimate_scale = false;
+  const Sim3d refined = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), pose,
+                                       field, pair.GridCell(), &polish["field"]);
+  const Json& f = polish["field"];
+  const bool kept = f["iterations"].get<int>() > 0 && f["final_cost"].get<double>() <= f["initial_cost"].get<double>();
+  polish["kept"] = kept;
+  r->seconds += polish["block_icp"]["seconds"].get<double>() + f["seconds"].get<double>();
+  if (kept) {
+    r->target_from_source = refined;
+    r->method += "+polish";
+  }
+  r->details["polish"] = polish;
+}
+
 void ContinueChain(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
   if (r->cloud == RegistrationCloud::kGridMask && options.refine != RegistrationRefinement::kNone &&
       options.block_icp) {
     RefineOnBlockPoints(pair, options, r);
   }
-  if (options.refine == RegistrationRefinement::kField) RefineOnFields(pair, options, r);
+  if (options.refine == RegistrationRefinement::kField) {
+    RefineOnFields(pair, options, r);
+    PolishWithScaleHeld(pair, options, r);
+  }
 }
 
 RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, RegistrationCloud cloud,
