@@ -7,8 +7,13 @@
 // widened near / far), so the figures are the ones the trainer's loss would give. Prints a Markdown
 // table (means over targets) and, with --png DIR, writes per scene a strip of the first target:
 // target | its first source | that source warped at the truth | 4 |warped - target| | the auto-mask
-// (white where the un-warped source wins) at the truth | the same at the identity.
+// (white where the un-warped source wins) at the truth | the same at the identity. Then the
+// gradient's direction at the static solution and near it, and the loss along the geodesic from the
+// identity to the truth at several depths. With --optimise N (of every --optimise-every n-th view,
+// default 4; the other views are skipped), the same loss optimised directly from the identity and
+// disparity 0.1 (no network: a twist per source, a coarse disparity map, Adam), per loss variant.
 //   build/bench/nerfreg_sfm_loss_probe --png /tmp/probe data/llff/val_3001/transforms.json ...
+//   build/bench/nerfreg_sfm_loss_probe --optimise 200 --optimise-every 10 data/llff/val_3002/transforms.json
 #include <torch/torch.h>
 
 #include <algorithm>
@@ -97,6 +102,57 @@ Gradient GradientAt(const torch::Tensor& target, const torch::Tensor& src, const
   return g;
 }
 
+// Direct optimisation of the same loss, without the network: the relative poses (a left twist per
+// source on the identity) and a coarse disparity map (16 x 12 logits, bilinearly upsampled,
+// sigmoid), from the identity and disparity 0.1 (the untrained network's start), by Adam. Where
+// true_inv_depth is defined the depth is held at it (poses only). Returns the rotation and
+// direction errors (deg, means over sources), sum |t| / sum |t_true|, the mean disparity and the
+// final photometric loss.
+struct Optimised {
+  double rotation_deg = 0, direction_deg = 0, translation_ratio = 0, disparity = 0, loss = 0;
+};
+Optimised OptimiseFromIdentity(const torch::Tensor& target, const torch::Tensor& src, const torch::Tensor& k,
+                               const torch::Tensor& truth, double lo, double hi, const SfmLossOptions& options,
+                               int steps, const torch::Tensor& true_inv_depth) {
+  const int64_t n = src.size(0), h = target.size(2), w = target.size(3);
+  torch::Tensor xi = torch::zeros({n, 6}).requires_grad_(true);
+  torch::Tensor logits = torch::full({1, 1, 12, 16}, std::log(0.1 / 0.9)).requires_grad_(true);
+  std::vector<torch::optim::OptimizerParamGroup> groups;
+  groups.emplace_back(std::vector<torch::Tensor>{xi}, std::make_unique<torch::optim::AdamOptions>(5e-3));
+  groups.emplace_back(std::vector<torch::Tensor>{logits}, std::make_unique<torch::optim::AdamOptions>(5e-2));
+  torch::optim::Adam adam(groups, torch::optim::AdamOptions(5e-3));
+  namespace F = torch::nn::functional;
+  const auto disparity_of = [&]() {
+    return torch::sigmoid(F::interpolate(
+        logits,
+        F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kBilinear).align_corners(false)));
+  };
+  double loss = 0;
+  for (int i = 0; i < steps; ++i) {
+    if (i == steps * 6 / 10 || i == steps * 8 / 10)
+      for (auto& g : adam.param_groups())
+        static_cast<torch::optim::AdamOptions&>(g.options())
+            .lr(static_cast<torch::optim::AdamOptions&>(g.options()).lr() / 2);
+    adam.zero_grad();
+    const torch::Tensor inv = true_inv_depth.defined() ? true_inv_depth : lo + (hi - lo) * disparity_of();
+    const SfmLossResult r = SfmLoss(target, src, {inv}, {Se3Exp(xi)}, k, options);
+    r.total.backward();
+    adam.step();
+    loss = r.photometric[0].item<double>();
+  }
+  torch::NoGradGuard no_grad;
+  const torch::Tensor pose = Se3Exp(xi);
+  Optimised o;
+  o.rotation_deg = (So3GeodesicAngle(pose, truth) * (180.0 / M_PI)).mean().item<double>();
+  const torch::Tensor tp = pose.slice(1, 0, 3).select(2, 3), tg = truth.slice(1, 0, 3).select(2, 3);
+  const torch::Tensor cosine = (tp * tg).sum(1) / (tp.norm(2, 1) * tg.norm(2, 1)).clamp_min(1e-12);
+  o.direction_deg = (torch::acos(cosine.clamp(-1, 1)) * (180.0 / M_PI)).mean().item<double>();
+  o.translation_ratio = (tp.norm(2, 1).sum() / tg.norm(2, 1).sum()).item<double>();
+  o.disparity = true_inv_depth.defined() ? -1 : disparity_of().mean().item<double>();
+  o.loss = loss;
+  return o;
+}
+
 }  // namespace
 }  // namespace nerfreg
 
@@ -104,11 +160,17 @@ int main(int argc, char** argv) {
   using namespace nerfreg;
   torch::set_num_threads(1);
   std::string png_dir;
+  int optimise_steps = 0;  // --optimise N: direct optimisation from the identity, N Adam steps
+  int optimise_every = 4;  // of every n-th training view
   std::vector<std::string> paths;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--png" && i + 1 < argc) {
       png_dir = argv[++i];
+    } else if (a == "--optimise" && i + 1 < argc) {
+      optimise_steps = std::stoi(argv[++i]);
+    } else if (a == "--optimise-every" && i + 1 < argc) {
+      optimise_every = std::stoi(argv[++i]);
     } else {
       paths.push_back(a);
     }
@@ -152,6 +214,20 @@ int main(int argc, char** argv) {
   // The loss along the geodesic from the identity to the truth (twist lambda log(truth)).
   const std::vector<double> lambdas = {0, 0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5};
   std::map<std::string, std::vector<double>> profile;
+  struct Variant {
+    std::string name;
+    bool auto_mask;
+    double clip;
+    bool true_depth;
+  };
+  const std::vector<Variant> variants = {{"poses and depth, auto-mask, clip 0.5 (the trainer's)", true, 0.5, false},
+                                         {"poses only at the true depth, auto-mask, clip 0.5", true, 0.5, true},
+                                         {"poses and depth, no auto-mask, clip 0.5", false, 0.5, false},
+                                         {"poses and depth, no auto-mask, no clip", false, -1, false},
+                                         {"poses and depth, auto-mask, no clip", true, -1, false}};
+  std::map<std::string, Optimised> optimised;
+  int optimised_targets = 0;
+  double optimised_true_disparity = 0;
   double true_disparity_sum = 0;
   int gradient_targets = 0;
   for (const std::string& path : paths) {
@@ -166,6 +242,7 @@ int main(int argc, char** argv) {
     bool strip_written = false;
     for (int t = 0; t < scene.NumViews(); ++t) {
       if (!scene.usable[t]) continue;
+      if (optimise_steps > 0 && t % optimise_every != 1) continue;  // the optimisation's targets alone
       const std::vector<int> sources = DbarfTrainer::SourcesOf(scene, t, 5);
       if (sources.empty()) continue;
       const torch::Tensor idx = torch::tensor(std::vector<int64_t>(sources.begin(), sources.end()), torch::kLong);
@@ -210,6 +287,25 @@ int main(int argc, char** argv) {
           row.resize(lambdas.size());
           for (size_t i = 0; i < lambdas.size(); ++i)
             row[i] += PhotometricLoss(target, src, inv, Se3Exp(lambdas[i] * log_truth), k, options).loss.item<double>();
+        }
+      }
+      if (optimise_steps > 0) {
+        ++optimised_targets;
+        optimised_true_disparity += true_disparity.mean().item<double>();
+        for (const Variant& v : variants) {
+          SfmLossOptions o = options;
+          o.auto_mask = v.auto_mask;
+          o.clip_std_factor = v.clip;
+          const Optimised r = OptimiseFromIdentity(target, src, k, truth, lo, hi, o, optimise_steps,
+                                                   v.true_depth ? true_inv : torch::Tensor());
+          Optimised& sum = optimised[v.name];
+          sum.rotation_deg += r.rotation_deg;
+          sum.direction_deg += r.direction_deg;
+          sum.translation_ratio += r.translation_ratio;
+          sum.disparity += r.disparity;
+          sum.loss += r.loss;
+          std::fprintf(stderr, "%s t%d %s: rot %.3f dir %.1f |t| %.3f disp %.3f loss %.4f\n", path.c_str(), t,
+                       v.name.c_str(), r.rotation_deg, r.direction_deg, r.translation_ratio, r.disparity, r.loss);
         }
       }
       torch::Tensor strip_truth_mask, strip_identity_mask, strip_warped;
@@ -283,6 +379,19 @@ int main(int argc, char** argv) {
     const double n = std::max(1, gradient_targets);
     std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", st.name.c_str(), g.cos_translation / n, g.cos_rotation / n,
                 g.cos_disparity / n, g.disparity_push / n);
+  }
+  if (optimised_targets > 0) {
+    std::printf(
+        "\nDirect optimisation from the identity, disparity 0.1, %d Adam steps, %d targets (true mean "
+        "disparity %.3f):\n\n| variant | rotation (deg) | direction (deg) | |t| / |t_true| | disparity | "
+        "photometric loss |\n|---|---|---|---|---|---|\n",
+        optimise_steps, optimised_targets, optimised_true_disparity / optimised_targets);
+    for (const Variant& v : variants) {
+      const Optimised& o = optimised[v.name];
+      const double n = optimised_targets;
+      std::printf("| %s | %.3f | %.1f | %.3f | %.3f | %.4f |\n", v.name.c_str(), o.rotation_deg / n,
+                  o.direction_deg / n, o.translation_ratio / n, o.disparity / n, o.loss / n);
+    }
   }
   std::printf("\nPhotometric loss (auto-mask) along Exp(lambda log(truth)), means over targets:\n\n| depth |");
   for (double l : lambdas) std::printf(" %.2f |", l);
