@@ -79,10 +79,8 @@ int RunRegSh3fSplit(int argc, char** argv) {
                   "reg make-data --meshes sh3f:train reads.",
                   "nerfreg reg sh3f-split --out models/sh3f_split.json");
   std::string out;
-  bool force = false;
   Sh3fSplitOptions o;
   app.add_option("--out", out, "Split file to write (JSON)")->required();
-  app.add_flag("--force", force, "Overwrite --out");
   app.add_option("--sh3f-dir", o.furniture_dir,
                  std::string("Folder of the .sh3f archives (default ") + kSh3fFurnitureDir + ")");
   app.add_option("--train-percent", o.train_percent, "Train share of the hash range (default 80)");
@@ -90,7 +88,7 @@ int RunRegSh3fSplit(int argc, char** argv) {
   app.add_option("--salt", o.salt, "Hash salt (default nerfreg-sh3f-split-v1)");
   app.add_option("--min-thickness", o.min_thickness, "Smallest / largest box side below this is flat (default 0.02)");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, force);
+  CheckCanWriteOutput(out, common.force);
   const Json split = MakeSh3fSplit(o);
   WriteJsonFile(out, split);
   std::printf("%s\n", Json({{"split_file", out}, {"counts", split["counts"]}}).dump().c_str());
