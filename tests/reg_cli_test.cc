@@ -21,7 +21,7 @@ namespace nerfreg {
 namespace {
 
 // The furniture path end to end on an archive the test writes: reg sh3f-split keeps a textured
-// box (all of the hash range is train here) and excludes a flat panel, then reg make-data
+// box (all of the hash range is train here) and excludes a 2-triangle panel, then reg make-data
 // --meshes sh3f:train synthesises the box's pair in its split.
 TEST(RegCli, Sh3fSplitThenMakeDataFromFurniture) {
   ScopedTempDir dir;
@@ -54,8 +54,8 @@ TEST(RegCli, Sh3fSplitThenMakeDataFromFurniture) {
   ASSERT_EQ(split.exit_code, 0) << split.output;
   const Json s = ReadJsonFile(dir.File("split.json"));
   EXPECT_EQ(s["train"], Json::array({"Test#box"}));
-  EXPECT_EQ(s["counts"]["excluded_flat"], 1);
-  EXPECT_EQ(s["excluded"]["Test#panel"].get<std::string>().rfind("flat", 0), 0u) << s.dump();
+  EXPECT_EQ(s["counts"]["excluded_too_few_triangles"], 1) << s.dump();
+  EXPECT_EQ(s["excluded"]["Test#panel"], "too few triangles (2)");
   EXPECT_EQ(s["models"]["Test#box"]["textures"], 1);
 
   const CommandResult made =

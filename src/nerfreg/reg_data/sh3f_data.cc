@@ -122,7 +122,11 @@ Json MakeSh3fSplit(const Sh3fSplitOptions& o) {
   }
   bar.Finish();
   Json counts = {{"models", models.size()}, {"excluded", out["excluded"].size()}};
-  for (const auto& [kind, n] : excluded_by_reason) counts["excluded_" + kind] = n;
+  for (const auto& [kind, n] : excluded_by_reason) {
+    std::string key = "excluded_" + kind;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    counts[key] = n;
+  }
   for (const char* s : {"train", "val", "test"}) {
     auto& list = splits[s];
     std::sort(list.begin(), list.end());
