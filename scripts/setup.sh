@@ -27,6 +27,8 @@ PACKAGES=(
   # meshes used by tests and training data (the CGAL demo meshes are reserved for independent
   # evaluation and are never installed or used here)
   assimp-testmodels openscad-testing-data
+  # textured artist meshes (.sh3f) for the registration network's training data (docs/data.md)
+  sweethome3d-furniture
   # COLMAP interop tests and baselines
   colmap
 )

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,59 @@
 
 namespace nerfreg {
 namespace {
+
+// The furniture path end to end on an archive the test writes: reg sh3f-split keeps a textured
+// box (all of the hash range is train here) and excludes a 2-triangle panel, then reg make-data
+// --meshes sh3f:train synthesises the box's pair in its split.
+TEST(RegCli, Sh3fSplitThenMakeDataFromFurniture) {
+  ScopedTempDir dir;
+  Image tex(8, 8, 3, 0.2f);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 4; ++x) tex.at(x, y, 0) = 0.9f;
+  std::string box = "mtllib box.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl wood\n";
+  for (int k = 0; k < 8; ++k)
+    box += "v " + std::to_string(k & 1) + " " + std::to_string((k >> 1) & 1) + " " + std::to_string(k >> 2) + "\n";
+  for (const char* f : {"1 2 4 3", "5 7 8 6", "1 5 6 2", "3 4 8 7", "1 3 7 5", "2 6 8 4"}) {
+    std::istringstream in(f);
+    box += "f";
+    for (int c = 1, v; in >> v; ++c) box += " " + std::to_string(v) + "/" + std::to_string(c);
+    box += "\n";
+  }
+  const std::string catalog =
+      "id#1=Test#box\nmodel#1=/t/box/box.obj\nwidth#1=50\nheight#1=40\ndepth#1=30\n"
+      "id#2=Test#panel\nmodel#2=/t/panel.obj\nwidth#2=50\nheight#2=40\ndepth#2=30\n";
+  const std::string panel = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+  CreateDirectories(dir.File("furniture"));
+  WriteFileAtomic(dir.File("furniture/test.sh3f"),
+                  MakeTestZip({{"PluginFurnitureCatalog.properties", catalog},
+                               {"t/box/box.obj", box},
+                               {"t/box/box.mtl", "newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n"},
+                               {"t/box/wood.png", EncodeImage(tex, ".png", "wood.png"), false},
+                               {"t/panel.obj", panel}}));
+  const std::string furniture = " --sh3f-dir " + dir.File("furniture");
+  const CommandResult split = RunNerfreg("reg sh3f-split --train-percent 100 --val-percent 0 --quiet --out " +
+                                         dir.File("split.json") + furniture);
+  ASSERT_EQ(split.exit_code, 0) << split.output;
+  const Json s = ReadJsonFile(dir.File("split.json"));
+  EXPECT_EQ(s["train"], Json::array({"Test#box"}));
+  EXPECT_EQ(s["counts"]["excluded_too_few_triangles"], 1) << s.dump();
+  EXPECT_EQ(s["excluded"]["Test#panel"], "too few triangles (2)");
+  EXPECT_EQ(s["models"]["Test#box"]["textures"], 1);
+
+  const CommandResult made =
+      RunNerfreg("reg make-data --meshes sh3f:train --mesh-pairs 1 --grid-resolution 32 --quiet --sh3f-split " +
+                 dir.File("split.json") + furniture + " --out " + dir.File("data"));
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const Json pairs = ReadJsonFile(dir.File("data/pairs.json"));
+  ASSERT_EQ(pairs["pairs"].size(), 1u) << pairs.dump();
+  EXPECT_EQ(pairs["pairs"][0]["object"], "sh3f_Test_box");
+  EXPECT_EQ(pairs["pairs"][0]["split"], "train");
+  EXPECT_EQ(pairs["objects"]["sh3f_Test_box"]["sh3f_id"], "Test#box");
+
+  const CommandResult bad = RunNerfreg("reg make-data --meshes sh3f:everything --out " + dir.File("bad"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("sh3f:train, sh3f:val or sh3f:test"), std::string::npos) << bad.output;
+}
 
 TEST(RegCli, MakeDataTrainKilledResumeAndEval) {
   ScopedTempDir dir;

@@ -40,6 +40,7 @@ int RunRegAverage(int argc, char** argv);
 void AddGridOptions(CLI::App& app, nerfreg::GridExtractionOptions* g);
 // The network's training pairs (exe/reg_data_commands.cc)
 int RunRegMakeData(int argc, char** argv);
+int RunRegSh3fSplit(int argc, char** argv);
 // The shipped DReg-NeRF weights (NERFREG_WEIGHTS overrides) and the default method (dreg when they exist).
 std::string DefaultDregWeights();
 std::string DefaultRegistrationMethod();
@@ -87,6 +88,8 @@ int RunReport(int argc, char** argv);
   {"reg extract", RunRegExtract, "Extract the voxel grid DReg-NeRF registers from a block"}, \
   NERFREG_EDGE_COMMAND({"reg make-data", RunRegMakeData, \
       "Make registration training / evaluation pairs (resumable)"}) \
+  NERFREG_EDGE_COMMAND({"reg sh3f-split", RunRegSh3fSplit, \
+      "Split the Sweet Home 3D furniture into train / val / test meshes (a file)"}) \
   {"reg train", RunRegTrain, "Train the DReg-NeRF network (resumable)"}, \
   {"reg average", RunRegAverage, "Average weights files of one architecture (a model soup)"}, \
   NERFREG_EDGE_COMMAND({"reg eval", RunRegEval, \

@@ -27,7 +27,15 @@ int RunRegMakeData(int argc, char** argv) {
   std::string preset = "fast";
   int nerf_iters = 500;
   app.add_option("--out", out, "Output folder (pairs.json + grids)")->required();
-  app.add_option("--meshes", o.meshes, "Mesh files")->expected(0, 10000);
+  app.add_option("--meshes", o.meshes,
+                 "Mesh files, or sh3f:train / sh3f:val / sh3f:test (Sweet Home 3D furniture of that split of "
+                 "--sh3f-split; their pairs get that split)")
+      ->expected(0, 10000);
+  app.add_option("--sh3f-split", o.sh3f_split_file, "Furniture split file (default models/sh3f_split.json)");
+  app.add_option("--sh3f-dir", o.sh3f_dir,
+                 std::string("Folder of the .sh3f archives (default ") + kSh3fFurnitureDir + ")");
+  app.add_option("--sh3f-limit", o.sh3f_limit,
+                 "At most N models of each sh3f: split, in the file's order (default 0: all)");
   app.add_option("--procedural", o.procedural, "Number of procedural objects");
   app.add_option("--procedural-seed", o.procedural_seed, "Seed of the first procedural object (default 1000)");
   app.add_option("--mesh-pairs", o.mesh_pairs, "Synthesised pairs per object (default 4)");
@@ -36,7 +44,7 @@ int RunRegMakeData(int argc, char** argv) {
                "Render the --nerf-objects' blocks and stop: no training, no pairs of them (for training elsewhere, "
                "e.g. on a GPU: bench/gpu_dreg.cc)");
   app.add_option("--blocks", o.blocks, "Blocks per object: 2 (the paper) or 4 (adjacent pairs: low overlap)");
-  app.add_option("--split", o.split, "Split written for every pair: train or val")
+  app.add_option("--split", o.split, "Split written for every pair of files and procedural objects: train or val")
       ->check(CLI::IsMember({"train", "val"}));
   app.add_option("--image-size", o.image_size, "NeRF render size, pixels (default 100)");
   app.add_option("--nerf-preset", preset, "Block training preset (default fast)");
@@ -57,5 +65,32 @@ int RunRegMakeData(int argc, char** argv) {
                             {"seconds", s.seconds}})
                           .dump()
                           .c_str());
+  return 0;
+}
+
+int RunRegSh3fSplit(int argc, char** argv) {
+  CLI::App app;
+  CommonOptions common;
+  AddCommonOptions(app, &common);
+  DescribeCommand(app,
+                  "Split the Sweet Home 3D furniture models into train / val / test by a salted hash of each mesh "
+                  "(copies of one OBJ together), loading every model: those that fail to load or are degenerate "
+                  "(too few or too many triangles, flat) are excluded with the reason. Writes the split file "
+                  "reg make-data --meshes sh3f:train reads.",
+                  "nerfreg reg sh3f-split --out models/sh3f_split.json");
+  std::string out;
+  Sh3fSplitOptions o;
+  app.add_option("--out", out, "Split file to write (JSON)")->required();
+  app.add_option("--sh3f-dir", o.furniture_dir,
+                 std::string("Folder of the .sh3f archives (default ") + kSh3fFurnitureDir + ")");
+  app.add_option("--train-percent", o.train_percent, "Train share of the hash range (default 80)");
+  app.add_option("--val-percent", o.val_percent, "Validation share (default 10; the rest is test)");
+  app.add_option("--salt", o.salt, "Hash salt (default nerfreg-sh3f-split-v1)");
+  app.add_option("--min-thickness", o.min_thickness, "Smallest / largest box side below this is flat (default 0.02)");
+  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
+  CheckCanWriteOutput(out, common.force);
+  const Json split = MakeSh3fSplit(o);
+  WriteJsonFile(out, split);
+  std::printf("%s\n", Json({{"split_file", out}, {"counts", split["counts"]}}).dump().c_str());
   return 0;
 }

@@ -1,6 +1,8 @@
 #include "nerfreg/reg_data/training_data.h"
 
+#include <cctype>
 #include <filesystem>
+#include <optional>
 #include <set>
 
 #include "nerfreg/render/mesh.h"
@@ -18,9 +20,21 @@ namespace fs = std::filesystem;
 
 void MakeDataOptions::Check() const {
   if (meshes.empty() && procedural <= 0) ThrowInputError("reg make-data", "objects", "--meshes or --procedural N > 0");
+  bool furniture = false;
   for (const auto& m : meshes) {
-    if (!FileExists(m)) ThrowInputError(m, "", "an existing mesh file");
+    if (m.rfind("sh3f:", 0) == 0) {
+      const std::string s = m.substr(5);
+      if (s != "train" && s != "val" && s != "test")
+        ThrowInputError("--meshes", m, "sh3f:train, sh3f:val or sh3f:test");
+      furniture = true;
+    } else if (!FileExists(m)) {
+      ThrowInputError(m, "", "an existing mesh file");
+    }
   }
+  if (furniture && !FileExists(sh3f_split_file)) {
+    ThrowInputError(sh3f_split_file, "", "an existing split file (reg sh3f-split writes it; --sh3f-split)");
+  }
+  if (sh3f_limit < 0) ThrowInputError("--sh3f-limit", "", ">= 0");
   if (mesh_pairs < 0 || nerf_objects < 0) ThrowInputError("--mesh-pairs/--nerf-objects", "", ">= 0");
   if (render_only && nerf_objects == 0)
     ThrowInputError("--render-only", "", "--nerf-objects N > 0 (the objects to render)");
@@ -41,6 +55,9 @@ void MakeDataOptions::Check() const {
 
 Json MakeDataOptions::ToJson() const {
   return {{"meshes", meshes},
+          {"sh3f_split_file", sh3f_split_file},
+          {"sh3f_dir", sh3f_dir},
+          {"sh3f_limit", sh3f_limit},
           {"procedural", procedural},
           {"procedural_seed", procedural_seed},
           {"mesh_pairs", mesh_pairs},
@@ -63,14 +80,30 @@ namespace {
 
 struct ObjectSpec {
   std::string name;
-  std::string mesh_path;  // empty: procedural
+  std::string mesh_path;  // empty: procedural or furniture
   unsigned procedural_seed = 0;
+  std::string split;              // of its pairs
+  std::optional<Sh3fModel> sh3f;  // a furniture model
 };
 
 TriangleMesh LoadObject(const ObjectSpec& o) {
-  TriangleMesh m = o.mesh_path.empty() ? ProceduralObject(o.procedural_seed) : LoadMesh(o.mesh_path);
+  TriangleMesh m;
+  if (o.sh3f) {
+    ObjReadReport report;
+    m = LoadSh3fModel(*o.sh3f, ObjReadOptions(), &report);
+    if (report.warning_count > 0) LOG_DEBUG("{}: {} warnings ({})", o.name, report.warning_count, report.warnings[0]);
+  } else {
+    m = o.mesh_path.empty() ? ProceduralObject(o.procedural_seed) : LoadMesh(o.mesh_path);
+  }
   NormalizeMesh(&m, 2.5f);
   return m;
+}
+
+// "sh3f_" and the id with every character other than [A-Za-z0-9_-] as '_' (a folder name).
+std::string FurnitureName(const std::string& id) {
+  std::string out = "sh3f_";
+  for (char c : id) out.push_back(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c : '_');
+  return out;
 }
 
 // Synthesised pairs of one object.
@@ -90,7 +123,7 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
     r.name = spec.name + "/mesh_" + std::to_string(k);
     r.object = spec.name;
     r.kind = "mesh";
-    r.split = o.split;
+    r.split = spec.split;
     r.source = spec.name + "/mesh_" + std::to_string(k) + "_source.grid";
     r.target = spec.name + "/mesh_" + std::to_string(k) + "_target.grid";
     r.target_from_source = p.target_from_source;
@@ -125,7 +158,7 @@ std::vector<PairRecord> NerfPairs(const ObjectSpec& spec, const TriangleMesh& me
   BlockPairOptions bo;
   bo.blocks = o.blocks;
   bo.min_overlap = o.min_overlap;
-  bo.split = o.split;
+  bo.split = spec.split;
   bo.nerf = o.nerf;
   bo.grid = o.grid;
   bo.seed = o.seed;
@@ -152,10 +185,19 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
 
   std::vector<ObjectSpec> objects;
   std::set<std::string> used;
-  for (const auto& m : o.meshes) objects.push_back({UniqueName(fs::path(m).stem().string(), &used), m, 0});
+  for (const auto& m : o.meshes) {
+    if (m.rfind("sh3f:", 0) != 0) {
+      objects.push_back({UniqueName(fs::path(m).stem().string(), &used), m, 0, o.split, std::nullopt});
+      continue;
+    }
+    const std::string split = m.substr(5);
+    std::vector<Sh3fModel> models = ReadSh3fSplit(o.sh3f_split_file, split, o.sh3f_dir);
+    if (o.sh3f_limit > 0 && static_cast<int>(models.size()) > o.sh3f_limit) models.resize(o.sh3f_limit);
+    for (const auto& f : models) objects.push_back({UniqueName(FurnitureName(f.id), &used), "", 0, split, f});
+  }
   for (int k = 0; k < o.procedural; ++k) {
     const unsigned s = o.procedural_seed + k;
-    objects.push_back({UniqueName("procedural_" + std::to_string(s), &used), "", s});
+    objects.push_back({UniqueName("procedural_" + std::to_string(s), &used), "", s, o.split, std::nullopt});
   }
   MakeDataSummary summary;
   ProgressBar bar("reg make-data", static_cast<std::int64_t>(objects.size()), "obj");
@@ -173,7 +215,7 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
     try {
       mesh = LoadObject(spec);
     } catch (const InputError& e) {
-      LOG_WARN("{}: skipped ({})", spec.mesh_path, e.what());
+      LOG_WARN("{}: skipped ({})", spec.sh3f ? spec.sh3f->id : spec.mesh_path, e.what());
       index["objects"][spec.name] = {{"skipped", e.what()}};
       WriteJsonFile(index_path, index);
       bar.Tick();
@@ -190,8 +232,9 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
     for (const auto& p : pairs) index["pairs"].push_back(p.ToJson());
     cost["seconds"] = t.Seconds();
     cost["pairs"] = pairs.size();
-    cost["mesh"] = spec.mesh_path;
-    cost["split"] = o.split;
+    cost["mesh"] = spec.sh3f ? spec.sh3f->archive + ":" + spec.sh3f->model : spec.mesh_path;
+    if (spec.sh3f) cost["sh3f_id"] = spec.sh3f->id;
+    cost["split"] = spec.split;
     index[rendered_only ? "rendered" : "objects"][spec.name] = cost;
     // After every object, so an interrupted run resumes after the last finished object.
     WriteJsonFile(index_path, index);

@@ -8,14 +8,16 @@
 //   OUT/<object>/nerf/...                          rendered blocks, block checkpoints, their grids
 //                                                  (reg_train/pairs.h trains and pairs them)
 //
-// Objects are meshes (assimp-testmodels, openscad-testing-data; see docs/data.md for the meshes
-// reserved for independent evaluation) and procedural objects. Every pair of an object carries
-// the object's split, so held-out objects are never trained on.
+// Objects are meshes (assimp-testmodels, openscad-testing-data, Sweet Home 3D furniture by split:
+// "sh3f:train"; see docs/data.md for the meshes reserved for independent evaluation) and
+// procedural objects. Every pair of an object carries the object's split (a furniture model's
+// from the split file, else --split), so held-out objects are never trained on.
 #include <string>
 #include <vector>
 
 #include "nerfreg/nerf/trainer.h"
 #include "nerfreg/reg/grid_extraction.h"
+#include "nerfreg/reg_data/sh3f_data.h"
 #include "nerfreg/reg_data/synthetic_grids.h"
 #include "nerfreg/reg_train/pairs.h"
 #include "nerfreg/util/json_util.h"
@@ -23,8 +25,13 @@
 namespace nerfreg {
 
 struct MakeDataOptions {
-  std::vector<std::string> meshes;  // mesh files (OBJ/PLY/STL/OFF/glTF)
-  int procedural = 0;               // procedural objects, seeds procedural_seed .. + n - 1
+  // Mesh files (OBJ/PLY/STL/OFF/glTF), or "sh3f:train" / "sh3f:val" / "sh3f:test": the furniture
+  // models of that split of sh3f_split_file (reg_data/sh3f_data.h), their pairs in that split.
+  std::vector<std::string> meshes;
+  std::string sh3f_split_file = "models/sh3f_split.json";  // the committed split
+  std::string sh3f_dir = kSh3fFurnitureDir;                // the .sh3f archives
+  int sh3f_limit = 0;  // at most this many models of each "sh3f:" split, in the file's order (0: all)
+  int procedural = 0;  // procedural objects, seeds procedural_seed .. + n - 1
   unsigned procedural_seed = 1000;
   int mesh_pairs = 4;    // synthesised pairs per object (different random frames)
   int nerf_objects = 0;  // the first n objects also get real trained blocks
@@ -35,7 +42,7 @@ struct MakeDataOptions {
   bool render_only = false;
   int blocks = 2;               // blocks per object (4: fewer views per block; docs/data.md)
   double min_overlap = 0.05;    // pairs of blocks overlapping less are not written
-  std::string split = "train";  // the split of every pair written
+  std::string split = "train";  // the split of every pair written (furniture: its own split)
   int image_size = 100;         // NeRF renders (orbit), pixels
   NerfTrainOptions nerf;        // block training (fast preset by default)
   SyntheticPairOptions synthetic;

@@ -210,7 +210,11 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
   }
   std::vector<PairRecord> train, val, train_nerf, train_mesh;
   for (const auto& f : pairs_files) {
-    for (const auto& p : ReadPairs(f)) (p.split == "val" ? val : train).push_back(p);
+    // Test pairs (held-out meshes, e.g. the furniture's test split) are neither trained nor validated on.
+    for (const auto& p : ReadPairs(f)) {
+      if (p.split == "val") val.push_back(p);
+      if (p.split == "train") train.push_back(p);
+    }
   }
   if (train.empty()) ThrowInputError(pairs_files.front(), "pairs", "at least one pair with \"split\": \"train\"");
   for (const auto& p : train) (p.kind == "nerf" ? train_nerf : train_mesh).push_back(p);

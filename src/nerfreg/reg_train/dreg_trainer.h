@@ -78,8 +78,8 @@ struct DregTrainResult {
 };
 
 // pairs_files: one or more pairs.json of `reg make-data`; pairs of split "train" are trained on,
-// "val" ones validate (split over the ranks). `group`: this process's place in a data-parallel
-// job (null: a single process). Throws InputError on bad data; std::runtime_error on a NaN loss (the last
+// "val" ones validate, others ("test") are left out (split over the ranks). `group`: this process's place in a
+// data-parallel job (null: a single process). Throws InputError on bad data; std::runtime_error on a NaN loss (the last
 // good checkpoint is kept).
 // Registers each pair with `net` (the network alone, Register's solve) and scores it against the
 // truth: rank r of `group` registers every world-th pair and all ranks read the summed table. What

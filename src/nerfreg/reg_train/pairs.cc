@@ -55,7 +55,7 @@ std::vector<PairRecord> ReadPairs(const std::string& path) {
 
 void BlockPairOptions::Check() const {
   if (blocks < 2 || blocks > 8) ThrowInputError("--blocks", "", "2..8");
-  if (split != "train" && split != "val") ThrowInputError("--split", "", "train or val");
+  if (split != "train" && split != "val" && split != "test") ThrowInputError("--split", "", "train, val or test");
   if (!(min_overlap >= 0 && min_overlap <= 1)) ThrowInputError("--min-overlap", "", "in [0, 1]");
   nerf.Check();
   grid.Check();

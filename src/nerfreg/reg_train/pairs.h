@@ -17,7 +17,7 @@ struct PairRecord {
   std::string name;            // unique within pairs.json
   std::string object;          // the object it was made from
   std::string kind;            // "mesh" (synthesised) or "nerf" (real trained blocks)
-  std::string split;           // "train" or "val"
+  std::string split;           // "train", "val" or "test" (held out: never trained or validated on)
   std::string source, target;  // grid files, relative to the folder of pairs.json
   Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
   double overlap = 0;  // GridOverlap under the true pose

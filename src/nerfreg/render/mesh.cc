@@ -255,6 +255,9 @@ void TriangleMesh::Bounds(Eigen::Vector3f* mn, Eigen::Vector3f* mx) const {
 
 void TriangleMesh::Append(const TriangleMesh& o) {
   const bool colors = (vertices.empty() || HasColors()) && o.HasColors();
+  const bool materials_kept = (triangles.empty() || HasMaterials()) && o.HasMaterials();
+  const bool uvs = materials_kept && (triangles.empty() || triangle_uvs.size() == 3 * triangles.size()) &&
+                   o.triangle_uvs.size() == 3 * o.triangles.size();
   const int offset = static_cast<int>(vertices.size());
   vertices.insert(vertices.end(), o.vertices.begin(), o.vertices.end());
   for (const auto& t : o.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(offset));
@@ -262,8 +265,19 @@ void TriangleMesh::Append(const TriangleMesh& o) {
     vertex_colors.insert(vertex_colors.end(), o.vertex_colors.begin(), o.vertex_colors.end());
   else
     vertex_colors.clear();
-  triangle_uvs.clear();  // one texture per mesh: a union drops textures
-  texture = Image();
+  if (materials_kept) {
+    const int material_offset = static_cast<int>(materials.size());
+    materials.insert(materials.end(), o.materials.begin(), o.materials.end());
+    for (int m : o.triangle_materials) triangle_materials.push_back(m + material_offset);
+  } else {
+    materials.clear();
+    triangle_materials.clear();
+  }
+  if (uvs)
+    triangle_uvs.insert(triangle_uvs.end(), o.triangle_uvs.begin(), o.triangle_uvs.end());
+  else
+    triangle_uvs.clear();
+  texture = Image();  // one texture per mesh: a union drops the single texture
 }
 
 void TriangleMesh::Check(const std::string& source) const {
@@ -275,6 +289,14 @@ void TriangleMesh::Check(const std::string& source) const {
   }
   for (const auto& v : vertices) {
     if (!v.allFinite()) ThrowInputError(source, "vertices", "finite coordinates");
+  }
+  if (!triangle_materials.empty()) {
+    if (triangle_materials.size() != triangles.size())
+      ThrowInputError(source, "materials", "one material per triangle");
+    for (int m : triangle_materials) {
+      if (m < 0 || m >= static_cast<int>(materials.size()))
+        ThrowInputError(source, "materials", "material indices in range");
+    }
   }
   // Coinciding vertices (or all triangles on a line) render nothing: every image would be empty.
   Eigen::Vector3f mn, mx;

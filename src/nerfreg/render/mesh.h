@@ -9,20 +9,32 @@
 
 namespace nerfreg {
 
+// One material of a mesh read with several (an OBJ's "usemtl" groups, e.g. Sweet Home 3D furniture).
+struct MeshMaterial {
+  std::string name;
+  Eigen::Vector3f diffuse = Eigen::Vector3f::Constant(0.8f);  // RGB in [0, 1] (MTL Kd), where no texture
+  Image texture;  // empty, or the RGB albedo texture (MTL map_Kd), sampled at triangle_uvs
+};
+
 struct TriangleMesh {
   std::vector<Eigen::Vector3f> vertices;
   std::vector<Eigen::Vector3i> triangles;
   std::vector<Eigen::Vector3f> vertex_colors;  // empty, or one RGB in [0, 1] per vertex
   std::vector<Eigen::Vector2f> triangle_uvs;   // empty, or 3 per triangle (texture coordinates)
   Image texture;                               // empty, or the albedo texture for triangle_uvs
+  // Per-triangle materials; when present they colour the mesh (texture and vertex_colors unused).
+  std::vector<MeshMaterial> materials;  // empty, or the materials triangle_materials index
+  std::vector<int> triangle_materials;  // empty, or one index into materials per triangle
 
   bool HasColors() const { return !vertex_colors.empty() && vertex_colors.size() == vertices.size(); }
+  bool HasMaterials() const { return !materials.empty() && triangle_materials.size() == triangles.size(); }
   bool HasTexture() const { return !texture.empty() && triangle_uvs.size() == 3 * triangles.size(); }
   // Axis-aligned bounds (min, max); zeros for an empty mesh.
   void Bounds(Eigen::Vector3f* min, Eigen::Vector3f* max) const;
-  // Appends another mesh (colours/uvs kept only when both have them).
+  // Appends another mesh (colours, materials and uvs kept only when both have them; the single
+  // `texture` is dropped).
   void Append(const TriangleMesh& other);
-  // Throws InputError(source: ...) when empty or indices are out of range.
+  // Throws InputError(source: ...) when empty or indices (vertex, material) are out of range.
   void Check(const std::string& source) const;
 };
 

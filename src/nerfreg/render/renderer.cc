@@ -83,6 +83,8 @@ RenderResult RenderView(const RayCaster& caster, const TriangleMesh& mesh, const
   const Eigen::Vector3f origin = (-(world_from_cam * cam_from_world.translation)).cast<float>();
   const Eigen::Vector3f light1 = Eigen::Vector3f(0.4f, 0.3f, 0.85f).normalized();
   const Eigen::Vector3f light2 = Eigen::Vector3f(-0.6f, -0.4f, 0.3f).normalized();
+  const bool with_materials = mesh.HasMaterials();
+  const bool with_uvs = mesh.triangle_uvs.size() == 3 * mesh.triangles.size();
   const bool textured = mesh.HasTexture(), colored = mesh.HasColors();
 
 #pragma omp parallel for schedule(dynamic, 1)
@@ -107,10 +109,23 @@ RenderResult RenderView(const RayCaster& caster, const TriangleMesh& mesh, const
           const float b0 = 1 - hit.u - hit.v;
           const Eigen::Vector3f p = origin + hit.t * dir;
           Eigen::Vector3f albedo;
-          if (textured) {
-            const Eigen::Vector2f t = b0 * mesh.triangle_uvs[3 * hit.triangle] +
-                                      hit.u * mesh.triangle_uvs[3 * hit.triangle + 1] +
-                                      hit.v * mesh.triangle_uvs[3 * hit.triangle + 2];
+          const auto interpolated_uv = [&] {
+            return Eigen::Vector2f(b0 * mesh.triangle_uvs[3 * hit.triangle] +
+                                   hit.u * mesh.triangle_uvs[3 * hit.triangle + 1] +
+                                   hit.v * mesh.triangle_uvs[3 * hit.triangle + 2]);
+          };
+          if (with_materials) {
+            const MeshMaterial& m = mesh.materials[mesh.triangle_materials[hit.triangle]];
+            if (!m.texture.empty() && with_uvs) {
+              const Eigen::Vector2f t = interpolated_uv();
+              albedo = SampleTexture(m.texture, t.x(), t.y());
+            } else {
+              // A flat material colour gets the vertex colours' pattern: features for a NeRF to fit.
+              albedo = m.diffuse * ((1 - options.texture_modulation) +
+                                    options.texture_modulation * 2.f * ProceduralPattern(p, options.pattern_scale));
+            }
+          } else if (textured) {
+            const Eigen::Vector2f t = interpolated_uv();
             albedo = SampleTexture(mesh.texture, t.x(), t.y());
           } else if (colored) {
             albedo = b0 * mesh.vertex_colors[tri(0)] + hit.u * mesh.vertex_colors[tri(1)] +

@@ -1,8 +1,9 @@
 #pragma once
 // Ray-cast rendering of a mesh: RGBA image + z-depth map per view. The shading is chosen to make
 // texture and shape visible to a NeRF and to feature matching, not to be physically based:
-// albedo (texture, vertex colours modulated by a procedural pattern, or a procedural albedo when
-// the mesh has neither) x (ambient + two directional lights + a headlight), two-sided.
+// albedo (per-triangle materials: their texture, or their flat colour modulated by a procedural
+// pattern; else the mesh's texture, vertex colours modulated by the pattern, or a procedural albedo
+// when the mesh has none of these) x (ambient + two directional lights + a headlight), two-sided.
 #include <Eigen/Core>
 
 #include "nerfreg/geometry/camera.h"

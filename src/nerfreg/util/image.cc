@@ -316,6 +316,30 @@ Image ReadImage(const std::string& path, int channels) {
   return ReadImage(path, options);
 }
 
+Image DecodeImage(const std::string& bytes, const std::string& name, int channels, std::int64_t max_pixels) {
+  ImageReadOptions options;
+  options.channels = channels;
+  options.Check();
+  if (std::int64_t(bytes.size()) > kMaxImageFileBytes) {
+    ThrowInputError(name, "", "an image of at most " + std::to_string(kMaxImageFileBytes) + " bytes");
+  }
+  int w = 0, h = 0, c = 0;
+  if (IsPnm(bytes)) {
+    const PnmHeader header = ParsePnmHeader(bytes, name);
+    w = header.width, h = header.height;
+  } else if (!stbi_info_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), &w,
+                                    &h, &c)) {
+    ThrowInputError(name, "", std::string(kReadFormats) + " (" + stbi_failure_reason() + ")");
+  }
+  if (std::int64_t(w) * h > max_pixels) {
+    ThrowInputError(name, "size",
+                    "at most " + std::to_string(max_pixels) + " pixels, header says " + std::to_string(w) + "x" +
+                        std::to_string(h));
+  }
+  ImageFileFacts facts;
+  return Decode(bytes, name, channels, &facts);
+}
+
 Image ApplyExifOrientation(const Image& in, int orientation) {
   if (orientation < 1 || orientation > 8) throw std::invalid_argument("ApplyExifOrientation: orientation not 1..8");
   if (orientation == 1) return in;

@@ -36,6 +36,12 @@ constexpr std::int64_t kMaxImagePixels = std::int64_t(1) << 28;  // 16384 x 1638
 // unreadable, oversized, corrupt or truncated image.
 Image ReadImage(const std::string& path, int channels = 0);
 
+// Decodes an image held in memory (the formats above; a JPEG's EXIF Orientation is not applied),
+// e.g. a texture read out of an archive. `name` stands for it in errors. An image of more than
+// `max_pixels` is refused from its header, before its pixels are allocated. Throws InputError.
+Image DecodeImage(const std::string& bytes, const std::string& name, int channels = 0,
+                  std::int64_t max_pixels = kMaxImagePixels);
+
 // How the ReadImage overload below decodes.
 struct ImageReadOptions {
   int channels = 0;                    // 0 keeps the file's (grey+alpha: RGBA); 1, 3 or 4 converts

@@ -149,4 +149,73 @@ ScopedLogCapture::ScopedLogCapture()
 
 ScopedLogCapture::~ScopedLogCapture() { spdlog::set_default_logger(previous_); }
 
+namespace {
+void PutLe(std::string* out, std::uint32_t v, int bytes) {
+  for (int k = 0; k < bytes; ++k) out->push_back(static_cast<char>((v >> (8 * k)) & 0xff));
+}
+}  // namespace
+
+std::string MakeTestZip(const std::vector<TestZipEntry>& entries) {
+  std::string out, central;
+  for (const auto& e : entries) {
+    std::string packed = e.data;
+    if (e.deflate) {
+      z_stream s;
+      std::memset(&s, 0, sizeof(s));
+      if (deflateInit2(&s, 9, Z_DEFLATED, -MAX_WBITS, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+        throw std::runtime_error("MakeTestZip: deflateInit2 failed");
+      packed.assign(deflateBound(&s, e.data.size()), '\0');
+      s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(e.data.data()));
+      s.avail_in = static_cast<uInt>(e.data.size());
+      s.next_out = reinterpret_cast<Bytef*>(packed.data());
+      s.avail_out = static_cast<uInt>(packed.size());
+      if (deflate(&s, Z_FINISH) != Z_STREAM_END) throw std::runtime_error("MakeTestZip: deflate failed");
+      packed.resize(s.total_out);
+      deflateEnd(&s);
+    }
+    const auto crc = static_cast<std::uint32_t>(
+        crc32(0L, reinterpret_cast<const Bytef*>(e.data.data()), static_cast<uInt>(e.data.size())));
+    const auto offset = static_cast<std::uint32_t>(out.size());
+    const std::uint32_t method = e.deflate ? 8 : 0;
+    PutLe(&out, 0x04034b50, 4);
+    PutLe(&out, 20, 2);
+    PutLe(&out, 0, 2);
+    PutLe(&out, method, 2);
+    PutLe(&out, 0, 4);  // time, date
+    PutLe(&out, crc, 4);
+    PutLe(&out, static_cast<std::uint32_t>(packed.size()), 4);
+    PutLe(&out, static_cast<std::uint32_t>(e.data.size()), 4);
+    PutLe(&out, static_cast<std::uint32_t>(e.name.size()), 2);
+    PutLe(&out, 0, 2);
+    out += e.name + packed;
+    PutLe(&central, 0x02014b50, 4);
+    PutLe(&central, 20, 2);
+    PutLe(&central, 20, 2);
+    PutLe(&central, 0, 2);
+    PutLe(&central, method, 2);
+    PutLe(&central, 0, 4);
+    PutLe(&central, crc, 4);
+    PutLe(&central, static_cast<std::uint32_t>(packed.size()), 4);
+    PutLe(&central, static_cast<std::uint32_t>(e.data.size()), 4);
+    PutLe(&central, static_cast<std::uint32_t>(e.name.size()), 2);
+    PutLe(&central, 0, 2);  // extra
+    PutLe(&central, 0, 2);  // comment
+    PutLe(&central, 0, 2);  // disk
+    PutLe(&central, 0, 2);  // internal attributes
+    PutLe(&central, 0, 4);  // external attributes
+    PutLe(&central, offset, 4);
+    central += e.name;
+  }
+  const auto cd_offset = static_cast<std::uint32_t>(out.size());
+  out += central;
+  PutLe(&out, 0x06054b50, 4);
+  PutLe(&out, 0, 4);
+  PutLe(&out, static_cast<std::uint32_t>(entries.size()), 2);
+  PutLe(&out, static_cast<std::uint32_t>(entries.size()), 2);
+  PutLe(&out, static_cast<std::uint32_t>(central.size()), 4);
+  PutLe(&out, cd_offset, 4);
+  PutLe(&out, 0, 2);
+  return out;
+}
+
 }  // namespace nerfreg

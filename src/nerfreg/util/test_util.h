@@ -61,6 +61,17 @@ void WriteJpegWithExif(const std::string& path, const Image& image, const TestEx
 void WritePng16(const std::string& path, int width, int height, int channels,
                 const std::vector<std::uint16_t>& samples);
 
+// One entry of a test zip archive.
+struct TestZipEntry {
+  std::string name;
+  std::string data;
+  bool deflate = true;  // deflated (method 8), else stored (0)
+};
+
+// The bytes of a zip archive of `entries` (local headers, data, central directory, end record),
+// built with zlib, so readers are tested against archives with known contents.
+std::string MakeTestZip(const std::vector<TestZipEntry>& entries);
+
 // Sends the default logger's output to a string while alive (at info level and above).
 class ScopedLogCapture {
  public:
