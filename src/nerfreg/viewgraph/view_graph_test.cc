@@ -95,6 +95,33 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
   EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
 }
 
+// A planar scene (the textured ground plane): both estimators recover the relative pose. USAC's
+// own final fit is an eight-point least-squares fit, undetermined on a plane (2.3 deg and 9.2 deg
+// off here before its pose was refined on the Sampson distances; measured now: 0.40 and 1.5 deg,
+// RANSAC's 0.38 and 1.3).
+TEST(ViewGraph, BothEstimatorsRecoverTheRelativePoseOfAPlanarScene) {
+  const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
+  const std::vector<Rigid3d> poses = {
+      LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()),
+      LookAt({0.6, -0.3, 2.8}, {0.2, 0.1, 0}, Eigen::Vector3d::UnitY()),
+  };
+  std::vector<Image> images;
+  for (const auto& p : poses) images.push_back(RenderPlane(cam, p));
+  const Rigid3d truth = poses[1] * poses[0].Inverse();  // b_from_a
+  for (const TwoViewEstimator estimator : {TwoViewEstimator::kRansac, TwoViewEstimator::kUsac}) {
+    ViewGraphOptions o;
+    o.estimator = estimator;
+    const ViewGraph g = BuildViewGraph(images, {cam, cam}, {"a.png", "b.png"}, o);
+    const ViewGraphEdge* ab = g.FindEdge(0, 1);
+    ASSERT_NE(ab, nullptr) << TwoViewEstimatorName(estimator);
+    EXPECT_FALSE(ab->panoramic);
+    EXPECT_GE(ab->num_inliers, ab->num_matches * 9 / 10) << TwoViewEstimatorName(estimator);
+    EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, truth.rotation), 1.0) << TwoViewEstimatorName(estimator);
+    EXPECT_GT(ab->j_from_i.translation.dot(truth.translation.normalized()), std::cos(3.0 * M_PI / 180))
+        << TwoViewEstimatorName(estimator);
+  }
+}
+
 // Two photos from one spot (a pure rotation): the pair is panoramic, its rotation comes from the
 // homography and it carries no translation direction; views from two places are not panoramic.
 TEST(ViewGraph, PhotosFromOneSpotArePanoramicWithTheirRotation) {
