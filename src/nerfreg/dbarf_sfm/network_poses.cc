@@ -14,7 +14,6 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/stats.h"
 #include "nerfreg/util/timer.h"
-#include "nerfreg/viewgraph/two_view_refinement.h"
 
 namespace nerfreg {
 
@@ -349,45 +348,14 @@ bool SfmDepthRange(const SfmResult& sfm, const std::string& source, double* near
   }
 }
 
-// The Cauchy scale of the matches' refinement in SetSfmConfidence, pixels (the view graph's
-// essential-matrix threshold).
-constexpr double kMeasurementScalePx = 1.0;
-// ... and the drop of its cost (sum of log(1 + (d / 1 px)^2), about the squared pixels) that
-// makes the matches prefer the refined pose: 5 parameters with 0.35 px noise drop it by
-// 0.6 on average and by more than 1.8 in 1 % of pairs (chi-square).
-constexpr double kIndistinguishableGain = 2.0;
-
 void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, ImagePosesResult* result) {
   const int n = static_cast<int>(cameras.size());
   std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   for (const ViewGraphEdge& e : sfm.view_graph.edges) {
     if (!sfm.posed[e.i] || !sfm.posed[e.j]) continue;
     const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
-    // The edge's measurement: the relative pose its inlier matches prefer near the accepted one
-    // (refined from it), not the essential matrix the view graph kept; and where the matches fit
-    // the accepted pose about as well as that one (the robust cost drops by at most
-    // kIndistinguishableGain), the accepted pose itself. On small baselines with a narrow field of
-    // view (Castle-simu) the estimators pick among near-equal fits, tens of degrees apart, which
-    // say nothing against the poses; matches of repetitive texture paired with the wrong copies
-    // pull the poses away (DbarfCli.AutoReplacesADoubtfulSfmOnRepetitiveTextureByTheNetwork).
-    Rigid3d measured = e.j_from_i;
-    if (!e.panoramic && e.inlier_matches.size() >= 5 && j_from_i.translation.norm() > 0) {
-      std::vector<Eigen::Vector2d> xi, xj;
-      for (const auto& [a, b] : e.inlier_matches) {
-        xi.push_back(cameras[e.i].CamFromImg(sfm.view_graph.keypoints[e.i][a]).hnormalized());
-        xj.push_back(cameras[e.j].CamFromImg(sfm.view_graph.keypoints[e.j][b]).hnormalized());
-      }
-      Eigen::Matrix3d rot = j_from_i.RotationMatrix();
-      Eigen::Vector3d trans = j_from_i.translation.normalized();
-      const double scale = kMeasurementScalePx / cameras[e.i].fx;
-      RefineRelativePose(xi, xj, scale, &rot, &trans);
-      const double gain = RelativePoseCost(xi, xj, scale, j_from_i.RotationMatrix(), j_from_i.translation) -
-                          RelativePoseCost(xi, xj, scale, rot, trans);
-      measured = gain > kIndistinguishableGain ? Rigid3d(rot, trans)
-                                               : Rigid3d(j_from_i.rotation, j_from_i.translation.normalized());
-    }
-    const double angle = RotationErrorDeg(j_from_i.rotation, measured.rotation);
-    const double direction = AngleDeg(j_from_i.translation, measured.translation);
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
     for (int k : {e.i, e.j}) {
       residuals[k].push_back(angle);
       if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none
