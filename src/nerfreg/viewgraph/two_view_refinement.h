@@ -2,9 +2,7 @@
 // The relative pose of two calibrated views refined on their correspondences: what OpenCV's
 // estimators leave out. RANSAC keeps its best minimal sample's model, and USAC's final
 // least-squares fit is an eight-point fit, which a planar scene leaves undetermined (the points'
-// design matrix has a three-dimensional null space). Also the check of an accepted pose against a
-// pair's matches (dbarf_sfm/network_poses.h): where the matches cannot tell poses apart, the
-// refinement started at the accepted pose stays near it.
+// design matrix has a three-dimensional null space).
 #include <vector>
 
 #include <Eigen/Core>

@@ -297,10 +297,9 @@ TEST(ViewGraph, UsacFindsTheReferenceRansacGeometryOnAFixedPair) {
   EXPECT_THROW(ParseTwoViewEstimator("magsac"), InputError);
 }
 
-// The refinement behind USAC's final fit and the SfM's confidence (two_view_refinement.h): from a
-// pose 3 deg off it returns to the truth and its cost drops by far more than the confidence's 2;
-// from the truth it stays, and the drop (what 0.25 px noise lets five parameters gain; 0.55 here)
-// is below 2.
+// The refinement behind USAC's final fit (two_view_refinement.h): from a pose 3 deg off it returns
+// to the truth and its cost drops by far more than 2; from the truth it stays, and the drop (what
+// 0.25 px noise lets five parameters gain; 0.55 here) is below 2.
 TEST(ViewGraph, RefinementReturnsToTheTruthAndGainsLittleFromIt) {
   const SyntheticPair pair = MakePair(150, 0, 5);
   std::vector<Eigen::Vector2d> xi, xj;
