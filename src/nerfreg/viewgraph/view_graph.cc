@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
@@ -10,9 +11,11 @@
 #include <optional>
 #include <stdexcept>
 
+#include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/viewgraph/two_view_refinement.h"
 
 // The Fortran BLAS's single-precision product (any libblas.so.3; OpenBLAS where setup.sh installed
 // it, threads set by exe/main.cc): C = op(A) op(B), column-major.
@@ -329,6 +332,38 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
     for (int a = 0; a < 3; ++a) {
       trans(a) = t.at<double>(a);
       for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
+    }
+    // The pose refined on the inliers, then the inliers chosen again among all matches (Sampson
+    // distance within the threshold, in front of both cameras), until they stay the same.
+    for (int round = 0; (usac || options.refine_ransac) && round < 3 && inliers >= 5; ++round) {
+      std::vector<Eigen::Vector2d> xi, xj;
+      for (int m = 0; m < num_matches; ++m)
+        if (mask.at<uint8_t>(m) != 0) xi.emplace_back(pi[m].x, pi[m].y), xj.emplace_back(pj[m].x, pj[m].y);
+      Eigen::Matrix3d rot_refined = rot;
+      Eigen::Vector3d trans_refined = trans;
+      RefineRelativePose(xi, xj, threshold, &rot_refined, &trans_refined);
+      const Eigen::Matrix3d e_refined = Skew(trans_refined) * rot_refined;
+      cv::Mat refined_mask(num_matches, 1, CV_8U);
+      for (int m = 0; m < num_matches; ++m)
+        refined_mask.at<uint8_t>(m) =
+            std::abs(SampsonDistance(e_refined, {pi[m].x, pi[m].y}, {pj[m].x, pj[m].y})) < threshold;
+      cv::Mat e_cv(3, 3, CV_64F), r_cv, t_cv;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) e_cv.at<double>(a, b) = e_refined(a, b);
+      const int refined_inliers = cv::recoverPose(e_cv, pi, pj, identity_k, r_cv, t_cv, refined_mask);
+      Eigen::Matrix3d r_check;
+      Eigen::Vector3d t_check;
+      for (int a = 0; a < 3; ++a) {
+        t_check(a) = t_cv.at<double>(a);
+        for (int b = 0; b < 3; ++b) r_check(a, b) = r_cv.at<double>(a, b);
+      }
+      // recoverPose chooses among the decompositions of e_refined by cheirality; where it picks
+      // another one than the refined pose, the refinement went astray: keep the pose before it.
+      if ((r_check - rot_refined).norm() > 1e-6 || (t_check - trans_refined).norm() > 1e-6 || refined_inliers < 5)
+        break;
+      const bool same = cv::countNonZero(refined_mask != mask) == 0;
+      rot = rot_refined, trans = trans_refined, mask = refined_mask, inliers = refined_inliers;
+      if (same) break;
     }
   }
   // A homography on the same matches that explains them about as well (COLMAP's ratio 0.8) is

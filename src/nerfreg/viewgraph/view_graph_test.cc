@@ -13,6 +13,7 @@
 #include "nerfreg/geometry/conventions.h"
 #include "nerfreg/geometry/rays.h"
 #include "nerfreg/util/error.h"
+#include "nerfreg/viewgraph/two_view_refinement.h"
 
 namespace nerfreg {
 namespace {
@@ -93,6 +94,33 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
     if (dist_px > 1.5) ++far_from_line;
   }
   EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
+}
+
+// A planar scene (the textured ground plane): both estimators recover the relative pose. USAC's
+// own final fit is an eight-point least-squares fit, undetermined on a plane (2.3 deg and 9.2 deg
+// off here before its pose was refined on the Sampson distances; measured now: 0.40 and 1.5 deg,
+// RANSAC's 0.38 and 1.3).
+TEST(ViewGraph, BothEstimatorsRecoverTheRelativePoseOfAPlanarScene) {
+  const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
+  const std::vector<Rigid3d> poses = {
+      LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()),
+      LookAt({0.6, -0.3, 2.8}, {0.2, 0.1, 0}, Eigen::Vector3d::UnitY()),
+  };
+  std::vector<Image> images;
+  for (const auto& p : poses) images.push_back(RenderPlane(cam, p));
+  const Rigid3d truth = poses[1] * poses[0].Inverse();  // b_from_a
+  for (const TwoViewEstimator estimator : {TwoViewEstimator::kRansac, TwoViewEstimator::kUsac}) {
+    ViewGraphOptions o;
+    o.estimator = estimator;
+    const ViewGraph g = BuildViewGraph(images, {cam, cam}, {"a.png", "b.png"}, o);
+    const ViewGraphEdge* ab = g.FindEdge(0, 1);
+    ASSERT_NE(ab, nullptr) << TwoViewEstimatorName(estimator);
+    EXPECT_FALSE(ab->panoramic);
+    EXPECT_GE(ab->num_inliers, ab->num_matches * 9 / 10) << TwoViewEstimatorName(estimator);
+    EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, truth.rotation), 1.0) << TwoViewEstimatorName(estimator);
+    EXPECT_GT(ab->j_from_i.translation.dot(truth.translation.normalized()), std::cos(3.0 * M_PI / 180))
+        << TwoViewEstimatorName(estimator);
+  }
 }
 
 // Two photos from one spot (a pure rotation): the pair is panoramic, its rotation comes from the
@@ -267,6 +295,33 @@ TEST(ViewGraph, UsacFindsTheReferenceRansacGeometryOnAFixedPair) {
   EXPECT_EQ(ParseTwoViewEstimator("usac"), TwoViewEstimator::kUsac);
   EXPECT_EQ(ParseTwoViewEstimator("ransac"), TwoViewEstimator::kRansac);
   EXPECT_THROW(ParseTwoViewEstimator("magsac"), InputError);
+}
+
+// The refinement behind USAC's final fit (two_view_refinement.h): from a pose 3 deg off it returns
+// to the truth and its cost drops by far more than 2; from the truth it stays, and the drop (what
+// 0.25 px noise lets five parameters gain; 0.55 here) is below 2.
+TEST(ViewGraph, RefinementReturnsToTheTruthAndGainsLittleFromIt) {
+  const SyntheticPair pair = MakePair(150, 0, 5);
+  std::vector<Eigen::Vector2d> xi, xj;
+  for (const auto& [a, b] : pair.matches) xi.push_back(pair.keypoints_i[a]), xj.push_back(pair.keypoints_j[b]);
+  const double scale = 1.0 / 500;  // 1 px at the pairs' 500 px focal length
+  const Eigen::Matrix3d r_true = pair.j_from_i.RotationMatrix();
+  const Eigen::Vector3d t_true = pair.j_from_i.translation.normalized();
+  const Eigen::Matrix3d r_off =
+      Eigen::AngleAxisd(3 * M_PI / 180, Eigen::Vector3d(0.3, -0.2, 1).normalized()).toRotationMatrix() * r_true;
+  Eigen::Matrix3d r = r_off;
+  Eigen::Vector3d t = t_true;
+  RefineRelativePose(xi, xj, scale, &r, &t);
+  EXPECT_LT(RotationErrorDeg(Eigen::Quaterniond(r), Eigen::Quaterniond(r_true)), 0.2);
+  EXPECT_GT(t.dot(t_true), std::cos(1.0 * M_PI / 180));
+  EXPECT_GT(RelativePoseCost(xi, xj, scale, r_off, t_true) - RelativePoseCost(xi, xj, scale, r, t), 20.0);
+  r = r_true;
+  t = t_true;
+  RefineRelativePose(xi, xj, scale, &r, &t);
+  EXPECT_LT(RotationErrorDeg(Eigen::Quaterniond(r), Eigen::Quaterniond(r_true)), 0.2);
+  const double gain = RelativePoseCost(xi, xj, scale, r_true, t_true) - RelativePoseCost(xi, xj, scale, r, t);
+  EXPECT_GE(gain, 0.0);
+  EXPECT_LT(gain, 2.0);
 }
 
 // Small renders are enlarged before SIFT, photo-sized images are not (upsample_max_side), and the
