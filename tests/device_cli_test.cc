@@ -82,11 +82,12 @@ TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
   // No PAIRS_JSON, as on a lease without DReg data: reg train runs on the block's grid paired with
   // itself. WORK is relative, as gpu_check.sh's is (the first lease to run this, 2026-11-27, found
   // the grid's path in the pairs file read relative to that file).
-  const CommandResult r = RunShell("cd " + dir.path() +
-                                   " && CLI_CHECK_ITERS=120 CLI_CHECK_SAMPLES=8192 CLI_CHECK_CONFIG=cpu CLI_CHECK_DBARF_CONFIG=cpu "
-                                   "CLI_CHECK_DBARF_STEPS=8 bash " +
-                                   std::string(NERFREG_SOURCE_DIR) + "/scripts/cli_device_check.sh " +
-                                   std::string(NERFREG_BINARY) + " d w cpu check.json");
+  const CommandResult r =
+      RunShell("cd " + dir.path() +
+               " && CLI_CHECK_ITERS=120 CLI_CHECK_SAMPLES=8192 CLI_CHECK_CONFIG=cpu CLI_CHECK_DBARF_CONFIG=cpu "
+               "CLI_CHECK_DBARF_STEPS=8 bash " +
+               std::string(NERFREG_SOURCE_DIR) + "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) +
+               " d w cpu check.json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json check = ReadJsonFile(dir.File("check.json"));
   std::vector<std::string> names;
