@@ -84,7 +84,7 @@ TEST(DeviceCli, DeviceCheckScriptRunsTheCommandsUsersRun) {
   // the grid's path in the pairs file read relative to that file).
   const CommandResult r =
       RunShell("cd " + dir.path() +
-               " && CLI_CHECK_ITERS=120 CLI_CHECK_SAMPLES=8192 CLI_CHECK_CONFIG=cpu CLI_CHECK_DBARF_CONFIG=cpu "
+               " && CLI_CHECK_ITERS=120 CLI_CHECK_SAMPLES=16384 CLI_CHECK_CONFIG=cpu CLI_CHECK_DBARF_CONFIG=cpu "
                "CLI_CHECK_DBARF_STEPS=8 bash " +
                std::string(NERFREG_SOURCE_DIR) + "/scripts/cli_device_check.sh " + std::string(NERFREG_BINARY) +
                " d w cpu check.json");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -308,6 +309,8 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     log.open(out + ".log.jsonl", resume ? std::ios::app : std::ios::trunc);
   }
   const int end_step = options.stop_after > 0 ? std::min(options.stop_after, options.iterations) : options.iterations;
+  const int first_step = step;
+  int trained_steps = 0;  // steps of this call that trained on at least one pair
   ProgressBar bar("reg train", options.iterations, "it");
   bar.Resume(step);
   std::normal_distribution<double> normal(0, 1);
@@ -343,8 +346,11 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     if (pairs == 0) {
       ++step;
       bar.Tick();
+      // A skipped last step still writes what the trained ones learnt.
+      if (trained_steps > 0 && (step == options.iterations || step == end_step)) save();
       continue;
     }
+    ++trained_steps;
     const double loss = stats[0].item<double>() / pairs;
     if (!std::isfinite(loss)) {
       throw std::runtime_error("reg train diverged: loss is " + std::to_string(loss) + " at step " +
@@ -388,6 +394,17 @@ DregTrainResult TrainDreg(const std::vector<std::string>& pairs_files, const Dre
     if ((options.checkpoint_every > 0 && step % options.checkpoint_every == 0) || last || step == end_step) save();
   }
   bar.Finish();
+  // Every pair drawn had too few surface voxels: no weights to write, and none are claimed.
+  if (trained_steps == 0 && first_step < end_step) {
+    if (group.is_main() && !resume) {
+      log.close();
+      std::error_code ignored;
+      std::filesystem::remove(out + ".log.jsonl", ignored);
+    }
+    ThrowInputError(pairs_files.front(), "pairs",
+                    "pairs whose grids both have at least 8 surface voxels (every pair drawn had fewer: nothing was "
+                    "trained or written)");
+  }
   if (step == end_step && options.checkpoint_every == 0) save();
   result.iterations = step;
   result.seconds = seconds_before + timer.Seconds();
