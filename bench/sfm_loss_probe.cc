@@ -63,6 +63,15 @@ torch::Tensor TrueDepth(const LoadedDbarfScene& loaded, int i, double scale) {
   return torch::tensor(v, torch::kFloat).view({1, 1, h, w}) * scale;
 }
 
+// The true relative poses [N, 4, 4] with their translations scaled by t_scale, or the identity
+// (the static solution) where t_scale < 0.
+torch::Tensor ScaledPoses(const torch::Tensor& truth, double t_scale) {
+  if (t_scale < 0) return torch::eye(4).expand_as(truth).clone();
+  torch::Tensor poses = truth.clone();
+  poses.slice(1, 0, 3).select(2, 3) *= t_scale;
+  return poses;
+}
+
 struct Config {
   std::string name;
   double t_scale = 1;  // the true translation times this (0: rotation only); < 0 identity poses
@@ -260,12 +269,7 @@ int main(int argc, char** argv) {
       true_disparity_sum += true_disparity.mean().item<double>();
       ++gradient_targets;
       for (const State& st : states) {
-        torch::Tensor poses = truth.clone();
-        if (st.t_scale < 0) {
-          poses = torch::eye(4).expand_as(truth).clone();
-        } else {
-          poses.slice(1, 0, 3).select(2, 3) *= st.t_scale;
-        }
+        const torch::Tensor poses = ScaledPoses(truth, st.t_scale);
         const torch::Tensor d = st.disparity < 0 ? true_disparity : torch::full_like(true_disparity, st.disparity);
         const Gradient g = GradientAt(target, src, k, poses, d, truth, true_disparity, lo, hi, options);
         Gradient& sum = grad_sums[st.name];
@@ -310,12 +314,7 @@ int main(int argc, char** argv) {
       }
       torch::Tensor strip_truth_mask, strip_identity_mask, strip_warped;
       for (const Config& c : configs) {
-        torch::Tensor poses = truth.clone();
-        if (c.t_scale < 0) {
-          poses = torch::eye(4).expand_as(truth).clone();
-        } else {
-          poses.slice(1, 0, 3).select(2, 3) *= c.t_scale;
-        }
+        const torch::Tensor poses = ScaledPoses(truth, c.t_scale);
         torch::Tensor inv = true_inv;
         if (c.depth == "median") inv = torch::full_like(true_inv, 1.0 / median_depth);
         if (c.depth == "mid") inv = torch::full_like(true_inv, lo + 0.5 * (hi - lo));

@@ -62,8 +62,7 @@ namespace {
 // Truncated quadratic score of a pose and its inlier mask.
 double ScorePose(const Sim3d& pose, const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Eigen::VectorXd& w,
                  double radius, Eigen::VectorXd* inlier_w) {
-  const Eigen::Matrix3d sr = pose.scale * pose.rotation.toRotationMatrix();
-  const Eigen::Matrix3Xd moved = (sr * src).colwise() + pose.translation;
+  const Eigen::Matrix3Xd moved = pose.TransformPoints(src);
   const Eigen::VectorXd d2 = (moved - tgt).colwise().squaredNorm().transpose();
   const double r2 = radius * radius;
   double score = 0;

@@ -63,6 +63,10 @@ struct Sim3d {
 
   Sim3d Inverse() const;
   Eigen::Vector3d operator*(const Eigen::Vector3d& x) const { return scale * (rotation * x) + translation; }
+  // Every column of x [3, N] moved.
+  Eigen::Matrix3Xd TransformPoints(const Eigen::Matrix3Xd& x) const {
+    return ((scale * rotation.toRotationMatrix()) * x).colwise() + translation;
+  }
   Sim3d operator*(const Sim3d& other) const;
 
   // Moves a camera by this transform: given cam_from_a, returns cam_from_b where b = this * a.

@@ -71,7 +71,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     if (free_scale && cloud.cols() >= 3) {
       nk = NormalizationFor(cloud, p);
       normalization.push_back(NormalizationJson(nk, OccupiedRadius(cloud)));
-      cloud = (nk.scale * nk.rotation.toRotationMatrix() * cloud).colwise() + nk.translation;
+      cloud = nk.TransformPoints(cloud);
       if (options.refine == RegistrationRefinement::kField) b->Move(nk);
     } else {
       normalization.push_back(nullptr);

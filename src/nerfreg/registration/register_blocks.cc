@@ -273,13 +273,8 @@ BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationIn
   }
   Denormalize(source_n, target_n, &r);
   for (RegistrationResult& c : r.candidates) Denormalize(source_n, target_n, &c);
-  auto back = [](const Sim3d& n, Eigen::Matrix3Xd* cloud) {
-    const Sim3d input_from_n = n.Inverse();
-    *cloud =
-        (input_from_n.scale * input_from_n.rotation.toRotationMatrix() * *cloud).colwise() + input_from_n.translation;
-  };
-  back(source_n, &r.source_cloud);
-  back(target_n, &r.target_cloud);
+  r.source_cloud = source_n.Inverse().TransformPoints(r.source_cloud);
+  r.target_cloud = target_n.Inverse().TransformPoints(r.target_cloud);
   r.normalization = normalization;
   // Each input's extent is in range, but not necessarily the ratio of the two.
   CheckScaleInRange(r.target_from_source.scale, InputName(&source, "source"),

@@ -7,6 +7,7 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/viewgraph/two_view_refinement.h"
 
 namespace nerfreg {
 
@@ -105,20 +106,12 @@ std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& e
   std::vector<std::pair<int, int>> kept;
   const Rigid3d j_from_i = cam_from_world[edge.j] * cam_from_world[edge.i].Inverse();
   if (j_from_i.translation.norm() < 1e-12) return kept;  // no epipolar geometry
-  const Eigen::Vector3d t = j_from_i.translation.normalized();
-  Eigen::Matrix3d tx;
-  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-  const Eigen::Matrix3d essential = tx * j_from_i.rotation.toRotationMatrix();
+  const Eigen::Matrix3d essential = Skew(j_from_i.translation.normalized()) * j_from_i.rotation.toRotationMatrix();
   const double max_normalized = max_px / cameras[edge.j].fx;
   for (const auto& [a, b] : edge.inlier_matches) {
-    Eigen::Vector3d xa = cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
-    Eigen::Vector3d xb = cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
-    xa /= xa.z();
-    xb /= xb.z();
-    const Eigen::Vector3d ea = essential * xa, etb = essential.transpose() * xb;
-    const double r = xb.dot(ea);
-    const double denominator = ea.head<2>().squaredNorm() + etb.head<2>().squaredNorm();
-    if (denominator > 0 && r * r < max_normalized * max_normalized * denominator) kept.push_back({a, b});
+    const Eigen::Vector2d xa = cameras[edge.i].CamFromImg(keypoints[edge.i][a]).hnormalized();
+    const Eigen::Vector2d xb = cameras[edge.j].CamFromImg(keypoints[edge.j][b]).hnormalized();
+    if (std::abs(SampsonDistance(essential, xa, xb)) < max_normalized) kept.push_back({a, b});
   }
   return kept;
 }
@@ -232,12 +225,16 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       TriangulationOptions tri;
       tri.max_reprojection_error_px = threshold;
       tri.min_angle_deg = options.min_triangulation_angle_deg;
-      s.points.clear();
-      for (const Track& track : tracks) {
-        SfmPoint point;
-        if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
-          s.points.push_back(std::move(point));
-      }
+      // Every track at the current cameras (again after the intrinsics' subset adjustment below).
+      auto triangulate_all = [&] {
+        s.points.clear();
+        for (const Track& track : tracks) {
+          SfmPoint point;
+          if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
+            s.points.push_back(std::move(point));
+        }
+      };
+      triangulate_all();
       seconds_triangulation += stage.Seconds();
       stage.Restart();
       const bool self_calibrating = options.refine_focal || options.refine_distortion;
@@ -262,8 +259,9 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       ba.refine_focal = options.refine_focal && round > 0;
       ba.refine_distortion = options.refine_distortion && round > 0;
       double seconds_retriangulation = 0;
-      if ((ba.refine_focal || ba.refine_distortion) && options.intrinsics_subset_cells > 0) {
-        // The intrinsics on a spread subset, then every track again with them.
+      if (last_round && (ba.refine_focal || ba.refine_distortion) && options.intrinsics_subset_cells > 0) {
+        // The intrinsics on a spread subset, then every track again with them. (Earlier rounds
+        // already adjust such a subset alone, above.)
         const std::vector<int> chosen =
             SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.intrinsics_subset_cells,
                               options.intrinsics_subset_per_cell);
@@ -275,12 +273,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
           LOG_DEBUG("sfm intrinsics on {} of {} points: rms {:.3f} -> {:.3f} px, {} iterations", subset.size(),
                     s.points.size(), sub.initial_rms_px, sub.final_rms_px, sub.iterations);
           const Timer retriangulation;
-          s.points.clear();
-          for (const Track& track : tracks) {
-            SfmPoint point;
-            if (TriangulateTrack(track, graph.keypoints, s.cameras, s.cam_from_world, s.posed, tri, &point))
-              s.points.push_back(std::move(point));
-          }
+          triangulate_all();
           seconds_retriangulation = retriangulation.Seconds();
         }
       }

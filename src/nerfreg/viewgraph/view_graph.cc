@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -329,10 +330,8 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   if (e_valid) {
     cv::Mat r, t;
     inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
-    for (int a = 0; a < 3; ++a) {
-      trans(a) = t.at<double>(a);
-      for (int b = 0; b < 3; ++b) rot(a, b) = r.at<double>(a, b);
-    }
+    cv::cv2eigen(r, rot);
+    cv::cv2eigen(t, trans);
     // The pose refined on the inliers, then the inliers chosen again among all matches (Sampson
     // distance within the threshold, in front of both cameras), until they stay the same.
     for (int round = 0; (usac || options.refine_ransac) && round < 3 && inliers >= 5; ++round) {
@@ -347,16 +346,13 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
       for (int m = 0; m < num_matches; ++m)
         refined_mask.at<uint8_t>(m) =
             std::abs(SampsonDistance(e_refined, {pi[m].x, pi[m].y}, {pj[m].x, pj[m].y})) < threshold;
-      cv::Mat e_cv(3, 3, CV_64F), r_cv, t_cv;
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) e_cv.at<double>(a, b) = e_refined(a, b);
+      cv::Mat e_cv, r_cv, t_cv;
+      cv::eigen2cv(e_refined, e_cv);
       const int refined_inliers = cv::recoverPose(e_cv, pi, pj, identity_k, r_cv, t_cv, refined_mask);
       Eigen::Matrix3d r_check;
       Eigen::Vector3d t_check;
-      for (int a = 0; a < 3; ++a) {
-        t_check(a) = t_cv.at<double>(a);
-        for (int b = 0; b < 3; ++b) r_check(a, b) = r_cv.at<double>(a, b);
-      }
+      cv::cv2eigen(r_cv, r_check);
+      cv::cv2eigen(t_cv, t_check);
       // recoverPose chooses among the decompositions of e_refined by cheirality; where it picks
       // another one than the refined pose, the refinement went astray: keep the pose before it.
       if ((r_check - rot_refined).norm() > 1e-6 || (t_check - trans_refined).norm() > 1e-6 || refined_inliers < 5)
