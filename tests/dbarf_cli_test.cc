@@ -156,9 +156,15 @@ TEST(DbarfCli, MissingIntrinsicsSelfCalibrateAndAnImageOfAnotherSizeIsAOneLineEr
   EXPECT_EQ(posed["dbarf_poses"]["intrinsics"], "self-calibrated");
   EXPECT_EQ(posed["dbarf_poses"]["posed"].get<int>(), 4);
   // The refined focal length is written (its accuracy: GlobalSfm.SelfCalibration*; four 128 x 96
-  // views pin it down poorly).
+  // views pin it down poorly)...
   ASSERT_TRUE(posed.contains("fl_x")) << posed.dump();
   EXPECT_GT(posed["fl_x"].get<double>(), 0);
+  // ...and the run says so: the focal's standard deviation is written, and above 1 % of it warned.
+  const Json& calibration = posed["dbarf_poses"]["self_calibration"];
+  ASSERT_EQ(calibration.size(), 1u) << posed["dbarf_poses"].dump();
+  EXPECT_NEAR(calibration[0]["focal_px"].get<double>(), posed["fl_x"].get<double>(), 1e-6);
+  EXPECT_FALSE(calibration[0]["determined"].get<bool>()) << calibration.dump();
+  EXPECT_NE(r.output.find("focal length poorly determined"), std::string::npos) << r.output;
 
   const Json t = ReadJsonFile(data + "/transforms.json");
   std::string first = t["frames"][1]["file_path"].get<std::string>();

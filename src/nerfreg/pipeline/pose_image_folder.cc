@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <stdexcept>
 
 #include "nerfreg/data/colmap.h"
 #include "nerfreg/data/transforms_json.h"
@@ -154,6 +155,11 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
   return model;
 }
 
+// Whether a refined focal's standard deviation is within max_relative of it.
+bool FocalDetermined(double focal_px, double stddev_px, double max_relative) {
+  return std::isfinite(stddev_px) && stddev_px <= max_relative * focal_px;
+}
+
 // The posed images of OUT/transforms.json: posed frames (paths relative to OUT, so the file stays
 // usable as a dataset), how each was posed, the view graph and the run's figures.
 PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<std::string>& names,
@@ -213,6 +219,21 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                                                                       : "given"},
                 {"well_constrained", quality.WellConstrained()},
                 {"problems", quality.problems}};
+  if (!r.focal_stddev_px.empty()) {
+    // One entry per camera group: the refined focal and how well the data determine it.
+    nlohmann::json groups = nlohmann::json::array();
+    std::set<int> seen;
+    for (size_t k = 0; k < names.size() && k < r.focal_stddev_px.size(); ++k) {
+      const int group = o.poses.camera_group.empty() ? 0 : o.poses.camera_group[k];
+      if (!seen.insert(group).second) continue;
+      const double sd = r.focal_stddev_px[k];
+      groups.push_back({{"first_image", names[k]},
+                        {"focal_px", cameras[k].fx},
+                        {"focal_stddev_px", std::isfinite(sd) ? nlohmann::json(sd) : nlohmann::json(nullptr)},
+                        {"determined", FocalDetermined(cameras[k].fx, sd, o.max_focal_relative_stddev)}});
+    }
+    posed.info["self_calibration"] = groups;
+  }
   if (!result.auto_choice.empty()) {
     posed.info["auto_check"] = {{"kept", result.auto_choice},
                                 {"sfm_photometric_error", result.auto_sfm_score},
@@ -233,6 +254,8 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
 
 void ImageFolderPosesOptions::Check() const {
   if (focal < 0 || !std::isfinite(focal)) ThrowInputError("--focal", "", "a focal length in pixels > 0");
+  if (!(max_focal_relative_stddev >= 0))
+    throw std::invalid_argument("ImageFolderPosesOptions: max_focal_relative_stddev >= 0");
   if (neighbours != "graph" && neighbours != "appearance") {
     throw InputError("--neighbours: expected graph or appearance, got \"" + neighbours + "\"");
   }
@@ -287,8 +310,16 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
       const int group = o.poses.camera_group.empty() ? 0 : o.poses.camera_group[k];
       if (!logged.insert(group).second) continue;
       const Camera& c = result.cameras[k];
-      LOG_INFO("{} and its camera group: focal {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", names[k], c.fx,
-               cameras[k].fx, c.k1, c.k2);
+      const double sd = k < result.sfm.focal_stddev_px.size() ? result.sfm.focal_stddev_px[k] : 0.0;
+      LOG_INFO("{} and its camera group: focal {:.1f} +- {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", names[k],
+               c.fx, sd, cameras[k].fx, c.k1, c.k2);
+      if (!result.sfm.focal_stddev_px.empty() && !FocalDetermined(c.fx, sd, o.max_focal_relative_stddev)) {
+        LOG_WARN(
+            "{} and its camera group: the photos leave the focal length poorly determined ({:.1f} +- {:.1f} px, "
+            "{:.1f} %; the poses hold only as well as it): the camera motion is close to a critical one (centres "
+            "on a line, optical axes through one point); give --focal or --intrinsics, or photos with EXIF",
+            names[k], c.fx, sd, 100.0 * sd / c.fx);
+      }
     }
   }
   cameras = result.cameras;

@@ -19,6 +19,11 @@ struct ImageFolderPosesOptions {
   std::string intrinsics;
   double focal = 0;
   bool refine_intrinsics = false;
+  // Refining the focal: a focal length whose standard deviation (from the bundle adjustment's
+  // covariance) is above this fraction of it is reported as poorly determined, with a warning and
+  // `"determined": false` under "self_calibration" in transforms.json. Some captures leave the
+  // focal free (centres on a line, optical axes through one point: a critical motion).
+  double max_focal_relative_stddev = 0.01;
   std::string out;                   // output folder
   bool force = false;                // replace an existing output
   std::string neighbours = "graph";  // network: graph (SIFT view graph) or appearance (thumbnails only)

@@ -1,6 +1,7 @@
 #include "nerfreg/sfm/bundle_adjustment.h"
 #include "nerfreg/posegraph/ceres_solve.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/timer.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -8,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -76,6 +78,37 @@ double SquaredErrorSum(const std::vector<Camera>& cameras, const std::vector<std
       sum += error * error;
     }
   return sum;
+}
+
+// Each refined group's focal standard deviation (pixels): the focal's marginal variance in the
+// covariance of the solved problem (the gauge is fixed by the held camera and translation
+// coordinate, and the focal does not depend on the gauge), times the residuals' variance per
+// coordinate (2 * cost over the degrees of freedom; the Huber loss is applied as in the solve).
+std::map<int, double> FocalStddevPx(ceres::Problem* problem, std::map<int, std::array<double, 3>>* intrinsics,
+                                    double final_cost) {
+  std::map<int, double> stddev;
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (auto& [g, block] : *intrinsics)
+    if (problem->HasParameterBlock(block.data()) && !problem->IsParameterBlockConstant(block.data()))
+      blocks.emplace_back(block.data(), block.data());
+  if (blocks.empty()) return stddev;
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::SPARSE_QR;  // the full Jacobian is sparse and tall
+  covariance_options.num_threads = 1;
+  ceres::Covariance covariance(covariance_options);
+  const bool ok = covariance.Compute(blocks, problem);
+  const int dof = problem->NumResiduals() - problem->NumParameters();
+  const double variance = dof > 0 ? 2.0 * final_cost / dof : 0.0;
+  for (auto& [g, block] : *intrinsics) {
+    if (!problem->HasParameterBlock(block.data()) || problem->IsParameterBlockConstant(block.data())) continue;
+    double c[9];
+    if (!ok || !covariance.GetCovarianceBlock(block.data(), block.data(), c) || !(c[0] >= 0)) {
+      stddev[g] = std::numeric_limits<double>::infinity();
+      continue;
+    }
+    stddev[g] = std::sqrt(c[0] * variance);
+  }
+  return stddev;
 }
 
 }  // namespace
@@ -175,6 +208,11 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
             ceres_summary.jacobian_evaluation_time_in_seconds, ceres_summary.linear_solver_time_in_seconds,
             ceres_summary.message);
   summary.iterations = static_cast<int>(ceres_summary.iterations.size());
+  if (options.refine_focal && options.estimate_focal_stddev) {
+    const Timer timer;
+    summary.focal_stddev_px = FocalStddevPx(&problem, &intrinsics, ceres_summary.final_cost);
+    LOG_DEBUG("bundle adjustment: the focal's covariance in {:.2f} s", timer.Seconds());
+  }
   for (int k = 0; k < n; ++k) {
     if (!posed[k]) continue;
     Eigen::Matrix3d r;

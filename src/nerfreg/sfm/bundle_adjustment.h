@@ -9,6 +9,7 @@
 // coordinates (fx * (x/z - x_n), ...) and are never refined. The gauge: one camera is held fixed,
 // and for the scale one translation coordinate of the camera farthest from it; the caller sets the
 // final frame.
+#include <map>
 #include <vector>
 
 #include "nerfreg/geometry/camera.h"
@@ -36,6 +37,11 @@ struct BundleAdjustmentOptions {
   // radial distortion k1, k2. The principal point stays (it is poorly constrained, COLMAP's default).
   bool refine_focal = false;
   bool refine_distortion = false;
+  // With refine_focal: after the solve, each group's focal length's standard deviation from the
+  // covariance of the solution (ceres::Covariance on the intrinsics, marginalising poses and
+  // points, scaled by the residuals' variance). Motions close to a critical one (centres on a
+  // line, optical axes through one point) leave the focal free; this is how that shows.
+  bool estimate_focal_stddev = false;
   void Check() const;  // throws std::invalid_argument
 };
 
@@ -45,6 +51,9 @@ struct BundleAdjustmentSummary {
   int num_observations = 0;
   bool converged = false;
   int iterations = 0;  // Ceres iterations run
+  // Per camera group refined (estimate_focal_stddev): the focal's standard deviation in pixels;
+  // infinity where the covariance is rank deficient (the data do not determine it at all).
+  std::map<int, double> focal_stddev_px;
 };
 
 // fixed_camera: the posed image whose pose is held constant. Cameras with !posed[k] and points'

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <stdexcept>
 
 #include "nerfreg/util/error.h"
@@ -143,7 +144,8 @@ struct Solution {
   std::vector<bool> posed;
   std::vector<SfmPoint> points;
   std::vector<Camera> cameras;
-  std::vector<int> collapsed_with;  // per image: the image whose centre it wrongly shares, or -1
+  std::vector<int> collapsed_with;        // per image: the image whose centre it wrongly shares, or -1
+  std::map<int, double> focal_stddev_px;  // per camera group, from the last adjustment
 };
 
 }  // namespace
@@ -277,8 +279,10 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
           seconds_retriangulation = retriangulation.Seconds();
         }
       }
-      [[maybe_unused]] const auto summary =
+      ba.estimate_focal_stddev = last_round && ba.refine_focal;
+      const auto summary =
           BundleAdjust(&s.cameras, groups, graph.keypoints, s.posed, root, &s.cam_from_world, &s.points, ba);
+      s.focal_stddev_px = summary.focal_stddev_px;
       seconds_ba += stage.Seconds() - seconds_retriangulation;
       seconds_triangulation += seconds_retriangulation;
       LOG_DEBUG("sfm round {:.1f} px: {} points, rms {:.3f} -> {:.3f} px, {} iterations, {:.2f} s", threshold,
@@ -311,6 +315,13 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   result.posed = solution.posed;
   result.points = std::move(solution.points);
   result.cameras = solution.cameras;
+  if (!solution.focal_stddev_px.empty()) {
+    result.focal_stddev_px.assign(n, 0.0);
+    for (int k = 0; k < n; ++k) {
+      const auto it = solution.focal_stddev_px.find(groups[k]);
+      if (it != solution.focal_stddev_px.end()) result.focal_stddev_px[k] = it->second;
+    }
+  }
   // Images still collapsed are not posed: of each coincident pair, the one seen in fewer points.
   if (!solution.collapsed_with.empty()) {
     std::vector<int> seen(n, 0);

@@ -93,7 +93,11 @@ struct SfmResult {
   // Per image, why it is not posed ("" where posed): "no consistent two-view geometry", "too few
   // tracks", "its camera centre coincides with NAME's (a collapsed solution)".
   std::vector<std::string> not_posed_reason;
-  std::vector<Camera> cameras;   // the intrinsics used, refined where asked
+  std::vector<Camera> cameras;  // the intrinsics used, refined where asked
+  // Self-calibrating: per image, the standard deviation (pixels) of its group's refined focal
+  // length (BundleAdjustmentOptions::estimate_focal_stddev; infinity where the data leave it
+  // free); empty when the focal was not refined.
+  std::vector<double> focal_stddev_px;
   std::vector<SfmPoint> points;  // the triangulated tracks, elements index view_graph.keypoints
   int num_points = 0;
   double mean_reprojection_error_px = 0;  // over the final observations
