@@ -316,8 +316,9 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
       if (!result.sfm.focal_stddev_px.empty() && !FocalDetermined(c.fx, sd, o.max_focal_relative_stddev)) {
         LOG_WARN(
             "{} and its camera group: the photos leave the focal length poorly determined ({:.1f} +- {:.1f} px, "
-            "{:.1f} %; the poses hold only as well as it): the camera motion is close to a critical one (centres "
-            "on a line, optical axes through one point); give --focal or --intrinsics, or photos with EXIF",
+            "{:.1f} %; the poses hold only as well as it): too few views or points, or a camera motion close to "
+            "a critical one (pure translation, centres on a line, optical axes through one point); give --focal "
+            "or --intrinsics, or photos with EXIF",
             names[k], c.fx, sd, 100.0 * sd / c.fx);
       }
     }
