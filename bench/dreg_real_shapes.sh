@@ -10,7 +10,7 @@
 # default: the stage-12c weights from git, `git show 27469a5:models/dreg_cpu.pt`, and the current
 # models/dreg_cpu.pt). Success: within 5 deg and 0.05 of the extent 2.5 (reg/registration_success.h).
 # SETS="val2 val4" gives the validation figures the weights were chosen on (OUT_MD / OUT_JSON then
-# name another file).
+# name another file); RANSAC=0 leaves out FPFH + RANSAC + ICP, REFINE=none the network + ICP.
 # Writes OUT_JSON (default results/dreg_real_shapes.json) and OUT_MD (results/dreg_real_shapes.md).
 # Usage: bench/dreg_real_shapes.sh   (env: NERFREG, DATA, SETS, WEIGHTS, WORK, OUT_JSON, OUT_MD, MAX_PAIRS)
 set -euo pipefail
@@ -23,6 +23,8 @@ WORK=${WORK:-$(mktemp -d /tmp/dreg_real_shapes.XXXXXX)}
 OUT_JSON=${OUT_JSON:-$ROOT/results/dreg_real_shapes.json}
 OUT_MD=${OUT_MD:-$ROOT/results/dreg_real_shapes.md}
 MAX_PAIRS=${MAX_PAIRS:-0}
+RANSAC=${RANSAC:-1}
+REFINE=${REFINE:-none,icp}
 mkdir -p "$WORK"
 if [ -z "${WEIGHTS:-}" ]; then
   [ -f "$WORK/dreg_cpu_12c.pt" ] || git -C "$ROOT" show 27469a5:models/dreg_cpu.pt > "$WORK/dreg_cpu_12c.pt"
@@ -42,14 +44,16 @@ runs=()
 for set in $SETS; do
   # FPFH + RANSAC + ICP once per set.
   out=$WORK/${set}_ransac.json
-  [ -f "$out" ] || "$NERFREG" reg eval --pairs "$DATA/$set/pairs.json" --split all --max-pairs "$MAX_PAIRS" \
-    --methods ransac --refine icp --out "$out" --quiet > /dev/null
-  runs+=("$set" "-" "$out")
+  if [ "$RANSAC" = 1 ]; then
+    [ -f "$out" ] || "$NERFREG" reg eval --pairs "$DATA/$set/pairs.json" --split all --max-pairs "$MAX_PAIRS" \
+      --methods ransac --refine icp --out "$out" --quiet > /dev/null
+    runs+=("$set" "-" "$out")
+  fi
   for w in $WEIGHTS; do
     name=${w%%=*}
-    out=$WORK/${set}_dreg_$name.json
+    out=$WORK/${set}_dreg_${name}_${REFINE/,/_}.json
     [ -f "$out" ] || "$NERFREG" reg eval --pairs "$DATA/$set/pairs.json" --split all --max-pairs "$MAX_PAIRS" \
-      --methods dreg --refine none,icp --weights "${w#*=}" --out "$out" --quiet > /dev/null
+      --methods dreg --refine "$REFINE" --weights "${w#*=}" --out "$out" --quiet > /dev/null
     runs+=("$set" "$name" "$out")
   done
 done
