@@ -38,6 +38,19 @@ common=(--grid-resolution "$RES" --quiet)
 # Held-out pairs, synthesised, adjacent blocks of a 4-block split (lower overlap: 0.70-0.98).
 "$BIN" reg make-data --meshes "${VAL_MESHES[@]}" --procedural 16 --procedural-seed 5000 --mesh-pairs 2 --blocks 4 \
   --split val --out "$OUT/val_mesh4" "${common[@]}"
+# Sweet Home 3D furniture (models/sh3f_split.json; docs/data.md), synthesised pairs in the frame
+# reg register --scale free gives the network (--scale-augment 2), one pair per mesh: train (2- and
+# 4-block splits), val (both; the choice between checkpoints) and test (both; bench/dreg_real_shapes.sh,
+# reported once). SH3F_TRAIN2_LIMIT / SH3F_TRAIN4_LIMIT: the first N training meshes only (0: all);
+# the fine-tune of 2026-11-28 (scripts/dreg_sh3f_train.sh) had 109 and 283 of them.
+SH3F_OUT=${SH3F_OUT:-data/reg_sh3f}
+sh3f=(--mesh-pairs 1 --scale-augment 2 "${common[@]}")
+"$BIN" reg make-data --meshes sh3f:train --sh3f-limit "${SH3F_TRAIN2_LIMIT:-0}" --blocks 2 --out "$SH3F_OUT/train2" "${sh3f[@]}"
+"$BIN" reg make-data --meshes sh3f:train --sh3f-limit "${SH3F_TRAIN4_LIMIT:-0}" --blocks 4 --out "$SH3F_OUT/train4" "${sh3f[@]}"
+for split in val test; do
+  "$BIN" reg make-data --meshes "sh3f:$split" --blocks 2 --out "$SH3F_OUT/${split}2" "${sh3f[@]}"
+  "$BIN" reg make-data --meshes "sh3f:$split" --blocks 4 --out "$SH3F_OUT/${split}4" "${sh3f[@]}"
+done
 # Held-out pairs of real NeRF blocks (the slow part: ~3 min a block on 2 cores).
 [ "${SKIP_NERF:-0}" = 1 ] && exit 0
 # Real block pairs of two training meshes: the tuning set of the field refinement

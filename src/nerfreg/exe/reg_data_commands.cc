@@ -50,6 +50,10 @@ int RunRegMakeData(int argc, char** argv) {
   app.add_option("--nerf-preset", preset, "Block training preset (default fast)");
   app.add_option("--nerf-iters", nerf_iters, "Block training iterations (default 500)");
   app.add_option("--seed", o.seed, "Random seed");
+  app.add_option("--scale-augment", o.synthetic.max_relative_scale,
+                 "Synthesised pairs: a relative scale between the blocks drawn log-uniformly in [1/X, X], then each "
+                 "block normalised by its own seen extent as reg register --scale free does (e.g. 2; default 0: off, "
+                 "both blocks in the mesh's unit)");
   AddGridOptions(app, &o.grid);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   o.nerf = NerfTrainOptions::Preset(preset);

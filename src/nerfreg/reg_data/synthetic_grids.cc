@@ -1,8 +1,11 @@
 #include "nerfreg/reg_data/synthetic_grids.h"
 
+#include <array>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
+#include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/render/raycaster.h"
 #include "nerfreg/render/renderer.h"
 #include "nerfreg/render/trajectory.h"
@@ -12,7 +15,8 @@ namespace nerfreg {
 void SyntheticPairOptions::Check() const {
   if (resolution < 8 || !(side > 0) || views < 4 || image_size < 8 || blocks < 2 || source_block < 0 ||
       target_block < 0 || source_block >= blocks || target_block >= blocks || source_block == target_block ||
-      blur < 0 || blur > 1 || floaters < 0 || !(min_sigma > 0) || !(max_sigma >= min_sigma)) {
+      blur < 0 || blur > 1 || floaters < 0 || !(min_sigma > 0) || !(max_sigma >= min_sigma) ||
+      !(max_relative_scale == 0 || (max_relative_scale >= 1 && max_relative_scale <= 100))) {
     throw std::invalid_argument("SyntheticPairOptions: out of range");
   }
   frames.Check();
@@ -20,8 +24,51 @@ void SyntheticPairOptions::Check() const {
 
 namespace {
 
-// One block's grid from the views `cams`, in the frame block_from_world.
-RegGrid BlockGrid(const TriangleMesh& mesh, const RayCaster& caster, const std::vector<PosedCamera>& cams,
+// The surface points the views `cams` see (world frame) and their colours.
+struct SeenSurface {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3f> colours;
+};
+
+SeenSurface SeeSurface(const TriangleMesh& mesh, const RayCaster& caster, const std::vector<PosedCamera>& cams) {
+  SeenSurface out;
+  RenderOptions ro;
+  ro.supersample = 1;
+  for (const auto& pc : cams) {
+    const RenderResult r = RenderView(caster, mesh, pc.camera, pc.cam_from_world, ro);
+    const Rigid3d world_from_cam = pc.cam_from_world.Inverse();
+    for (int y = 0; y < pc.camera.height; ++y) {
+      for (int x = 0; x < pc.camera.width; ++x) {
+        const float z = r.depth.at(x, y, 0);
+        if (z <= 0 || r.rgba.at(x, y, 3) < 0.5f) continue;
+        const Eigen::Vector3d x_cam = pc.camera.CamFromImg(Eigen::Vector2d(x + 0.5, y + 0.5)) * z;
+        out.points.push_back(world_from_cam * x_cam);
+        out.colours.emplace_back(r.rgba.at(x, y, 0), r.rgba.at(x, y, 1), r.rgba.at(x, y, 2));
+      }
+    }
+  }
+  return out;
+}
+
+// The register path's normalisation of a block whose seen surface is `seen`, in the frame
+// block_from_world: one point per occupied cell of a fine lattice (a NeRF's occupied cells, not
+// its ray hits, which crowd where many views look).
+Sim3d BlockNormalization(const SeenSurface& seen, const Sim3d& block_from_world, double cell) {
+  std::set<std::array<std::int64_t, 3>> cells;
+  std::vector<Eigen::Vector3d> kept;
+  for (const auto& w : seen.points) {
+    const std::array<std::int64_t, 3> key = {std::int64_t(std::floor(w.x() / cell)),
+                                             std::int64_t(std::floor(w.y() / cell)),
+                                             std::int64_t(std::floor(w.z() / cell))};
+    if (cells.insert(key).second) kept.push_back(block_from_world * w);
+  }
+  Eigen::Matrix3Xd points(3, kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) points.col(i) = kept[i];
+  return NormalizationFor(points, "synthesised block");
+}
+
+// One block's grid from its seen surface, in the frame block_from_world.
+RegGrid BlockGrid(const TriangleMesh& mesh, const SeenSurface& seen, const std::vector<PosedCamera>& cams,
                   const Sim3d& block_from_world, const SyntheticPairOptions& o, std::mt19937& rng) {
   const int d = o.resolution;
   const double cell = o.side / d;
@@ -49,25 +96,12 @@ RegGrid BlockGrid(const TriangleMesh& mesh, const RayCaster& caster, const std::
   std::vector<float> count(n, 0.f), surface(n, 0.f), dense(n, 0.f);
   std::vector<Eigen::Vector3f> colour(n, Eigen::Vector3f::Zero());
 
-  RenderOptions ro;
-  ro.supersample = 1;
-  std::vector<std::pair<Eigen::Vector3d, double>> rays_for_floaters;  // (block-frame centre, far)
-  for (const auto& pc : cams) {
-    const RenderResult r = RenderView(caster, mesh, pc.camera, pc.cam_from_world, ro);
-    const Rigid3d world_from_cam = pc.cam_from_world.Inverse();
-    for (int y = 0; y < pc.camera.height; ++y) {
-      for (int x = 0; x < pc.camera.width; ++x) {
-        const float z = r.depth.at(x, y, 0);
-        if (z <= 0 || r.rgba.at(x, y, 3) < 0.5f) continue;
-        const Eigen::Vector3d x_cam = pc.camera.CamFromImg(Eigen::Vector2d(x + 0.5, y + 0.5)) * z;
-        const Eigen::Vector3d p = block_from_world * (world_from_cam * x_cam);
-        std::int64_t f;
-        if (!index(p, &f)) continue;
-        count[f] += 1;
-        surface[f] = 1;
-        colour[f] += Eigen::Vector3f(r.rgba.at(x, y, 0), r.rgba.at(x, y, 1), r.rgba.at(x, y, 2));
-      }
-    }
+  for (size_t q = 0; q < seen.points.size(); ++q) {
+    std::int64_t f;
+    if (!index(block_from_world * seen.points[q], &f)) continue;
+    count[f] += 1;
+    surface[f] = 1;
+    colour[f] += seen.colours[q];
   }
   for (std::int64_t f = 0; f < n; ++f) {
     if (count[f] > 0) {
@@ -162,7 +196,16 @@ GridPair SyntheticGridPair(const TriangleMesh& mesh, const SyntheticPairOptions&
     for (size_t i = 0; i < cams.size(); ++i)
       if (label[i] == which[s]) block_cams.push_back(cams[i]);
     from_world[s] = RandomBlockFrame(o.frames, rng);
-    (s == 0 ? out.source : out.target) = BlockGrid(mesh, caster, block_cams, from_world[s], o, rng);
+    const SeenSurface seen = SeeSurface(mesh, caster, block_cams);
+    if (o.max_relative_scale > 0) {
+      const double log_max = std::log(o.max_relative_scale);
+      const double relative = s == 0 ? std::exp(std::uniform_real_distribution<double>(-log_max, log_max)(rng)) : 1.0;
+      from_world[s] = Sim3d(relative, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()) * from_world[s];
+      const Sim3d normalized = BlockNormalization(seen, from_world[s], 0.5 * o.side / o.resolution);
+      from_world[s] = normalized * from_world[s];
+      (s == 0 ? out.source_normalization : out.target_normalization) = normalized.scale * relative;
+    }
+    (s == 0 ? out.source : out.target) = BlockGrid(mesh, seen, block_cams, from_world[s], o, rng);
   }
   out.target_from_source = (from_world[1] * from_world[0].Inverse()).ToMatrix();
   out.overlap = GridOverlap(out.source, out.target, out.target_from_source);

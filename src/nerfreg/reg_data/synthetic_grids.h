@@ -33,13 +33,24 @@ struct SyntheticPairOptions {
   double blur = 0.25;                     // probability that a surface voxel spreads to a 6-neighbour
   int floaters = 12;                      // floater clusters per block
   double min_sigma = 5, max_sigma = 400;  // log-uniform density of occupied voxels (alpha channel)
-  void Check() const;                     // throws std::invalid_argument
+  // Scale augmentation in the frame `reg register --scale free` gives the network: when > 0, the
+  // source block's frame is scaled by a relative scale drawn log-uniformly in [1 / x, x] (1: none),
+  // and then each block is moved into its own normalised frame as the register path moves an input
+  // (registration/scale_normalization.h: centred on its seen surface points, RMS radius
+  // kNormalizedRadius) before it is voxelised. The pair's truth then carries the residual scale
+  // between what the two blocks saw. 0: off, both blocks in the mesh's unit (the shipped data).
+  double max_relative_scale = 0;
+  void Check() const;  // throws std::invalid_argument
 };
 
 struct GridPair {
   RegGrid source, target;
   Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
   double overlap = 0;  // fraction of the source mask within one cell of the target mask (true pose)
+  // Per block, the scale of its normalisation relative to the mesh's unit (the random relative
+  // scale left out): how much larger the register path shows the block than the mesh unit does.
+  // 1 without max_relative_scale.
+  double source_normalization = 1, target_normalization = 1;
 };
 
 // `mesh` is normalised (largest side 2.5, centred), as `nerfreg render` does.

@@ -73,6 +73,7 @@ Json MakeDataOptions::ToJson() const {
           {"min_density", grid.min_density},
           {"surface_mode", grid.surface.mode},
           {"surface_window", grid.ResolvedSurface().window},
+          {"scale_augment", synthetic.max_relative_scale},
           {"seed", seed}};
 }
 
@@ -108,8 +109,9 @@ std::string FurnitureName(const std::string& id) {
 
 // Synthesised pairs of one object.
 std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& mesh, const MakeDataOptions& o,
-                                  const std::string& out_dir) {
+                                  const std::string& out_dir, Json* cost) {
   std::vector<PairRecord> out;
+  Json normalizations = Json::array();
   for (int k = 0; k < o.mesh_pairs; ++k) {
     SyntheticPairOptions so = o.synthetic;
     so.blocks = o.blocks;
@@ -118,6 +120,7 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
     so.target_block = (k + 1) % o.blocks;
     const GridPair p =
         SyntheticGridPair(mesh, so, o.seed * 1000003u + std::hash<std::string>{}(spec.name) % 100000u + k);
+    if (o.synthetic.max_relative_scale > 0) normalizations.push_back({p.source_normalization, p.target_normalization});
     if (p.overlap < o.min_overlap) continue;
     PairRecord r;
     r.name = spec.name + "/mesh_" + std::to_string(k);
@@ -135,6 +138,8 @@ std::vector<PairRecord> MeshPairs(const ObjectSpec& spec, const TriangleMesh& me
     SaveRegGrid(p.target, JoinPaths(out_dir, r.target));
     out.push_back(r);
   }
+  // Each block's normalisation scale (mesh unit to the register path's frame) with --scale-augment.
+  if (!normalizations.empty()) (*cost)["normalization_scales"] = normalizations;
   return out;
 }
 
@@ -223,8 +228,10 @@ MakeDataSummary MakeRegistrationData(const MakeDataOptions& o, const std::string
     }
     CreateDirectories(JoinPaths(out_dir, spec.name));
     // A rendered-only object gets its pairs, synthesised and real, when a later run trains it.
-    std::vector<PairRecord> pairs = rendered_only ? std::vector<PairRecord>{} : MeshPairs(spec, mesh, o, out_dir);
-    Json cost = {{"mesh_pairs_seconds", t.Seconds()}};
+    Json cost = Json::object();
+    std::vector<PairRecord> pairs =
+        rendered_only ? std::vector<PairRecord>{} : MeshPairs(spec, mesh, o, out_dir, &cost);
+    cost["mesh_pairs_seconds"] = t.Seconds();
     if (static_cast<int>(i) < o.nerf_objects) {
       const auto np = NerfPairs(spec, mesh, o, out_dir, &cost);
       pairs.insert(pairs.end(), np.begin(), np.end());
