@@ -30,6 +30,8 @@ FINETUNE_DEPTH_BA_STEPS = os.environ.get("FINETUNE_DEPTH_BA_STEPS", "")  # --dep
 FINETUNE_DEPTH_BA_SOURCES = os.environ.get("FINETUNE_DEPTH_BA_SOURCES", "")  # --depth-ba-sources ("": the default)
 FINETUNE_DEPTH_BA_VIEW_RANGE = os.environ.get("FINETUNE_DEPTH_BA_VIEW_RANGE", "")  # --depth-ba-view-range ("": the default)
 NOVEL_TEST_EVERY = 5  # 20-view sets: every 5th view is also rendered, at each method's camera for it (row c)
+# `dbarf poses --two-view` for the network, auto and classical runs ("": the binary's default estimator).
+TWO_VIEW = os.environ.get("TWO_VIEW", "")
 REDUCED = os.environ.get("REDUCED", "")  # a sentence for the .md when the configuration is cut down
 
 
@@ -181,6 +183,10 @@ def evaluate(est, gt, images):
     return r
 
 
+def two_view_flags():
+    return ["--two-view", TWO_VIEW] if TWO_VIEW else []
+
+
 def run_method(method, data, work):
     images, gt = os.path.join(data, "images"), os.path.join(data, "transforms.json")
     os.makedirs(work, exist_ok=True)
@@ -191,7 +197,8 @@ def run_method(method, data, work):
     if method in ("network+finetune", "network+finetune-rgb"):
         net = os.path.join(work, "network")
         if not os.path.exists(os.path.join(net, "transforms.json")):
-            run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", "network", "--out", net, "--force", "--quiet"])
+            run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", "network", "--out", net, "--force", "--quiet"]
+                + two_view_flags())
         seconds_net = json.load(open(os.path.join(net, "transforms.json")))["dbarf_poses"]["seconds"]
         rgb_only = method == "network+finetune-rgb"
         tag = "_rgb" if rgb_only else ""
@@ -223,7 +230,7 @@ def run_method(method, data, work):
                           os.path.join(work, "finetune%s.log" % tag))
         return evaluate(cams, gt, len(os.listdir(images))), seconds + seconds_net + seconds_before
     rc, seconds = run([NERFREG, "dbarf", "poses", images, "--intrinsics", gt, "--method", method, "--out", out, "--force",
-                       "--quiet"], out + ".log")
+                       "--quiet"] + two_view_flags(), out + ".log")
     return evaluate(os.path.join(out, "transforms.json"), gt, len(os.listdir(images))), seconds
 
 
@@ -308,7 +315,7 @@ def main():
     knobs = {k: os.environ[k] for k in ("SIZES20", "SEEDS20", "SPARSE_VIEWS", "SPARSE_SETS", "SPARSE_SPREAD", "HARD_MATERIALS",
                                          "HARD_SETS", "HARD_VIEWS", "METHODS", "FINETUNE_STEPS", "FINETUNE_SCHEDULE",
                                          "FINETUNE_DECAY_STEPS", "FINETUNE_STAGE_STEPS", "FINETUNE_DEPTH_BA_STEPS",
-                                         "FINETUNE_DEPTH_BA_SOURCES", "FINETUNE_DEPTH_BA_VIEW_RANGE")
+                                         "FINETUNE_DEPTH_BA_SOURCES", "FINETUNE_DEPTH_BA_VIEW_RANGE", "TWO_VIEW")
              if k in os.environ}
     if knobs:
         command = " ".join("%s=%s" % (k, json.dumps(v) if " " in v else v) for k, v in knobs.items()) + " " + command

@@ -10,7 +10,8 @@
 # Reduced configurations by environment: SIZES20, SEEDS20, SPARSE_VIEWS, SPARSE_SETS, SPARSE_SPREAD,
 # HARD_MATERIALS, HARD_SETS, HARD_VIEWS, METHODS, FINETUNE_STEPS, FINETUNE_SCHEDULE, FINETUNE_DECAY_STEPS,
 # FINETUNE_STAGE_STEPS, FINETUNE_DEPTH_BA_STEPS, FINETUNE_DEPTH_BA_SOURCES (REDUCED: a sentence saying
-# so in the .md); OUT_MD / OUT_JSON elsewhere than results/.
+# so in the .md); TWO_VIEW (ransac|usac: `dbarf poses --two-view`, else the binary's default);
+# OUT_MD / OUT_JSON elsewhere than results/.
 # Usage: bench/dbarf_poses_bench.sh [WORK_DIR]   (needs build/nerfreg and colmap)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)

@@ -12,7 +12,8 @@
 #   "nerfreg colmap38 colmap4"), NERFREG (default build/nerfreg), WORK (default /tmp/poses_scale),
 #   OUT (default results/poses_scale), VENV (default .bench-venv, made as bench/real_poses.sh does),
 #   TWO_VIEW_BENCH (default build/bench/nerfreg_two_view_bench: the two-view estimators pair by pair
-#   at the smallest size, when built).
+#   at the smallest size, when built), TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the
+#   binary's own).
 # Run it with nice on a shared machine: the times are wall-clock.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -38,4 +39,4 @@ fi
 
 exec "$VENV/bin/python" "$ROOT/bench/poses_scale.py" run --work "$WORK" --sizes "$SIZES" --methods "$METHODS" \
   --nerfreg "$NERFREG" --out-prefix "$OUT" --two-view-bench "$TWO_VIEW_BENCH" \
-  --command "SIZES=\"$SIZES\" METHODS=\"$METHODS\" NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"
+  --command "SIZES=\"$SIZES\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"

@@ -391,6 +391,8 @@ def run_nerfreg(info, out, nerfreg, method, calibrated):
         cmd += ["--intrinsics", info["intrinsics_json"]]
     if method:
         cmd += ["--method", method]
+    if os.environ.get("TWO_VIEW"):  # the two-view estimator (bench/real_poses.sh, bench/poses_scale.sh)
+        cmd += ["--two-view", os.environ["TWO_VIEW"]]
     rc, secs = run_timed(cmd, logf)
     r = {"command": " ".join(cmd), "rc": rc, "wall_s": secs, "log": logf}
     if rc != 0 or not os.path.exists(os.path.join(out, "transforms.json")):

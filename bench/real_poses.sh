@@ -14,7 +14,8 @@
 #   --views: views of the spider render (default 24)
 # Environment: NERFREG (default build/nerfreg), SETS (default "cube castle spider"),
 #   METHODS (default "nerfreg colmap38 colmap4"), WORK (default /tmp/real_poses), OUT (default
-#   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap).
+#   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap),
+#   TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the binary's own).
 # Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only), visp-images-data.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -47,4 +48,4 @@ fi
 
 exec "$VENV/bin/python" "$ROOT/bench/real_poses.py" run --work "$WORK" --sets "$SETS" --methods "$METHODS" \
   --spider-views "$VIEWS" --nerfreg "$NERFREG" --out-prefix "$OUT" \
-  --command "SETS=\"$SETS\" NERFREG=$NERFREG OUT=$OUT bench/real_poses.sh $ARGS"
+  --command "SETS=\"$SETS\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/real_poses.sh $ARGS"

@@ -1,102 +1,89 @@
 #include "nerfreg/viewgraph/two_view_refinement.h"
 
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <ceres/sphere_manifold.h>
+
 #include <cmath>
+#include <memory>
 #include <Eigen/Geometry>
 
-#include "nerfreg/geometry/rigid3.h"
+#include "nerfreg/posegraph/ceres_solve.h"
 
 namespace nerfreg {
+namespace {
+
+// The Sampson distance of (xi, xj) to e = [t]x R, for doubles and Ceres' jets alike.
+template <typename T>
+T Sampson(const Eigen::Matrix<T, 3, 3>& e, const Eigen::Vector2d& xi, const Eigen::Vector2d& xj) {
+  const Eigen::Matrix<T, 3, 1> a = xi.homogeneous().cast<T>(), b = xj.homogeneous().cast<T>();
+  const Eigen::Matrix<T, 3, 1> ea = e * a, eb = e.transpose() * b;
+  const T den = ea.template head<2>().squaredNorm() + eb.template head<2>().squaredNorm();
+  return den > T(0) ? b.dot(ea) / sqrt(den) : T(0);
+}
+
+template <typename T>
+Eigen::Matrix<T, 3, 3> SkewOf(const Eigen::Matrix<T, 3, 1>& v) {
+  Eigen::Matrix<T, 3, 3> s;
+  s << T(0), -v.z(), v.y(), v.z(), T(0), -v.x(), -v.y(), v.x(), T(0);
+  return s;
+}
+
+// One correspondence's Sampson distance as a function of j_from_i's rotation (Eigen quaternion:
+// x, y, z, w) and unit translation.
+struct SampsonCost {
+  SampsonCost(const Eigen::Vector2d& xi, const Eigen::Vector2d& xj) : xi_(xi), xj_(xj) {}
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t);
+    residual[0] = Sampson<T>(SkewOf<T>(translation) * rotation.toRotationMatrix(), xi_, xj_);
+    return true;
+  }
+  Eigen::Vector2d xi_, xj_;
+};
+
+// The refinement's problem over q (x, y, z, w) and t (unit), both owned by the caller.
+std::unique_ptr<ceres::Problem> MakeProblem(const std::vector<Eigen::Vector2d>& xi,
+                                            const std::vector<Eigen::Vector2d>& xj, double scale, double* q,
+                                            double* t) {
+  auto problem = std::make_unique<ceres::Problem>();
+  for (size_t k = 0; k < xi.size(); ++k)
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<SampsonCost, 1, 4, 3>(new SampsonCost(xi[k], xj[k])),
+                              new ceres::CauchyLoss(scale), q, t);
+  problem->SetManifold(q, new ceres::EigenQuaternionManifold);
+  problem->SetManifold(t, new ceres::SphereManifold<3>);
+  return problem;
+}
+
+}  // namespace
 
 double SampsonDistance(const Eigen::Matrix3d& e, const Eigen::Vector2d& xi, const Eigen::Vector2d& xj) {
-  const Eigen::Vector3d a = xi.homogeneous(), b = xj.homogeneous();
-  const Eigen::Vector3d ea = e * a, eb = e.transpose() * b;
-  const double den = ea.head<2>().squaredNorm() + eb.head<2>().squaredNorm();
-  return den > 0 ? b.dot(ea) / std::sqrt(den) : 0;
+  return Sampson<double>(e, xi, xj);
 }
 
 void RefineRelativePose(const std::vector<Eigen::Vector2d>& xi, const std::vector<Eigen::Vector2d>& xj, double scale,
                         Eigen::Matrix3d* rot, Eigen::Vector3d* trans) {
-  const int n = static_cast<int>(xi.size());
-  if (n < 5) return;
-  const double c2 = scale * scale;
-  auto residuals = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, Eigen::VectorXd* out) {
-    const Eigen::Matrix3d e = Skew(t) * r;
-    out->resize(n);
-    for (int k = 0; k < n; ++k) (*out)(k) = SampsonDistance(e, xi[k], xj[k]);
-  };
-  auto cost = [&](const Eigen::VectorXd& res) {
-    double sum = 0;
-    for (int k = 0; k < n; ++k) sum += std::log1p(res(k) * res(k) / c2);
-    return sum;
-  };
-  auto apply = [](const Eigen::Matrix3d& r, const Eigen::Vector3d& t, const Eigen::Matrix<double, 5, 1>& d,
-                  Eigen::Matrix3d* r_out, Eigen::Vector3d* t_out) {
-    const Eigen::Vector3d w = d.head<3>();
-    const double angle = w.norm();
-    const Eigen::Matrix3d dr =
-        angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
-    *r_out = dr * r;
-    // The tangent plane of the unit sphere at t: two unit vectors orthogonal to it.
-    Eigen::Vector3d b1 = t.unitOrthogonal(), b2 = t.cross(b1);
-    *t_out = (t + d(3) * b1 + d(4) * b2).normalized();
-  };
-  Eigen::Matrix3d r = *rot;
+  if (xi.size() < 5) return;
+  Eigen::Quaterniond q(*rot);
   Eigen::Vector3d t = trans->normalized();
-  Eigen::VectorXd res, res_step;
-  residuals(r, t, &res);
-  double current = cost(res);
-  double lambda = 1e-3;
-  Eigen::MatrixXd jac(n, 5);
-  for (int iteration = 0; iteration < 30; ++iteration) {
-    constexpr double kStep = 1e-7;
-    for (int p = 0; p < 5; ++p) {
-      Eigen::Matrix<double, 5, 1> d = Eigen::Matrix<double, 5, 1>::Zero();
-      d(p) = kStep;
-      Eigen::Matrix3d rp;
-      Eigen::Vector3d tp;
-      apply(r, t, d, &rp, &tp);
-      residuals(rp, tp, &res_step);
-      jac.col(p) = (res_step - res) / kStep;
-    }
-    // Cauchy weights: the Gauss-Newton system of sum log(1 + r^2 / c^2).
-    const Eigen::VectorXd w = (1.0 + res.array().square() / c2).inverse().matrix();
-    const Eigen::Matrix<double, 5, 5> jtj = jac.transpose() * w.asDiagonal() * jac;
-    const Eigen::Matrix<double, 5, 1> jtr = jac.transpose() * w.cwiseProduct(res);
-    bool improved = false;
-    for (int attempt = 0; attempt < 10 && !improved; ++attempt) {
-      Eigen::Matrix<double, 5, 5> a = jtj;
-      a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
-      const Eigen::Matrix<double, 5, 1> d = a.ldlt().solve(-jtr);
-      Eigen::Matrix3d rn;
-      Eigen::Vector3d tn;
-      apply(r, t, d, &rn, &tn);
-      residuals(rn, tn, &res_step);
-      const double next = cost(res_step);
-      if (next < current) {
-        improved = true;
-        const double gain = current - next;
-        r = rn, t = tn, res = res_step, current = next;
-        lambda = std::max(lambda / 10, 1e-9);
-        if (gain < 1e-10 * (1 + current)) iteration = 30;  // converged
-      } else {
-        lambda *= 10;
-      }
-    }
-    if (!improved) break;
-  }
-  *rot = r;
-  *trans = t;
+  const std::unique_ptr<ceres::Problem> problem = MakeProblem(xi, xj, scale, q.coeffs().data(), t.data());
+  const ceres::Solver::Summary summary = SolveCeresProblem(problem.get(), 30, ceres::DENSE_QR);
+  if (!summary.IsSolutionUsable()) return;
+  *rot = q.normalized().toRotationMatrix();
+  *trans = t.normalized();
 }
 
 double RelativePoseCost(const std::vector<Eigen::Vector2d>& xi, const std::vector<Eigen::Vector2d>& xj, double scale,
                         const Eigen::Matrix3d& rot, const Eigen::Vector3d& trans) {
-  const Eigen::Matrix3d e = Skew(trans.normalized()) * rot;
-  double sum = 0;
-  for (size_t k = 0; k < xi.size(); ++k) {
-    const double r = SampsonDistance(e, xi[k], xj[k]) / scale;
-    sum += std::log1p(r * r);
-  }
-  return sum;
+  if (xi.empty()) return 0;
+  Eigen::Quaterniond q(rot);
+  Eigen::Vector3d t = trans.normalized();
+  const std::unique_ptr<ceres::Problem> problem = MakeProblem(xi, xj, scale, q.coeffs().data(), t.data());
+  double cost = 0;
+  problem->Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
+  // Ceres' cost is sum 0.5 * rho(d^2), with CauchyLoss's rho(s) = scale^2 * log(1 + s / scale^2).
+  return 2 * cost / (scale * scale);
 }
 
 }  // namespace nerfreg

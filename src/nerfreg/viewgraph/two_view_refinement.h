@@ -13,16 +13,16 @@ namespace nerfreg {
 // normalised image units: the first-order distance to the nearest pair that satisfies it. Signed.
 double SampsonDistance(const Eigen::Matrix3d& e, const Eigen::Vector2d& xi, const Eigen::Vector2d& xj);
 
-// Refines j_from_i (rotation `rot`, unit translation `trans`, both updated) by Levenberg-Marquardt
-// on the Sampson distances of the correspondences xi[k] <-> xj[k] (normalised coordinates), robust
-// with a Cauchy loss of the given scale (normalised units), by iteratively reweighted least
-// squares. Five parameters: a rotation increment and the translation's move in its tangent plane.
-// Fewer than 5 correspondences: unchanged.
+// Refines j_from_i (rotation `rot`, unit translation `trans`, both updated) on the Sampson
+// distances of the correspondences xi[k] <-> xj[k] (normalised coordinates), robust with a Cauchy
+// loss of the given scale (normalised units): Ceres' Levenberg-Marquardt, the rotation as a
+// quaternion on its manifold and the translation on the unit sphere (five degrees of freedom),
+// automatic derivatives. Fewer than 5 correspondences: unchanged.
 void RefineRelativePose(const std::vector<Eigen::Vector2d>& xi, const std::vector<Eigen::Vector2d>& xj, double scale,
                         Eigen::Matrix3d* rot, Eigen::Vector3d* trans);
 
-// The Cauchy cost RefineRelativePose minimises: sum of log(1 + (d / scale)^2) over the Sampson
-// distances d.
+// The cost RefineRelativePose minimises, evaluated by the same Ceres problem: sum of
+// log(1 + (d / scale)^2) over the Sampson distances d (trans is normalised first).
 double RelativePoseCost(const std::vector<Eigen::Vector2d>& xi, const std::vector<Eigen::Vector2d>& xj, double scale,
                         const Eigen::Matrix3d& rot, const Eigen::Vector3d& trans);
 

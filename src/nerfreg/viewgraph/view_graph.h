@@ -45,8 +45,9 @@ struct ViewGraphOptions {
   int min_inliers = 30;  // fewer geometric inliers: no edge
   // The essential matrix's estimator (--two-view). USAC: fewer wrong edges, cheaper on pairs that
   // do not overlap and more accurate poses on the orbit and Castle-simu; its own final fit is
-  // replaced by a refinement (refine_ransac), which handles planar scenes. RANSAC stays the default
-  // until the synthetic sets are measured with USAC (docs/poses_and_views.md).
+  // replaced by a refinement (refine_ransac), which handles planar scenes. RANSAC stays the default:
+  // on low-texture scenes USAC's extra edges can give a wrong SfM that passes auto's checks, which
+  // then keeps it instead of the network (docs/poses_and_views.md).
   TwoViewEstimator estimator = TwoViewEstimator::kRansac;
   // USAC's relative pose is refined on its inliers (Levenberg-Marquardt on the Cauchy-robust
   // Sampson distances), and the inliers chosen again with it, in place of USAC's own final

@@ -120,6 +120,9 @@ TEST(ViewGraph, BothEstimatorsRecoverTheRelativePoseOfAPlanarScene) {
     EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, truth.rotation), 1.0) << TwoViewEstimatorName(estimator);
     EXPECT_GT(ab->j_from_i.translation.dot(truth.translation.normalized()), std::cos(3.0 * M_PI / 180))
         << TwoViewEstimatorName(estimator);
+    std::printf("%s: rotation %.3f deg, translation direction %.3f deg off\n", TwoViewEstimatorName(estimator).c_str(),
+                RotationErrorDeg(ab->j_from_i.rotation, truth.rotation),
+                std::acos(std::min(1.0, ab->j_from_i.translation.dot(truth.translation.normalized()))) * 180 / M_PI);
   }
 }
 
