@@ -114,7 +114,9 @@ for set in $BLOCK_SETS; do
           > /dev/null 2>&1 || rc=$?
         echo "$rc" > "$out.rc"
       fi
-      line=$("$NERFREG" reg eval --pair "$out" --ground-truth "$d/data/ground_truth.json" 2>/dev/null | tail -1)
+      # Scored against the truth of this direction (block a -> block b), not reg eval's default 0 -> 1.
+      line=$("$NERFREG" reg eval --pair "$out" --ground-truth "$d/data/ground_truth.json" --source "$a" --target "$b" \
+        2>/dev/null | tail -1)
       echo "$object:$seed $a$b $mode $rc $line $(python3 - "$out" "$d/data/ground_truth.json" "$a" "$b" <<'PY'
 import json, sys
 t, gt, a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), int(sys.argv[3]), int(sys.argv[4])

@@ -1,6 +1,7 @@
 #include "nerfreg/pipeline/evaluate_pairs.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <memory>
@@ -277,10 +278,11 @@ RegistrationError EvaluateRegistrationFile(const std::string& pair, const std::s
   const Json pj = ReadJsonFile(pair);
   const GroundTruthFile truth(gt_path);
   const JsonField p(pj, pair);
-  Sim3d est, gt;
+  Sim3d est, gt, swapped;
   try {
     est = Sim3d::FromMatrix(p["target_from_source"].Matrix(4, 4));
     gt = truth.TargetFromSource(source, target);
+    swapped = truth.TargetFromSource(target, source);
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("reg eval: a transform is not a similarity: ") + e.what());
   }
@@ -289,11 +291,28 @@ RegistrationError EvaluateRegistrationFile(const std::string& pair, const std::s
   r.translation = TranslationError(est.translation, gt.translation);
   r.translation_fraction = r.translation / kObjectExtent;
   r.success = RegistrationSucceeded(r.rotation_deg, r.translation);
+  r.scale = est.scale;
+  r.true_scale = gt.scale;
+  r.scale_error = std::abs(est.scale / gt.scale - 1);
+  const double swapped_rotation_deg = RotationErrorDeg(est.rotation, swapped.rotation);
+  r.matches_swapped =
+      source != target && !r.success &&
+      RegistrationSucceeded(swapped_rotation_deg, TranslationError(est.translation, swapped.translation));
   r.method = p.StringOr("method", "?");
+  if (r.matches_swapped) {
+    LOG_WARN(
+        "{}: the result matches block {} -> {} ({:.2f} deg), not {} -> {} ({:.2f} deg): was it registered the "
+        "other way (--source {} --target {})?",
+        pair, target, source, swapped_rotation_deg, source, target, r.rotation_deg, target, source);
+  }
   r.json = {{"rotation_error_deg", r.rotation_deg},
             {"translation_error", r.translation},
             {"translation_error_fraction", r.translation_fraction},
             {"success", r.success},
+            {"scale", r.scale},
+            {"true_scale", r.true_scale},
+            {"scale_error", r.scale_error},
+            {"matches_swapped", r.matches_swapped},
             {"method", r.method},
             {"seconds", p.DoubleOr("seconds", 0)}};
   if (!out.empty()) WriteJsonFile(out, r.json);

@@ -82,10 +82,16 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& options,
 
 // `reg eval --pair`: one registration output (T.json of reg register) against the ground truth
 // (ground_truth.json of the rendered dataset: blocks[k].block_from_world) of source block `source`
-// and target block `target`; with `out`, the errors are written there.
+// and target block `target`; with `out`, the errors are written there. The blocks default to 0 -> 1,
+// so a result registered the other way (reg register b1 b0) scored without --source 1 --target 0
+// reads as a wrong pose (bench/registration_sim3.sh once reported a right one 97 deg off that
+// way): a result that fails against source -> target but succeeds against target -> source is
+// flagged (matches_swapped, and a warning naming the options).
 struct RegistrationError {
   double rotation_deg = 0, translation = 0, translation_fraction = 0;  // fraction of the object extent
   bool success = false;                                                // 5 deg and 0.05 of the extent
+  double scale = 1, true_scale = 1, scale_error = 0;  // the result's, the truth's, |scale / true_scale - 1|
+  bool matches_swapped = false;                       // fails as source -> target, succeeds as target -> source
   std::string method = "?";
   Json json;
 };
