@@ -22,10 +22,12 @@ build: setup $(BUILD_DIR)/build.ninja
 # binaries and the kernels' tests; the other tests' sources are the CPU build's. It is a compile
 # check, never run here, so its C++ is built unoptimised (-O0, assertions on) in a folder of its own
 # (build-cuda-check/; a quarter less compile time than -O3 on the heavy units), and `make cuda`'s
-# build-cuda/ stays optimised. A machine without nvcc skips that step with a message.
+# build-cuda/ stays optimised. A machine without nvcc skips that step with a message. The fuzz step
+# runs every torch-free fuzz target briefly; the torch-archive target is replayed by a ctest of the
+# ordinary build instead of its own sanitized LibTorch build (docs/errors.md, Fuzzing).
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 300
-	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) bash scripts/fuzz.sh
+	FUZZ_SECONDS=$(FUZZ_SECONDS_CI) FUZZ_TORCH=0 bash scripts/fuzz.sh
 	CUDA_IF_TOOLKIT=1 CUDA_TARGETS="nerfreg nerfreg_core nerfreg_nerf_kernels_test" CUDA_BUILD_DIR=build-cuda-check \
 	  CMAKE_FLAGS="$(CMAKE_FLAGS) -DCMAKE_CXX_FLAGS_RELEASE=-O0" $(MAKE) cuda
 

@@ -70,3 +70,23 @@ function(nerfreg_add_test NAME)
   gtest_discover_tests(${NAME} DISCOVERY_TIMEOUT 120 DISCOVERY_MODE ${discovery_mode}
     PROPERTIES TIMEOUT ${A_TIMEOUT} ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE;OPENBLAS_NUM_THREADS=1")
 endfunction()
+
+# nerfreg_test_costs(TEST SECONDS [TEST SECONDS ...]): how long the folder's slowest discovered tests
+# take (seconds on an idle 2-core machine), as ctest's COST. `ctest -j` starts the costliest tests
+# first; a clean checkout (CI) has no timings of its own (Testing/Temporary/CTestCostData.txt), so
+# without these it starts them in listed order and a 3-minute test can begin last, with one core
+# idle beside it. The tests exist only once gtest_discover_tests has run, so the properties are set
+# from an include file ctest reads after the discovered tests' own. Call after the folder's tests.
+function(nerfreg_test_costs)
+  if(NOT NERFREG_BUILD_TESTS)
+    return()
+  endif()
+  set(file ${CMAKE_CURRENT_BINARY_DIR}/nerfreg_test_costs.cmake)
+  set(lines "")
+  while(ARGN)
+    list(POP_FRONT ARGN test seconds)
+    string(APPEND lines "set_tests_properties(\"${test}\" PROPERTIES COST ${seconds})\n")
+  endwhile()
+  file(WRITE ${file} "${lines}")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${file})
+endfunction()

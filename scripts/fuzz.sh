@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Builds the parsers with clang + ASan + UBSan + libFuzzer (no LibTorch: build-san/), runs the
 # sanitized unit tests of those layers, then every fuzz target for FUZZ_SECONDS each on its seed
-# corpus. Then the torch-archive fuzzer, in its own LibTorch build (build-fuzz-torch/: only the
-# nerf, reg and dbarf libraries it links, ~60 files; FUZZ_TORCH=0 skips it). `make fuzz` runs
-# long; `make test` runs it briefly.
+# corpus, as many at once as there are cores (each fuzzer is one process on one core). Then the
+# torch-archive fuzzer, in its own LibTorch build (build-fuzz-torch/: only the nerf, reg and dbarf
+# libraries it links, ~60 files; FUZZ_TORCH=0 skips it). `make fuzz` runs long; `make test` runs it
+# briefly and with FUZZ_TORCH=0: its ctest replays the torch-archive target's corpus and mutations
+# of it in the ordinary build (fuzz/replay_main.cc), which costs CI no second LibTorch build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 FUZZ_SECONDS=${FUZZ_SECONDS:-10}
@@ -36,11 +38,29 @@ fi
 cmake --build "$BUILD" -j "$(nproc)"
 echo "== sanitized unit tests (ASan + UBSan)"
 # The pair-selection tests on rendered orbits (SIFT on whole renders) run 20x slower sanitized
-# (114-127 s each) and parse nothing the other tests do not: the normal build runs them.
-(cd "$BUILD" && ctest --output-on-failure -j "$(nproc)" -E 'PairSelection\.(Retrieval|SequentialWithLoop|AutoJoins)')
+# (114-127 s each) and parse nothing the other tests do not: the normal build runs them, as it runs
+# the layout and format checks.
+(cd "$BUILD" && ctest --output-on-failure -j "$(nproc)" -E 'PairSelection\.(Retrieval|SequentialWithLoop|AutoJoins)|^check_')
+# Each fuzzer's output goes to its own log, printed when it ends, so parallel runs do not interleave.
+JOBS=${FUZZ_JOBS:-$(nproc)}
+logs=$(mktemp -d)
+pids=() names=()
 for fuzzer in "$BUILD"/fuzz/*_fuzz; do
-  run_fuzzer "$fuzzer" "$(basename "$fuzzer" _fuzz)"
+  while [ "$(jobs -rp | wc -l)" -ge "$JOBS" ]; do wait -n || true; done
+  name=$(basename "$fuzzer" _fuzz)
+  run_fuzzer "$fuzzer" "$name" > "$logs/$name.log" 2>&1 &
+  pids+=($!) names+=("$name")
 done
+failed=0
+for i in "${!pids[@]}"; do
+  if ! wait "${pids[$i]}"; then failed=1; fi
+  cat "$logs/${names[$i]}.log"
+done
+rm -rf "$logs"
+if [ "$failed" != 0 ]; then
+  echo "fuzz: a target failed (above)"
+  exit 1
+fi
 
 if [ "$FUZZ_TORCH" != 0 ]; then
   # ASan + UBSan instrument our code only (Debian's LibTorch is not rebuilt); -O1 and line tables
