@@ -160,11 +160,44 @@ bool FocalDetermined(double focal_px, double stddev_px, double max_relative) {
   return std::isfinite(stddev_px) && stddev_px <= max_relative * focal_px;
 }
 
+// One camera group's refined intrinsics, as the log and transforms.json report them.
+struct GroupCalibration {
+  size_t first_image = 0;  // index into the images: the group's first
+  double prior_focal_px = 0, focal_px = 0;
+  double focal_stddev_px = 0;  // 0 when the adjustment did not state it
+  bool stddev_known = false;
+  bool determined = false;
+  double k1 = 0, k2 = 0;
+};
+
+std::vector<GroupCalibration> CalibrationByGroup(const std::vector<int>& camera_group, const std::vector<Camera>& prior,
+                                                 const ImagePosesResult& result, double max_relative_stddev) {
+  std::vector<GroupCalibration> groups;
+  std::set<int> seen;
+  const std::vector<double>& sds = result.sfm.focal_stddev_px;
+  for (size_t k = 0; k < result.cameras.size(); ++k) {
+    if (!seen.insert(camera_group.empty() ? 0 : camera_group[k]).second) continue;
+    GroupCalibration g;
+    const Camera& c = result.cameras[k];
+    g.first_image = k;
+    g.prior_focal_px = prior[k].fx;
+    g.focal_px = c.fx;
+    g.stddev_known = k < sds.size();
+    g.focal_stddev_px = g.stddev_known ? sds[k] : 0.0;
+    g.determined = g.stddev_known && FocalDetermined(c.fx, g.focal_stddev_px, max_relative_stddev);
+    g.k1 = c.k1;
+    g.k2 = c.k2;
+    groups.push_back(g);
+  }
+  return groups;
+}
+
 // The posed images of OUT/transforms.json: posed frames (paths relative to OUT, so the file stays
 // usable as a dataset), how each was posed, the view graph and the run's figures.
 PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<std::string>& names,
                             const std::vector<Camera>& cameras, const std::vector<std::string>& splits,
-                            const ImagePosesResult& result, const SfmQuality& quality, bool any_sfm, double seconds) {
+                            const ImagePosesResult& result, const std::vector<GroupCalibration>& calibration,
+                            const SfmQuality& quality, bool any_sfm, double seconds) {
   const SfmResult& r = result.sfm;
   PosedImages posed;
   posed.dataset.root = o.out;
@@ -222,15 +255,13 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
   if (!r.focal_stddev_px.empty()) {
     // One entry per camera group: the refined focal and how well the data determine it.
     nlohmann::json groups = nlohmann::json::array();
-    std::set<int> seen;
-    for (size_t k = 0; k < names.size() && k < r.focal_stddev_px.size(); ++k) {
-      const int group = o.poses.camera_group.empty() ? 0 : o.poses.camera_group[k];
-      if (!seen.insert(group).second) continue;
-      const double sd = r.focal_stddev_px[k];
-      groups.push_back({{"first_image", names[k]},
-                        {"focal_px", cameras[k].fx},
+    for (const GroupCalibration& g : calibration) {
+      if (!g.stddev_known) continue;
+      const double sd = g.focal_stddev_px;
+      groups.push_back({{"first_image", names[g.first_image]},
+                        {"focal_px", g.focal_px},
                         {"focal_stddev_px", std::isfinite(sd) ? nlohmann::json(sd) : nlohmann::json(nullptr)},
-                        {"determined", FocalDetermined(cameras[k].fx, sd, o.max_focal_relative_stddev)}});
+                        {"determined", g.determined}});
     }
     posed.info["self_calibration"] = groups;
   }
@@ -304,22 +335,20 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   LOG_INFO("posing {} images of {} (method {})", names.size(), o.images_dir, o.poses.method);
   const ImagePosesResult result = EstimateImagePoses(images, cameras, names, o.poses, o.images_dir);
   times.Append(result.times);
+  const std::vector<GroupCalibration> calibration =
+      CalibrationByGroup(o.poses.camera_group, cameras, result, o.max_focal_relative_stddev);
   if (!calibrated || o.refine_intrinsics) {
-    std::set<int> logged;
-    for (size_t k = 0; k < names.size(); ++k) {
-      const int group = o.poses.camera_group.empty() ? 0 : o.poses.camera_group[k];
-      if (!logged.insert(group).second) continue;
-      const Camera& c = result.cameras[k];
-      const double sd = k < result.sfm.focal_stddev_px.size() ? result.sfm.focal_stddev_px[k] : 0.0;
-      LOG_INFO("{} and its camera group: focal {:.1f} +- {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", names[k],
-               c.fx, sd, cameras[k].fx, c.k1, c.k2);
-      if (!result.sfm.focal_stddev_px.empty() && !FocalDetermined(c.fx, sd, o.max_focal_relative_stddev)) {
+    for (const GroupCalibration& g : calibration) {
+      const std::string& name = names[g.first_image];
+      LOG_INFO("{} and its camera group: focal {:.1f} +- {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", name,
+               g.focal_px, g.focal_stddev_px, g.prior_focal_px, g.k1, g.k2);
+      if (g.stddev_known && !g.determined) {
         LOG_WARN(
             "{} and its camera group: the photos leave the focal length poorly determined ({:.1f} +- {:.1f} px, "
             "{:.1f} %; the poses hold only as well as it): too few views or points, or a camera motion close to "
             "a critical one (pure translation, centres on a line, optical axes through one point); give --focal "
             "or --intrinsics, or photos with EXIF",
-            names[k], c.fx, sd, 100.0 * sd / c.fx);
+            name, g.focal_px, g.focal_stddev_px, 100.0 * g.focal_stddev_px / g.focal_px);
       }
     }
   }
@@ -357,7 +386,8 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   const std::string& tmp = output.tmp();
   CreateDirectories(JoinPaths(tmp, "sparse/0"));
   {
-    PosedImages posed = MakePosedImages(o, names, cameras, splits, result, quality, any_sfm, timer.Seconds());
+    PosedImages posed =
+        MakePosedImages(o, names, cameras, splits, result, calibration, quality, any_sfm, timer.Seconds());
     WriteColmapBinary(ModelFromSfm(r, cameras, names, images), JoinPaths(tmp, "sparse/0"));
     std::vector<Rigid3d> cams;
     for (const Frame& f : posed.dataset.frames) cams.push_back(f.cam_from_world);

@@ -88,9 +88,12 @@ std::map<int, double> FocalStddevPx(ceres::Problem* problem, std::map<int, std::
                                     double final_cost) {
   std::map<int, double> stddev;
   std::vector<std::pair<const double*, const double*>> blocks;
+  std::vector<int> groups;  // blocks[i] is group groups[i]'s
   for (auto& [g, block] : *intrinsics)
-    if (problem->HasParameterBlock(block.data()) && !problem->IsParameterBlockConstant(block.data()))
+    if (problem->HasParameterBlock(block.data()) && !problem->IsParameterBlockConstant(block.data())) {
       blocks.emplace_back(block.data(), block.data());
+      groups.push_back(g);
+    }
   if (blocks.empty()) return stddev;
   ceres::Covariance::Options covariance_options;
   covariance_options.algorithm_type = ceres::SPARSE_QR;  // the full Jacobian is sparse and tall
@@ -99,14 +102,13 @@ std::map<int, double> FocalStddevPx(ceres::Problem* problem, std::map<int, std::
   const bool ok = covariance.Compute(blocks, problem);
   const int dof = problem->NumResiduals() - problem->NumParameters();
   const double variance = dof > 0 ? 2.0 * final_cost / dof : 0.0;
-  for (auto& [g, block] : *intrinsics) {
-    if (!problem->HasParameterBlock(block.data()) || problem->IsParameterBlockConstant(block.data())) continue;
+  for (size_t i = 0; i < blocks.size(); ++i) {
     double c[9];
-    if (!ok || !covariance.GetCovarianceBlock(block.data(), block.data(), c) || !(c[0] >= 0)) {
-      stddev[g] = std::numeric_limits<double>::infinity();
+    if (!ok || !covariance.GetCovarianceBlock(blocks[i].first, blocks[i].first, c) || !(c[0] >= 0)) {
+      stddev[groups[i]] = std::numeric_limits<double>::infinity();
       continue;
     }
-    stddev[g] = std::sqrt(c[0] * variance);
+    stddev[groups[i]] = std::sqrt(c[0] * variance);
   }
   return stddev;
 }
