@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <memory>
 
@@ -53,10 +54,10 @@ void ImagePosesOptions::Check() const {
 
 namespace {
 
-// Zero-mean, unit-norm grey 16 x 12 thumbnails' dot products. images: [V, 3, H, W]; returns [V, V].
-torch::Tensor ThumbnailSimilarity(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "ThumbnailSimilarity: expected [V, 3, H, W], got ",
-              images.sizes());
+// Zero-mean, unit-norm grey 16 x 12 thumbnails. images: [V, 3, H, W]; returns [V, 192]. Each
+// image's thumbnail depends on that image alone, so images may also come one at a time.
+torch::Tensor Thumbnails(const torch::Tensor& images) {
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "Thumbnails: expected [V, 3, H, W], got ", images.sizes());
   torch::NoGradGuard no_grad;
   const int64_t v = images.size(0);
   namespace F = torch::nn::functional;
@@ -65,8 +66,42 @@ torch::Tensor ThumbnailSimilarity(const torch::Tensor& images) {
       F::interpolate(grey, F::InterpolateFuncOptions().size(std::vector<int64_t>{12, 16}).mode(torch::kArea))
           .reshape({v, -1});
   thumbs = thumbs - thumbs.mean(1, true);
-  thumbs = thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);  // [V, 192]
-  return torch::matmul(thumbs, thumbs.t()).contiguous();      // [V, V]
+  return thumbs / thumbs.norm(2, 1, true).clamp_min(1e-8);  // [V, 192]
+}
+
+// The thumbnails' dot products. images: [V, 3, H, W]; returns [V, V].
+torch::Tensor ThumbnailSimilarity(const torch::Tensor& images) {
+  const torch::Tensor thumbs = Thumbnails(images);        // [V, 192]
+  return torch::matmul(thumbs, thumbs.t()).contiguous();  // [V, V]
+}
+
+// ImageInputProblems from each image's grey standard deviation [V], the thumbnails' similarity
+// [V, V] and image(i) -> [3, H, W], read only for the pairs whose thumbnails nearly coincide.
+std::vector<std::string> InputProblems(const torch::Tensor& grey_std, const torch::Tensor& similarity,
+                                       const std::function<torch::Tensor(int64_t)>& image, const ViewGraph& graph,
+                                       bool matched, const std::vector<std::string>& names) {
+  const int64_t v = grey_std.size(0);
+  TORCH_CHECK(static_cast<int64_t>(names.size()) == v, "ImageInputProblems: one name per image");
+  std::vector<std::string> out(v);
+  for (int64_t i = 0; i < v; ++i) {
+    if (grey_std[i].item<double>() < kTexturelessGreyStd) {
+      out[i] = "textureless";
+      continue;
+    }
+    double best = -1;
+    for (int64_t j = 0; j < v; ++j) {
+      if (j == i) continue;
+      const double sim = similarity[i][j].item<float>();
+      best = std::max(best, sim);
+      if (out[i].empty() && sim > 0.999 && (image(i) - image(j)).abs().max().item<double>() <= 2.0 / 255)
+        out[i] = "identical to " + names[j];
+    }
+    if (!out[i].empty()) continue;
+    bool has_edge = false;
+    for (const ViewGraphEdge& e : graph.edges) has_edge = has_edge || e.i == i || e.j == i;
+    if (matched && !has_edge && best < kUnrelatedSimilarity) out[i] = "unrelated";
+  }
+  return out;
 }
 
 }  // namespace
@@ -89,30 +124,26 @@ std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const V
                                             const std::vector<std::string>& names) {
   torch::NoGradGuard no_grad;
   const int64_t v = images.size(0);
-  TORCH_CHECK(static_cast<int64_t>(names.size()) == v, "ImageInputProblems: one name per image");
-  const torch::Tensor grey = images.to(torch::kFloat).mean(1).reshape({v, -1});  // [V, H * W]
-  const torch::Tensor grey_std = grey.std(1);                                    // [V]
-  const torch::Tensor similarity = ThumbnailSimilarity(images);                  // [V, V]
-  std::vector<std::string> out(v);
+  const torch::Tensor grey_std = images.to(torch::kFloat).mean(1).reshape({v, -1}).std(1);  // [V]
+  return InputProblems(
+      grey_std, ThumbnailSimilarity(images), [&images](int64_t i) { return images[i]; }, graph, matched, names);
+}
+
+std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, const ViewGraph& graph, bool matched,
+                                            const std::vector<std::string>& names) {
+  torch::NoGradGuard no_grad;
+  const int64_t v = static_cast<int64_t>(images.size());
+  torch::Tensor grey_std = torch::empty({v});  // [V]
+  std::vector<torch::Tensor> thumbs;
   for (int64_t i = 0; i < v; ++i) {
-    if (grey_std[i].item<double>() < kTexturelessGreyStd) {
-      out[i] = "textureless";
-      continue;
-    }
-    double best = -1;
-    for (int64_t j = 0; j < v; ++j) {
-      if (j == i) continue;
-      const double sim = similarity[i][j].item<float>();
-      best = std::max(best, sim);
-      if (out[i].empty() && sim > 0.999 && (images[i] - images[j]).abs().max().item<double>() <= 2.0 / 255)
-        out[i] = "identical to " + names[j];
-    }
-    if (!out[i].empty()) continue;
-    bool has_edge = false;
-    for (const ViewGraphEdge& e : graph.edges) has_edge = has_edge || e.i == i || e.j == i;
-    if (matched && !has_edge && best < kUnrelatedSimilarity) out[i] = "unrelated";
+    const torch::Tensor t = ImageToTensor(images[i]);  // [3, H, W]
+    grey_std[i] = t.mean(0).reshape(-1).std();
+    thumbs.push_back(Thumbnails(t.unsqueeze(0)));
   }
-  return out;
+  const torch::Tensor all = torch::cat(thumbs);  // [V, 192]
+  return InputProblems(
+      grey_std, torch::matmul(all, all.t()), [&images](int64_t i) { return ImageToTensor(images[i]); }, graph, matched,
+      names);
 }
 
 std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::vector<std::vector<int>>& appearance,
@@ -320,22 +351,19 @@ bool NetworkDepthRange(const std::vector<double>& p02, const std::vector<double>
 
 namespace {
 
-torch::Tensor StackImages(const std::vector<Image>& images) {
-  std::vector<torch::Tensor> t;
-  for (const Image& im : images) t.push_back(ImageToTensor(im));
-  return torch::stack(t);  // [V, 3, H, W]
-}
-
-torch::Tensor StackIntrinsics(const std::vector<Camera>& cameras) {
-  std::vector<torch::Tensor> t;
-  for (const Camera& c : cameras) t.push_back(IntrinsicsToTensor(c));
-  return torch::stack(t);  // [V, 3, 3]
-}
-
 // The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
+// Shrunk one image at a time: stacking the folder at full size first held two more copies of every
+// image at once, the largest allocation of a large folder's run (issue 44's memory profile).
 std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images,
                                                       const std::vector<Camera>& cameras, int max_width) {
-  return ShrinkToWidth(StackImages(images), StackIntrinsics(cameras), max_width);
+  std::vector<torch::Tensor> shrunk, intrinsics;
+  for (size_t i = 0; i < images.size(); ++i) {
+    const auto [im, k] =
+        ShrinkToWidth(ImageToTensor(images[i]).unsqueeze(0), IntrinsicsToTensor(cameras[i]).unsqueeze(0), max_width);
+    shrunk.push_back(im);
+    intrinsics.push_back(k);
+  }
+  return {torch::cat(shrunk), torch::cat(intrinsics)};  // [V, 3, H', W'], [V, 3, 3]
 }
 
 // The SfM's depth range when it has enough triangulated depths (DepthRangeFromPoints' rule).
@@ -753,8 +781,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   result.sfm.not_posed.clear();
   // Whatever a method made of them, images without the content to pose them are flagged.
   const bool matched = options.method != "network" || options.network.match_images;
-  const std::vector<std::string> problems =
-      ImageInputProblems(StackImages(images), result.sfm.view_graph, matched, names);
+  const std::vector<std::string> problems = ImageInputProblems(images, result.sfm.view_graph, matched, names);
   // The SfM checks its own cameras for a collapse (with the matches' parallax, global_sfm.h);
   // here, centres the network placed onto another's.
   const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);

@@ -172,6 +172,9 @@ constexpr double kTexturelessGreyStd = 0.01;
 constexpr double kUnrelatedSimilarity = 0.3;
 std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const ViewGraph& graph, bool matched,
                                             const std::vector<std::string>& names);
+// The same from the images as read, one at a time (a set of full-size images is never stacked).
+std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, const ViewGraph& graph, bool matched,
+                                            const std::vector<std::string>& names);
 
 // Per image, every other image ranked by the similarity of grey 16 x 12 thumbnails (zero-mean,
 // unit-norm, dot product), most similar first: neighbours for images the matcher cannot relate.

@@ -362,6 +362,11 @@ TEST(NetworkPoses, InputProblemsNameTexturelessIdenticalAndUnrelatedImages) {
             (std::vector<std::string>{"", "identical to copy", "", "", "unrelated", "textureless", "identical to a1"}));
   // Without matching there is no view graph to say an image is unrelated.
   EXPECT_EQ(ImageInputProblems(stacked, graph, false, names)[4], "");
+  // The same from the images as read, one at a time (dbarf poses never stacks a folder).
+  std::vector<Image> read;
+  for (const torch::Tensor& im : images) read.push_back(TensorToImage(im));
+  EXPECT_EQ(ImageInputProblems(read, graph, true, names), p);
+  EXPECT_EQ(ImageInputProblems(read, graph, false, names)[4], "");
 }
 
 }  // namespace
