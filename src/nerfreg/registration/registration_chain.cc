@@ -236,6 +236,7 @@ Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_fiel
   const bool accepted = AcceptFieldScaleChange(start.scale, f, again);
   (*json)["scale_check"] = {
       {"start_scale", start.scale},
+      {"refined_scale", f.scale},
       {"cost_drop", f.initial_cost > 0 ? 1 - f.final_cost / f.initial_cost : 0.0},
       {"again_iterations", again.iterations},
       {"again_scale", again.scale},
