@@ -204,6 +204,16 @@ RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, R
   return r;
 }
 
+namespace {
+
+// Whether a field refinement moved the scale from `start` to `refined` by more than
+// kMaxFieldScaleChange.
+bool ScaleMovedFar(double start, double refined) {
+  return std::abs(std::log(refined / start)) > std::log(kMaxFieldScaleChange);
+}
+
+}  // namespace
+
 Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_field, const Eigen::Matrix3Xd& src_points,
                      const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
                      double spread, Json* json) {
@@ -216,13 +226,43 @@ Sim3d RefineOnFields(const DensityField& src_field, const DensityField& tgt_fiel
            {"samples", f.samples},       {"seconds", f.seconds},           {"before", MatrixToJson(start.ToMatrix())}};
   if (f.overlap_fraction >= 0) (*json)["overlap_fraction"] = f.overlap_fraction;
   if (options.estimate_scale) (*json)["scale"] = f.scale;
-  // A polish, not a search: a scale that moved by more than kMaxFieldScaleChange is not trusted.
-  if (std::abs(std::log(f.scale / start.scale)) > std::log(kMaxFieldScaleChange)) {
-    LOG_WARN("field refinement: the scale moved from {:.4g} to {:.4g}; pose left as it was", start.scale, f.scale);
+  if (!ScaleMovedFar(start.scale, f.scale))
+    return Sim3d(f.scale, f.target_from_source.rotation, f.target_from_source.translation);
+  // The scale moved far: kept only on the refinement's evidence (AcceptFieldScaleChange).
+  FieldAlignmentResult again;
+  if (f.iterations > 0 && f.final_cost <= (1 - kMinFieldCostDrop) * f.initial_cost) {
+    again = AlignFields(src_field, tgt_field, src_points, tgt_points, f.target_from_source, options, f.scale);
+  }
+  const bool accepted = AcceptFieldScaleChange(start.scale, f, again);
+  (*json)["scale_check"] = {
+      {"start_scale", start.scale},
+      {"refined_scale", f.scale},
+      {"cost_drop", f.initial_cost > 0 ? 1 - f.final_cost / f.initial_cost : 0.0},
+      {"again_iterations", again.iterations},
+      {"again_scale", again.scale},
+      {"again_turn_deg",
+       again.iterations > 0 ? RotationErrorDeg(again.target_from_source.rotation, f.target_from_source.rotation) : 0.0},
+      {"accepted", accepted}};
+  (*json)["seconds"] = f.seconds + again.seconds;
+  if (!accepted) {
+    LOG_WARN(
+        "field refinement: the scale moved from {:.4g} to {:.4g} without the evidence to keep it; pose left as it was",
+        start.scale, f.scale);
     (*json)["rejected"] = true;
     return start;
   }
-  return Sim3d(f.scale, f.target_from_source.rotation, f.target_from_source.translation);
+  (*json)["scale"] = again.scale;
+  (*json)["final_cost"] = again.final_cost;
+  return Sim3d(again.scale, again.target_from_source.rotation, again.target_from_source.translation);
+}
+
+bool AcceptFieldScaleChange(double start_scale, const FieldAlignmentResult& first, const FieldAlignmentResult& again) {
+  if (!ScaleMovedFar(start_scale, first.scale)) return true;
+  if (first.iterations == 0 || !(first.final_cost <= (1 - kMinFieldCostDrop) * first.initial_cost)) return false;
+  if (again.iterations == 0) return false;  // the second refinement did not run: nothing says it settled
+  return std::abs(std::log(again.scale / first.scale)) < std::log(kMaxFieldRestartScaleChange) &&
+         RotationErrorDeg(again.target_from_source.rotation, first.target_from_source.rotation) <
+             kMaxFieldRestartTurnDeg;
 }
 
 }  // namespace nerfreg

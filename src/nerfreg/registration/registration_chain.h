@@ -109,9 +109,27 @@ RegistrationResult RunChain(RegistrationPair& pair, RegistrationMethod method, R
 // The field refinement's driver on any two density fields: AlignFields from `start` (its scale
 // held unless options.estimate_scale), samples around `src_points` / `tgt_points` with spread
 // `spread`; `json` records it (iterations, initial_cost, final_cost, samples, seconds, before,
-// overlap_fraction, scale). A refined scale more than kMaxFieldScaleChange from the start's is
-// refused (the start returned, "rejected": true): the refinement polishes, it does not search.
+// overlap_fraction, scale).
+//
+// The refinement polishes, it does not search: a refined scale more than kMaxFieldScaleChange
+// from the start's is kept only on the refinement's own evidence (AcceptFieldScaleChange), else
+// the start is returned ("rejected": true). The point stages can leave the scale 10-20 % off
+// (their correspondences are a grid's cells or a trained block's noisy shell), and the fields,
+// which see the whole surface, correct it; but a refinement that slid along a poor alignment also
+// moves the scale far. `json`'s "scale_check" records the evidence.
 inline constexpr double kMaxFieldScaleChange = 1.1;
+// A larger scale change is kept when (1) the fields agree clearly better at the refined pose: the
+// cost fell by at least kMinFieldCostDrop of its start's; and (2) the refined pose is where the
+// refinement settles: refined again from it (scale free; the source's densities converted to
+// target units at the refined scale, not the start's), the scale moves by less than
+// kMaxFieldRestartScaleChange and the rotation by less than kMaxFieldRestartTurnDeg. The second
+// refinement's pose is returned (its densities are in the right units).
+inline constexpr double kMinFieldCostDrop = 0.1;
+inline constexpr double kMaxFieldRestartScaleChange = 1.02;
+inline constexpr double kMaxFieldRestartTurnDeg = 0.5;
+// The rule above on two AlignFields results: `first` from a start of scale `start_scale`, `again`
+// from `first`'s pose and scale. Within kMaxFieldScaleChange of the start: kept, whatever `again`.
+bool AcceptFieldScaleChange(double start_scale, const FieldAlignmentResult& first, const FieldAlignmentResult& again);
 Sim3d RefineOnFields(const DensityField& source, const DensityField& target, const Eigen::Matrix3Xd& src_points,
                      const Eigen::Matrix3Xd& tgt_points, const Sim3d& start, FieldAlignmentOptions options,
                      double spread, Json* json);
