@@ -1,12 +1,16 @@
 #include "nerfreg/sfm/global_sfm.h"
 
 #include <algorithm>
+#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/stats.h"
 #include "nerfreg/util/timer.h"
 #include "nerfreg/viewgraph/two_view_refinement.h"
 
@@ -31,8 +35,9 @@ void SfmOptions::Check() const {
   tracks.Check();
   bundle_adjustment.Check();
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
-      !(reverify_matches_px >= 0) || collapse_retries < 0 || intrinsics_subset_cells < 0 ||
-      intrinsics_subset_per_cell < 1) {
+      !(reverify_matches_px >= 0) ||
+      !(max_edge_direction_residual_deg >= 0 && max_edge_direction_residual_deg <= 180) || collapse_retries < 0 ||
+      intrinsics_subset_cells < 0 || intrinsics_subset_per_cell < 1) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
@@ -63,6 +68,47 @@ std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, c
       if (b != a && posed[b] && (centres[a] - centres[b]).norm() <= fraction * spread) out[a] = static_cast<int>(b);
     }
   }
+  return out;
+}
+
+EdgeDirectionCheck CheckEdgeDirections(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                       const ViewGraph& graph, const std::vector<bool>& edge_used,
+                                       double max_median_residual_deg) {
+  EdgeDirectionCheck out;
+  const size_t n = cam_from_world.size();
+  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (size_t k = 0; k < n; ++k) {
+    if (!posed[k]) continue;
+    centres[k] = cam_from_world[k].Inverse().translation;
+    mean += centres[k];
+    ++count;
+  }
+  out.off_line_fraction = std::numeric_limits<double>::infinity();
+  if (count >= 3) {
+    mean /= count;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (size_t k = 0; k < n; ++k)
+      if (posed[k]) scatter += (centres[k] - mean) * (centres[k] - mean).transpose();
+    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();  // ascending
+    if (ev(2) > 0) out.off_line_fraction = std::sqrt(std::max(0.0, ev(0) + ev(1)) / ev(2));
+  }
+  std::vector<double> residuals;
+  for (size_t e = 0; e < graph.edges.size(); ++e) {
+    const ViewGraphEdge& edge = graph.edges[e];
+    if ((!edge_used.empty() && !edge_used[e]) || edge.panoramic || !posed[edge.i] || !posed[edge.j]) continue;
+    // The direction from centre i to centre j in camera i's frame, then in the world's.
+    const Eigen::Vector3d in_i = -(edge.j_from_i.rotation.conjugate() * edge.j_from_i.translation);
+    const Eigen::Vector3d solved = centres[edge.j] - centres[edge.i];
+    if (!(in_i.norm() > 0) || !(solved.norm() > 0)) continue;
+    const Eigen::Vector3d in_world = cam_from_world[edge.i].rotation.conjugate() * in_i.normalized();
+    residuals.push_back(std::acos(std::clamp(in_world.dot(solved.normalized()), -1.0, 1.0)) * 180 / M_PI);
+  }
+  out.num_edges = static_cast<int>(residuals.size());
+  if (residuals.empty()) return out;
+  out.median_residual_deg = UpperMedian(residuals);
+  out.contradicted = out.num_edges >= 3 && out.median_residual_deg > max_median_residual_deg;
   return out;
 }
 
@@ -138,6 +184,9 @@ ViewGraph PoseVerifiedGraph(const ViewGraph& graph, const std::vector<Camera>& c
 
 // Parallax above which two images cannot share a camera centre.
 constexpr double kCollapseParallaxDeg = 1.0;
+// Centres whose rms distance from their line is below this fraction of their spread along it are
+// said to lie on it (in the report of a contradicted solution).
+constexpr double kOnLineFraction = 0.05;
 
 struct Solution {
   std::vector<Rigid3d> cam_from_world;
@@ -307,6 +356,25 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     ++result.num_collapse_resolves;
     LOG_INFO("sfm: {} camera centres collapsed onto others; solving again from another start ({}/{})", num_collapsed,
              attempt + 1, options.collapse_retries);
+  }
+  // Centres contradicting the two-view directions are reported, not solved again: global
+  // positioning from other random starts and translation averaging reached the same contradicted
+  // solutions on the low-texture renders where this was seen.
+  if (options.max_edge_direction_residual_deg > 0 && solution.posed.size() == static_cast<size_t>(n)) {
+    const EdgeDirectionCheck directions = CheckEdgeDirections(solution.cam_from_world, solution.posed, graph, usable,
+                                                              options.max_edge_direction_residual_deg);
+    LOG_DEBUG("sfm centres against the two-view directions: median {:.1f} deg over {} edges",
+              directions.median_residual_deg, directions.num_edges);
+    if (directions.contradicted) {
+      char buf[300];
+      std::snprintf(buf, sizeof(buf),
+                    "the camera centres contradict the two-view directions of the edges they were solved from "
+                    "(median %.0f deg over %d edges%s): a collapsed solution",
+                    directions.median_residual_deg, directions.num_edges,
+                    directions.off_line_fraction < kOnLineFraction ? ", the centres on a line" : "");
+      result.degenerate = buf;
+      LOG_WARN("sfm: {}", result.degenerate);
+    }
   }
   result.times.Record("positioning", seconds_positioning);
   result.times.Record("triangulation", seconds_triangulation);

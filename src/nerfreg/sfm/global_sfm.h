@@ -18,7 +18,9 @@
 //      observations.
 //   -> a check for a collapsed solution (camera centres that coincide although the two images' own
 //      matches show parallax): solved again by global positioning from another random start, and
-//      images still collapsed are left unposed with the reason.
+//      images still collapsed are left unposed with the reason. Centres that contradict the edges'
+//      two-view directions (on a line, or reflected through the scene; CheckEdgeDirections) are
+//      reported (SfmResult::degenerate): solving again did not change them.
 //
 // The output frame: the first posed image's camera is the identity (world = its camera frame,
 // OpenCV axes) and the scale makes the mean distance of the other posed cameras to it 1. Images
@@ -82,7 +84,11 @@ struct SfmOptions {
   // collapsed solution: no capture has two photos from one point); 0 turns the check off.
   double collapse_fraction = 0.01;
   int collapse_retries = 2;  // re-solves from another random start before images are left out
-  void Check() const;        // throws std::invalid_argument
+  // A solution whose centres contradict the two-view directions of the edges it was solved from
+  // (CheckEdgeDirections: their median angle above this, degrees, over at least 3 edges) is
+  // reported as degenerate (SfmResult::degenerate). 0 turns the check off.
+  double max_edge_direction_residual_deg = 40.0;
+  void Check() const;  // throws std::invalid_argument
 };
 
 struct SfmResult {
@@ -104,6 +110,10 @@ struct SfmResult {
   ViewGraph view_graph;                   // the graph the poses came from, with its keypoints
   int num_edges_used = 0;                 // edges consistent with the averaged rotations
   int num_collapse_resolves = 0;          // solutions found collapsed and solved again
+  // Why the solution is degenerate although its images are posed: "" or, where the centres
+  // contradict the edges' two-view directions (CheckEdgeDirections), a sentence saying so
+  // (sfm_quality.h reports it; dbarf poses' auto then puts the solution to its test).
+  std::string degenerate;
   double seconds_view_graph = 0;
   double seconds_sfm = 0;  // averaging, triangulation and bundle adjustment
   // Per stage: features, matching, geometry (PoseImages only), rotation averaging, tracks,
@@ -131,5 +141,30 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
 // calls it a collapse where the two images' own matches show parallax.
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction = 0.01);
+
+// How far the solved camera centres contradict the view graph's own two-view geometry: per edge
+// between posed images, the angle between the edge's translation direction (from its essential
+// matrix, rotated into the world frame by the solved rotation of its first image) and the
+// direction between the two solved centres. Global positioning can converge to a wrong solution at
+// a sub-pixel reprojection error when tracks are short and rays nearly parallel (low-texture
+// renders): the centres on a line, or reflected through the scene; most edges then disagree with
+// it by tens of degrees. Photos taken along a rail have their centres on a line too, but there the
+// pairs' directions run along it and agree.
+struct EdgeDirectionCheck {
+  // Median over the measured edges of that angle (degrees, 0..180).
+  double median_residual_deg = 0;
+  // Root-mean-square distance of the posed centres from their principal line over their rms
+  // spread along it (0: exactly on a line; infinity with fewer than 3 posed centres): said in the
+  // report, not tested.
+  double off_line_fraction = 0;
+  int num_edges = 0;          // edges with a translation direction that were measured
+  bool contradicted = false;  // median_residual_deg > the maximum, over at least 3 edges
+};
+// edge_used: per graph edge, whether to measure it (empty: all). Panoramic edges (no direction)
+// and edges whose solved centres coincide are skipped; with fewer than 3 edges measured nothing
+// is contradicted.
+EdgeDirectionCheck CheckEdgeDirections(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
+                                       const ViewGraph& graph, const std::vector<bool>& edge_used,
+                                       double max_median_residual_deg);
 
 }  // namespace nerfreg

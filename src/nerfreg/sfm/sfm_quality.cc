@@ -74,6 +74,7 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
   q.median_track_length = UpperMedian(track_lengths);
   q.median_triangulation_angle_deg = UpperMedian(angles);
 
+  if (!result.degenerate.empty()) q.problems.push_back(result.degenerate);
   if (const std::string small = SmallImagesProblem(q.min_image_side_px, options); !small.empty()) {
     q.problems.push_back(small + ": a sub-pixel reprojection error there does not pin the cameras down");
   }

@@ -3,7 +3,9 @@
 // a sub-pixel reprojection error on a wrong solution when the data cannot tell solutions apart:
 // on 12 images of 32x24 pixels it reports a fraction of a pixel with the cameras degrees off. Such
 // solutions have few, short tracks seen under small angles, and pixels too coarse for the
-// reprojection error to mean anything; these are measured here.
+// reprojection error to mean anything; these are measured here, and a solution the SfM itself
+// found degenerate (SfmResult::degenerate: centres on a line the two-view directions contradict)
+// is not well constrained either.
 #include <string>
 #include <vector>
 

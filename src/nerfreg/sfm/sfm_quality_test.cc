@@ -30,6 +30,13 @@ TEST(SfmQuality, AWellSeenSceneIsWellConstrainedAndThinDataIsNot) {
   ASSERT_EQ(t.problems.size(), 2u);  // too few points in an image; too few pixels
   EXPECT_LT(t.min_points_per_image, 20);
   EXPECT_EQ(t.min_image_side_px, 24);
+
+  // The same solution, had the SfM found its centres contradicting the two-view directions.
+  SfmResult degenerate = r;
+  degenerate.degenerate = "the camera centres contradict the two-view directions";
+  const SfmQuality d = AssessSfm(degenerate, s.cameras);
+  ASSERT_EQ(d.problems.size(), 1u);
+  EXPECT_EQ(d.problems[0], degenerate.degenerate);
 }
 
 }  // namespace

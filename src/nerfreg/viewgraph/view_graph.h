@@ -43,12 +43,13 @@ struct ViewGraphOptions {
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
   int min_inliers = 30;  // fewer geometric inliers: no edge
-  // The essential matrix's estimator (--two-view). USAC: fewer wrong edges, cheaper on pairs that
-  // do not overlap and more accurate poses on the orbit and Castle-simu; its own final fit is
-  // replaced by a refinement (refine_ransac), which handles planar scenes. RANSAC stays the default:
-  // on low-texture scenes USAC's extra edges can give a wrong SfM that passes auto's checks, which
-  // then keeps it instead of the network (docs/poses_and_views.md).
-  TwoViewEstimator estimator = TwoViewEstimator::kRansac;
+  // The essential matrix's estimator (--two-view). USAC, the default: fewer wrong edges, cheaper
+  // on pairs that do not overlap and more accurate poses on the orbit and Castle-simu; its own
+  // final fit is replaced by a refinement (refine_ransac), which handles planar scenes. On
+  // low-texture scenes its extra edges can give a wrong SfM; the SfM's check of its centres against
+  // the edges' directions (sfm/global_sfm.h, CheckEdgeDirections) reports it, and auto then puts
+  // it to its photometric check (docs/poses_and_views.md).
+  TwoViewEstimator estimator = TwoViewEstimator::kUsac;
   // USAC's relative pose is refined on its inliers (Levenberg-Marquardt on the Cauchy-robust
   // Sampson distances), and the inliers chosen again with it, in place of USAC's own final
   // least-squares fit: an eight-point fit, which a planar scene leaves undetermined. true: RANSAC's
