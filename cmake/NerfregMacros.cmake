@@ -90,3 +90,13 @@ function(nerfreg_test_costs)
   file(WRITE ${file} "${lines}")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${file})
 endfunction()
+
+# nerfreg_test_timeout(TEST SECONDS): a longer ctest TIMEOUT for one discovered test of the folder
+# than its target's. Call after the folder's nerfreg_test_costs (it shares that include file).
+function(nerfreg_test_timeout TEST SECONDS)
+  if(NOT NERFREG_BUILD_TESTS)
+    return()
+  endif()
+  file(APPEND ${CMAKE_CURRENT_BINARY_DIR}/nerfreg_test_costs.cmake
+       "set_tests_properties(\"${TEST}\" PROPERTIES TIMEOUT ${SECONDS})\n")
+endfunction()
