@@ -273,6 +273,7 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
   if (any_sfm) {
     posed.info["quality"] = {{"min_image_side_px", quality.min_image_side_px},
                              {"min_points_per_image", quality.min_points_per_image},
+                             {"min_multiview_points_per_image", quality.min_multiview_points_per_image},
                              {"median_points_per_image", quality.median_points_per_image},
                              {"median_track_length", quality.median_track_length},
                              {"median_triangulation_angle_deg", quality.median_triangulation_angle_deg}};

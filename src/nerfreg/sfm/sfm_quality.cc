@@ -22,7 +22,8 @@ std::string Fmt(double v) {
 void SfmQualityOptions::Check() const {
   if (min_image_side_px < 0) ThrowInputError("SfmQualityOptions", "min_image_side_px", ">= 0");
   if (min_points_per_image < 0) ThrowInputError("SfmQualityOptions", "min_points_per_image", ">= 0");
-  if (!(min_median_track_length >= 0)) ThrowInputError("SfmQualityOptions", "min_median_track_length", ">= 0");
+  if (min_multiview_points_per_image < 0)
+    ThrowInputError("SfmQualityOptions", "min_multiview_points_per_image", ">= 0");
   if (!(min_median_triangulation_angle_deg >= 0)) {
     ThrowInputError("SfmQualityOptions", "min_median_triangulation_angle_deg", ">= 0");
   }
@@ -39,6 +40,7 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
   SfmQuality q;
   const size_t n = result.posed.size();
   q.points_per_image.assign(n, 0);
+  std::vector<int> multiview(n, 0);
   q.min_image_side_px = cameras.empty() ? 0 : std::min(cameras[0].width, cameras[0].height);
   for (size_t k = 0; k < n && k < cameras.size(); ++k) {
     if (result.posed[k]) q.min_image_side_px = std::min({q.min_image_side_px, cameras[k].width, cameras[k].height});
@@ -50,6 +52,7 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
     for (const TrackElement& e : p.elements) {
       if (e.image < 0 || static_cast<size_t>(e.image) >= n) continue;
       ++q.points_per_image[e.image];
+      if (p.elements.size() >= 3) ++multiview[e.image];
       const Rigid3d& cam = result.cam_from_world[e.image];
       const Eigen::Vector3d centre = -(cam.rotation.conjugate() * cam.translation);
       rays.push_back((p.x_in_world - centre).normalized());
@@ -63,13 +66,17 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
   }
   std::vector<double> per_image;
   q.min_points_per_image = -1;
+  q.min_multiview_points_per_image = -1;
   for (size_t k = 0; k < n; ++k) {
     if (!result.posed[k]) continue;
     per_image.push_back(q.points_per_image[k]);
     q.min_points_per_image =
         q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
+    q.min_multiview_points_per_image =
+        q.min_multiview_points_per_image < 0 ? multiview[k] : std::min(q.min_multiview_points_per_image, multiview[k]);
   }
   q.min_points_per_image = std::max(q.min_points_per_image, 0);
+  q.min_multiview_points_per_image = std::max(q.min_multiview_points_per_image, 0);
   q.median_points_per_image = UpperMedian(per_image);
   q.median_track_length = UpperMedian(track_lengths);
   q.median_triangulation_angle_deg = UpperMedian(angles);
@@ -83,9 +90,13 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
                          " triangulated points (at least " + std::to_string(options.min_points_per_image) +
                          " are needed)");
   }
-  if (q.median_track_length < options.min_median_track_length) {
-    q.problems.push_back("points are seen by " + Fmt(q.median_track_length) + " images (median; at least " +
-                         Fmt(options.min_median_track_length) + " are needed)");
+  // (Said once: an image short of points is short of multi-view points too.)
+  if (q.min_points_per_image >= options.min_points_per_image &&
+      q.min_multiview_points_per_image < options.min_multiview_points_per_image) {
+    q.problems.push_back("an image observes only " + std::to_string(q.min_multiview_points_per_image) +
+                         " points that 3 or more images see (at least " +
+                         std::to_string(options.min_multiview_points_per_image) +
+                         " are needed): its pose rests on pairs alone");
   }
   if (q.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
     q.problems.push_back("points are triangulated under " + Fmt(q.median_triangulation_angle_deg) +

@@ -31,6 +31,22 @@ TEST(SfmQuality, AWellSeenSceneIsWellConstrainedAndThinDataIsNot) {
   EXPECT_LT(t.min_points_per_image, 20);
   EXPECT_EQ(t.min_image_side_px, 24);
 
+  // The same points, each seen by two images only: every image keeps its points, but its pose rests
+  // on pairs alone.
+  EXPECT_GE(q.min_multiview_points_per_image, 10);
+  SfmResult pairs_only = r;
+  for (size_t i = 0; i < pairs_only.points.size(); ++i) {
+    std::vector<TrackElement>& e = pairs_only.points[i].elements;
+    if (e.size() <= 2) continue;
+    const size_t a = i % e.size();  // a different pair of the track's images for each point
+    e = {e[a], e[(a + 1) % e.size()]};
+  }
+  const SfmQuality po = AssessSfm(pairs_only, s.cameras);
+  EXPECT_EQ(po.min_multiview_points_per_image, 0);
+  EXPECT_GE(po.min_points_per_image, 20);
+  ASSERT_FALSE(po.WellConstrained());
+  EXPECT_NE(po.problems.back().find("3 or more images"), std::string::npos) << po.problems.back();
+
   // The same solution, had the SfM found its centres contradicting the two-view directions.
   SfmResult degenerate = r;
   degenerate.degenerate = "the camera centres contradict the two-view directions";
