@@ -16,6 +16,7 @@ Json ConfidenceToJson(const ImagePoseConfidence& c) {
                {"rotation_residual_deg", c.rotation_residual_deg},
                {"direction_residual_deg", c.direction_residual_deg},
                {"low", c.low}};
+  if (c.edges_left_out >= 0) conf["edges_left_out"] = c.edges_left_out;
   if (c.observations >= 0)
     conf["observations"] = c.observations, conf["reprojection_error_px"] = c.reprojection_error_px;
   if (!c.problem.empty()) conf["problem"] = c.problem;
@@ -42,7 +43,9 @@ void WritePosedImages(const std::string& path, const PosedImages& posed) {
     json["confidence_doc"] =
         "per frame: the median angles (deg) between the image's pairwise relative rotations / translation "
         "directions and those of the accepted poses, over `edges` of them. sfm: its view-graph (essential-matrix) "
-        "edges to other SfM-posed images, plus its triangulated observations and their mean reprojection error. "
+        "edges to other SfM-posed images that the solution was made from (consistent with the averaged rotations; "
+        "`edges_left_out` counts the others), plus its triangulated observations and their mean reprojection "
+        "error. "
         "network, method network: its view-graph edges against the averaged cameras (its network edges where it has "
         "none). network, method auto: the network's relative "
         "pose between two of its SfM-posed sources (through the image) against the SfM's, per source pair. low: no "

@@ -16,7 +16,9 @@ namespace nerfreg {
 
 // How well an image's pose agrees with its own measurements (dbarf_sfm/network_poses.h computes it).
 struct ImagePoseConfidence {
-  int edges = 0;                       // pairwise measurements checked (dbarf_sfm/network_poses.h)
+  int edges = 0;  // pairwise measurements checked (dbarf_sfm/network_poses.h)
+  // sfm: the image's view-graph edges its rotation averaging left out (not checked; -1: not sfm).
+  int edges_left_out = -1;
   double rotation_residual_deg = 180;  // their median rotation disagreement, degrees (180: none)
   // The same for the translation directions: the angle between the measured direction and the
   // accepted poses' (180: none, or zero translations).

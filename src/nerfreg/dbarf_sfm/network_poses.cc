@@ -295,6 +295,51 @@ std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& c
   return out;
 }
 
+std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras) {
+  const int n = static_cast<int>(cameras.size());
+  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
+  std::vector<int> left_out(n, 0);
+  for (size_t q = 0; q < sfm.view_graph.edges.size(); ++q) {
+    const ViewGraphEdge& e = sfm.view_graph.edges[q];
+    if (!sfm.posed[e.i] || !sfm.posed[e.j]) continue;
+    // Only the edges the solution was made from: the others disagreed with the averaged rotations
+    // (wrong matches, e.g. repeated texture across a wide baseline) and would outvote right poses.
+    if (q < sfm.edge_used.size() && !sfm.edge_used[q]) {
+      ++left_out[e.i], ++left_out[e.j];
+      continue;
+    }
+    const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
+    for (int k : {e.i, e.j}) {
+      residuals[k].push_back(angle);
+      if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none
+    }
+  }
+  std::vector<int> observations(n, 0);
+  std::vector<double> error_sum(n, 0.0);
+  for (const SfmPoint& p : sfm.points)
+    for (const TrackElement& e : p.elements) {
+      ++observations[e.image];
+      error_sum[e.image] += ReprojectionErrorPx(cameras[e.image], sfm.cam_from_world[e.image], p.x_in_world,
+                                                sfm.view_graph.keypoints[e.image][e.keypoint]);
+    }
+  std::vector<ImagePoseConfidence> out(n);
+  for (int k = 0; k < n; ++k) {
+    if (!sfm.posed[k]) continue;
+    ImagePoseConfidence& c = out[k];
+    c.edges = static_cast<int>(residuals[k].size());
+    c.edges_left_out = left_out[k];
+    c.rotation_residual_deg = residuals[k].empty() ? 180.0 : Median(residuals[k]);
+    // Only panoramic edges: no direction was measured, so none disagrees.
+    c.direction_residual_deg =
+        direction_residuals[k].empty() ? (residuals[k].empty() ? 180.0 : 0.0) : Median(direction_residuals[k]);
+    c.observations = observations[k];
+    c.reprojection_error_px = observations[k] > 0 ? error_sum[k] / observations[k] : 0.0;
+  }
+  return out;
+}
+
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
                                        const ViewGraph& graph, const RelativePoseAveragingOptions& options,
                                        double graph_edge_weight) {
@@ -377,36 +422,10 @@ bool SfmDepthRange(const SfmResult& sfm, const std::string& source, double* near
 }
 
 void SetSfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras, ImagePosesResult* result) {
-  const int n = static_cast<int>(cameras.size());
-  std::vector<std::vector<double>> residuals(n), direction_residuals(n);
-  for (const ViewGraphEdge& e : sfm.view_graph.edges) {
-    if (!sfm.posed[e.i] || !sfm.posed[e.j]) continue;
-    const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
-    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
-    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
-    for (int k : {e.i, e.j}) {
-      residuals[k].push_back(angle);
-      if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none
-    }
-  }
-  std::vector<int> observations(n, 0);
-  std::vector<double> error_sum(n, 0.0);
-  for (const SfmPoint& p : sfm.points)
-    for (const TrackElement& e : p.elements) {
-      ++observations[e.image];
-      error_sum[e.image] += ReprojectionErrorPx(cameras[e.image], sfm.cam_from_world[e.image], p.x_in_world,
-                                                sfm.view_graph.keypoints[e.image][e.keypoint]);
-    }
-  for (int k = 0; k < n; ++k) {
+  const std::vector<ImagePoseConfidence> confidence = SfmConfidence(sfm, cameras);
+  for (size_t k = 0; k < cameras.size(); ++k) {
     if (!sfm.posed[k]) continue;
-    ImagePoseConfidence& c = result->confidence[k];
-    c.edges = static_cast<int>(residuals[k].size());
-    c.rotation_residual_deg = residuals[k].empty() ? 180.0 : Median(residuals[k]);
-    // Only panoramic edges: no direction was measured, so none disagrees.
-    c.direction_residual_deg =
-        direction_residuals[k].empty() ? (residuals[k].empty() ? 180.0 : 0.0) : Median(direction_residuals[k]);
-    c.observations = observations[k];
-    c.reprojection_error_px = observations[k] > 0 ? error_sum[k] / observations[k] : 0.0;
+    result->confidence[k] = confidence[k];
     result->posed[k] = true;
     result->posed_by[k] = "sfm";
     result->cam_from_world[k] = sfm.cam_from_world[k];

@@ -19,9 +19,12 @@
 // Per-image confidence (ImagePoseConfidence), in the same unit for every method: how far the
 // image's pairwise measurements disagree with the accepted poses, as a median rotation angle over
 // `edges` measurements:
-//   sfm:                 its view-graph edges (essential matrices) to other SfM-posed images, against
-//                        the final cameras; plus its triangulated observations and their mean
-//                        reprojection error.
+//   sfm:                 its view-graph edges (essential matrices) to other SfM-posed images that
+//                        the solution was made from (SfmResult::edge_used), against the final
+//                        cameras; plus its triangulated observations and their mean reprojection
+//                        error. The edges rotation averaging left out are counted, not checked:
+//                        on a real capture they are wrong matches (Castle-simu's wide pairs,
+//                        matched on a logo's repeated pattern) and outvoted right poses.
 //   network (network):   its view-graph edges (essential matrices) against the averaged cameras
 //                        where images were matched and it has any (an independent check: a network
 //                        wrong the same way everywhere agrees with itself around every cycle); else
@@ -227,6 +230,11 @@ struct NetworkEdgeAverage {
 NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<NetworkRelativePose>& poses,
                                        const ViewGraph& graph, const RelativePoseAveragingOptions& options,
                                        double graph_edge_weight = 0);
+// Per image, the confidence of the SfM's poses (see the top of this file): residuals over the
+// edges the solution was made from (sfm.edge_used; all edges where it is empty), edges_left_out,
+// observations and their mean reprojection error. Unposed images keep the defaults.
+std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras);
+
 // The network method's per-image confidence of cameras (see the top of this file): against the view
 // graph's edges where the image has any between posed images, else against the network's edges.
 std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& cam_from_world,

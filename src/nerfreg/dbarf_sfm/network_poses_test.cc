@@ -53,6 +53,48 @@ TEST(NetworkPoses, ANetworkThatPredictsIdentityIsCaughtOnTheSharedEdges) {
   EXPECT_THROW(RegisterFromRelativePoses({}, {}), std::invalid_argument);
 }
 
+// The SfM's confidence checks an image against the edges its solution was made from: wrong edges
+// that rotation averaging left out (here the identity, as wrong matches of a repeated pattern
+// across a wide baseline gave on Castle-simu) are counted, not allowed to outvote right poses.
+// Counted as before (every edge used), the same right pose would be doubted.
+TEST(NetworkPoses, SfmConfidenceChecksTheEdgesTheSolutionUsedAndCountsTheOthers) {
+  SfmResult sfm;
+  const int n = 5;
+  for (int k = 0; k < n; ++k) {
+    const double a = 0.35 * k;  // 20 deg apart on an arc
+    sfm.cam_from_world.push_back(LookAt({4 * std::sin(a), 0.2 * k, -4 * std::cos(a)}, {0, 0, 0}));
+    sfm.cameras.push_back(Camera::Pinhole(64, 48, 60, 60, 32, 24));
+  }
+  sfm.posed.assign(n, true);
+  sfm.view_graph.keypoints.resize(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      ViewGraphEdge e;
+      e.i = i, e.j = j;
+      const bool right = j == i + 1;  // neighbours: right; wider pairs: the identity, wrong
+      const Rigid3d j_from_i = sfm.cam_from_world[j] * sfm.cam_from_world[i].Inverse();
+      e.j_from_i = right ? Rigid3d(j_from_i.rotation, j_from_i.translation.normalized())
+                         : Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0));
+      sfm.view_graph.edges.push_back(e);
+      sfm.edge_used.push_back(right);
+    }
+  }
+  const std::vector<ImagePoseConfidence> used = SfmConfidence(sfm, sfm.cameras);
+  ASSERT_EQ(used.size(), static_cast<size_t>(n));
+  EXPECT_EQ(used[0].edges, 1);
+  EXPECT_EQ(used[0].edges_left_out, 3);
+  EXPECT_EQ(used[2].edges, 2);
+  EXPECT_EQ(used[2].edges_left_out, 2);
+  for (const ImagePoseConfidence& c : used) {
+    EXPECT_LT(c.rotation_residual_deg, 1e-6);
+    EXPECT_LT(c.direction_residual_deg, 1e-6);
+  }
+  sfm.edge_used.clear();  // every edge counted
+  const std::vector<ImagePoseConfidence> all = SfmConfidence(sfm, sfm.cameras);
+  EXPECT_EQ(all[0].edges, 4);
+  EXPECT_GT(all[0].rotation_residual_deg, 30.0);  // the wrong edges' median: a right pose doubted
+}
+
 // A photo the SfM cannot pose, placed by the network with relative poses 16 deg off on one source
 // (as a view 40 deg below an orbit was): its edges between the posed sources disagree, and auto
 // reports it not posed, with the reason, instead of counting it. Exact edges are kept.

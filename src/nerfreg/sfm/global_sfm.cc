@@ -221,6 +221,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   result.times.Record("rotation averaging", stage.Seconds());
   std::vector<bool> usable = rotations.edge_inlier;
   for (bool u : usable) result.num_edges_used += u;
+  result.edge_used = usable;
   stage.Restart();
   const std::vector<Track> first_tracks = BuildTracks(graph, usable, options.tracks);
   result.times.Record("tracks", stage.Seconds());

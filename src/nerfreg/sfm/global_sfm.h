@@ -109,7 +109,9 @@ struct SfmResult {
   double mean_reprojection_error_px = 0;  // over the final observations
   ViewGraph view_graph;                   // the graph the poses came from, with its keypoints
   int num_edges_used = 0;                 // edges consistent with the averaged rotations
-  int num_collapse_resolves = 0;          // solutions found collapsed and solved again
+  // Per view_graph edge: whether it was one of those (the edges the tracks and positions came from).
+  std::vector<bool> edge_used;
+  int num_collapse_resolves = 0;  // solutions found collapsed and solved again
   // Why the solution is degenerate although its images are posed: "" or, where the centres
   // contradict the edges' two-view directions (CheckEdgeDirections), a sentence saying so
   // (sfm_quality.h reports it; dbarf poses' auto then puts the solution to its test).
