@@ -66,11 +66,13 @@ inline constexpr double kLowConfidence = 0.65;
 //   below; the margins are narrow, so an untrusted result may still be right and a registered one
 //   wrong; or
 // - other candidates ended at it but its confidence is below kConfirmedConfidenceFloor, or
-//   kConfirmedConfidenceFloorMixed: candidates can be pulled into the same wrong pose (one local
-//   minimum of the field refinement), so agreement does not make up for inputs that barely agree at
-//   the pose. The floors sit well below every right confirmed pose measured (the docs give the
-//   lowest and the margin) and above the wrong confirmed ones; few wrong confirmed poses were
-//   measured, so one just above a floor can still pass as registered.
+//   kConfirmedConfidenceFloorMixed: candidates can be pulled into the same wrong pose (e.g. the
+//   field refinement's one rigid optimum for inputs in different units), so agreement does not make
+//   up for inputs that barely agree at the pose. The same-kind floor sits below every right
+//   confirmed pose measured and above every wrong one, both by narrow margins (docs/registration.md,
+//   "Confirmed poses"); the wrong ones measured are few and all rigid poses of inputs in different
+//   units. No wrong confirmed mixed pose was measured: the mixed floor is the same-kind floor scaled
+//   as the thresholds are, below the right mixed poses measured.
 inline constexpr double kUntrustedConfidence = 0.6;
 inline constexpr double kUntrustedConfidenceMixed = 0.32;
 inline constexpr double kConfirmedConfidenceFloor = 0.5;
