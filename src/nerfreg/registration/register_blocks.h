@@ -57,15 +57,26 @@ struct BlockRegistrationResult : RegistrationResult {
 // scored above it, blocks of different objects below).
 inline constexpr double kLowConfidence = 0.65;
 
-// A kept pose is untrusted when no other candidate ended at it (agreeing_candidates 0, or a
-// single candidate) and its confidence is below kUntrustedConfidence, or kUntrustedConfidenceMixed
-// for a NeRF block against splats: a block's density fills the object's inside, a capture's is a
-// shell, so even right mixed pairs agree less. On the measured pairs (docs/registration.md, "When
-// the result is untrusted") right pairs that no candidate confirmed scored above these and pairs
-// of different objects below; the margins are narrow, so an untrusted result may still be right
-// and a registered one wrong.
+// A kept pose is untrusted when either
+// - no other candidate ended at it (agreeing_candidates 0, or a single candidate) and its
+//   confidence is below kUntrustedConfidence, or kUntrustedConfidenceMixed for a NeRF block against
+//   splats: a block's density fills the object's inside, a capture's is a shell, so even right mixed
+//   pairs agree less. On the measured pairs (docs/registration.md, "When the result is untrusted")
+//   right pairs that no candidate confirmed scored above these and pairs of different objects
+//   below; the margins are narrow, so an untrusted result may still be right and a registered one
+//   wrong; or
+// - other candidates ended at it but its confidence is below kConfirmedConfidenceFloor, or
+//   kConfirmedConfidenceFloorMixed: candidates can be pulled into the same wrong pose (e.g. the
+//   field refinement's one rigid optimum for inputs in different units), so agreement does not make
+//   up for inputs that barely agree at the pose. The same-kind floor sits below every right
+//   confirmed pose measured and above every wrong one, both by narrow margins (docs/registration.md,
+//   "Confirmed poses"); the wrong ones measured are few and all rigid poses of inputs in different
+//   units. No wrong confirmed mixed pose was measured: the mixed floor is the same-kind floor scaled
+//   as the thresholds are, below the right mixed poses measured.
 inline constexpr double kUntrustedConfidence = 0.6;
 inline constexpr double kUntrustedConfidenceMixed = 0.32;
+inline constexpr double kConfirmedConfidenceFloor = 0.5;
+inline constexpr double kConfirmedConfidenceFloorMixed = 0.27;
 
 // `reg register`'s exit code for an untrusted result (T.json and the pictures are written): no
 // other code means this (2 bad input, 3 internal error, 4 a lost distributed process; docs/cli.md).

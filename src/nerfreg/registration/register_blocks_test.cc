@@ -238,6 +238,67 @@ TEST(RegisterBlocks, AResultIsUntrustedWhenNothingConfirmsALowConfidence) {
   EXPECT_EQ(r.status, "untrusted");
 }
 
+// Agreement does not override a very low confidence: candidates can end in the same wrong pose
+// (object 6001's captures scaled by 2 with --scale fixed: one candidate agreed at 0.16, 4.9 deg
+// off). A confirmed pose needs its kind's floor; an unconfirmed one the higher threshold.
+TEST(RegisterBlocks, AConfirmedPoseStillNeedsAConfidenceFloor) {
+  BlockRegistrationResult r;
+  r.source_kind = r.target_kind = "splats";
+  r.agreeing_candidates = 1;
+  r.confidence = 0.16;  // the measured wrong confirmed pose
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_NE(r.status_reason.find("confidence 0.16 < 0.50 although 1 other candidate ended at the kept pose"),
+            std::string::npos)
+      << r.status_reason;
+  r.agreeing_candidates = 2;
+  r.confidence = kConfirmedConfidenceFloor - 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_NE(r.status_reason.find("although 2 other candidates ended"), std::string::npos) << r.status_reason;
+  // Confirmed and at the floor, though below the unconfirmed threshold: registered.
+  r.confidence = kConfirmedConfidenceFloor;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  EXPECT_TRUE(r.status_reason.empty());
+  // The same confidence unconfirmed (0 agreeing, or one candidate): untrusted by the threshold.
+  for (int agreeing : {0, -1}) {
+    r.agreeing_candidates = agreeing;
+    JudgeRegistration(&r);
+    EXPECT_EQ(r.status, "untrusted") << agreeing;
+    EXPECT_EQ(r.status_reason.find("although"), std::string::npos) << r.status_reason;
+  }
+  // Unconfirmed and high: registered.
+  r.confidence = kUntrustedConfidence + 0.1;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+
+  // A block against splats: its own, lower floor and threshold, in either direction.
+  for (const char* block_side : {"source", "target"}) {
+    r.source_kind = r.target_kind = "splats";
+    (std::string(block_side) == "source" ? r.source_kind : r.target_kind) = "nerf";
+    r.agreeing_candidates = 1;
+    r.confidence = kConfirmedConfidenceFloorMixed;
+    JudgeRegistration(&r);
+    EXPECT_EQ(r.status, "registered") << block_side;
+    r.confidence = kConfirmedConfidenceFloorMixed - 0.01;
+    JudgeRegistration(&r);
+    EXPECT_EQ(r.status, "untrusted") << block_side;
+    EXPECT_NE(r.status_reason.find("< 0.27 although 1 other candidate"), std::string::npos) << r.status_reason;
+    r.agreeing_candidates = 0;
+    r.confidence = kUntrustedConfidenceMixed;
+    JudgeRegistration(&r);
+    EXPECT_EQ(r.status, "registered") << block_side;
+    r.confidence = kConfirmedConfidenceFloorMixed;  // enough when confirmed, not alone
+    JudgeRegistration(&r);
+    EXPECT_EQ(r.status, "untrusted") << block_side;
+  }
+  // Floors below the unconfirmed thresholds, mixed below same-kind.
+  EXPECT_LT(kConfirmedConfidenceFloor, kUntrustedConfidence);
+  EXPECT_LT(kConfirmedConfidenceFloorMixed, kUntrustedConfidenceMixed);
+  EXPECT_LT(kConfirmedConfidenceFloorMixed, kConfirmedConfidenceFloor);
+}
+
 // A capture with nothing dense (splats all but transparent) is a named error, not a pose, in
 // either scale mode.
 TEST(RegisterBlocks, AnInputWithoutOccupiedCellsIsANamedError) {
