@@ -124,6 +124,18 @@ std::pair<torch::Tensor, torch::Tensor> NerfFieldImpl::Forward(const torch::Tens
   return {sigma, rgb};
 }
 
+torch::Tensor NerfFieldImpl::ColorsAlong(const torch::Tensor& positions, const torch::Tensor& dirs) {
+  TORCH_CHECK(dirs.dim() == 2 && dirs.size(1) == 3, "NerfField: dirs must be [D, 3]");
+  const std::int64_t n = positions.size(0), d = dirs.size(0);
+  const auto features = DensityAndFeatures(positions).second;                                        // [N, F]
+  const auto sh = SphericalHarmonics16(options_.InstantNgp() ? dirs.index_select(1, axes_) : dirs);  // [D, 16]
+  const auto f = features.unsqueeze(1).expand({n, d, features.size(1)});
+  const auto s = sh.unsqueeze(0).expand({n, d, 16});
+  // The colour MLP's input as Forward builds it, one row per (position, direction).
+  const auto color_in = options_.InstantNgp() ? torch::cat({f, s}, 2) : torch::cat({s, f}, 2);  // [N, D, 16 + F]
+  return torch::sigmoid(color_mlp_->forward(color_in.reshape({n * d, -1}))).view({n, d, 3});
+}
+
 torch::Tensor NerfFieldImpl::Density(const torch::Tensor& positions) {
   const torch::Device device = table.device();
   if (positions.device() != device) return DensityAndFeatures(positions.to(device)).first.to(positions.device());

@@ -54,6 +54,11 @@ class NerfFieldImpl : public torch::nn::Module {
   std::pair<torch::Tensor, torch::Tensor> Forward(const torch::Tensor& positions, const torch::Tensor& dirs);
   // Density only: positions [N, 3] -> sigma [N] (0 outside the AABB).
   torch::Tensor Density(const torch::Tensor& positions);
+  // The colour of each position seen along each of a few directions: positions [N, 3], dirs
+  // [D, 3] unit -> rgb [N, D, 3], row (n, d) as Forward(positions[n], dirs[d]) gives it. The hash
+  // encoding and the density MLP run once per position (they do not depend on the direction),
+  // only the colour MLP once per pair. On the field's device.
+  torch::Tensor ColorsAlong(const torch::Tensor& positions, const torch::Tensor& dirs);
 
   const FieldOptions& options() const { return options_; }
   torch::Tensor table;  // [L, T, F] hash table parameters

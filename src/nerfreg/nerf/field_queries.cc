@@ -12,6 +12,8 @@ void SurfaceFieldOptions::Check() const {
   if (mode != "max_weight" && mode != "opacity" && mode != "window") {
     throw std::invalid_argument("SurfaceFieldOptions: mode must be max_weight, opacity or window");
   }
+  if (!(min_transmittance >= 0 && min_transmittance < 1))
+    throw std::invalid_argument("SurfaceFieldOptions: min_transmittance must be in [0, 1)");
   if (mode == "window" && !(window > 0))
     throw std::invalid_argument("SurfaceFieldOptions: mode window needs window > 0");
 }
@@ -19,6 +21,77 @@ void SurfaceFieldOptions::Check() const {
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions) { return BlockDensity(block, positions); }
 
 namespace {
+
+// Rays from cameras to points, in the field's frame: each from origin [R, 3] along unit dir
+// [R, 3], entering the field's box at `enter` [R] and reaching its point at `dist` [R].
+struct SurfaceRays {
+  torch::Tensor origin, dir, enter, dist;
+};
+
+// Each ray's measure (SurfaceFieldOptions::mode) [R]. The rays are marched together, a few steps
+// at a time: a ray leaves the march at its end (X, or half a window past it) or once its
+// transmittance is below options.min_transmittance, so no ray is padded to the longest one's
+// steps and the field is not queried behind a surface the ray has already ended on.
+torch::Tensor MarchSurfaceRays(NerfBlock& block, const SurfaceRays& r, const SurfaceFieldOptions& options, double step,
+                               const torch::Tensor& occupied) {
+  const torch::Device device = r.origin.device();
+  const auto f32 = torch::TensorOptions(torch::kFloat32).device(device);
+  const bool window_mode = options.mode == "window";
+  const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32).to(device);  // [3]
+  const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32).to(device);  // [3]
+  const std::int64_t g = block.grid->resolution();
+  const std::int64_t rays = r.origin.size(0);
+  // Window mode marches on to half a window past X (its weight counts from half a window before
+  // X); the others stop at X.
+  const auto end = window_mode ? r.dist + 0.5 * options.window : r.dist - options.stop_before;  // [R]
+  const auto window_start = r.dist - 0.5 * options.window;                                      // [R]
+  auto score = torch::zeros({rays}, f32);                                                 // the ray's measure so far
+  auto transmit = torch::ones({rays}, f32);                                               // T before the next step
+  auto active = torch::arange(rays, torch::TensorOptions(torch::kInt64).device(device));  // rays still marching
+  constexpr std::int64_t kSteps = 16;                                                     // steps per round
+  for (std::int64_t k0 = 0; active.numel() > 0; k0 += kSteps) {
+    const std::int64_t m = active.numel();
+    const auto t0 = r.enter.index_select(0, active), d_end = end.index_select(0, active);
+    const auto ts = t0.unsqueeze(1) + (torch::arange(k0, k0 + kSteps, f32) + 0.5) * step;  // [m, K]
+    const auto valid = ts <= d_end.unsqueeze(1);                                           // [m, K]
+    const auto pos = r.origin.index_select(0, active).unsqueeze(1) +
+                     r.dir.index_select(0, active).unsqueeze(1) * ts.unsqueeze(2);  // [m, K, 3]
+    // Density only where the sample is valid and its occupancy cell is occupied.
+    const auto cell = ((pos - aabb_min) / (aabb_max - aabb_min) * g).floor().to(torch::kInt64);  // [m, K, 3]
+    const auto in_box = ((cell >= 0) & (cell < g)).all(2);
+    const auto cc = cell.clamp(0, g - 1);
+    const auto occ = occupied.index({cc.select(2, 0), cc.select(2, 1), cc.select(2, 2)});
+    const auto query = (valid & in_box & occ).reshape(-1).nonzero().squeeze(1);
+    auto sigma = torch::zeros({m * kSteps}, f32);
+    if (query.numel() > 0) {
+      const auto q = pos.reshape({-1, 3}).index_select(0, query);
+      std::vector<torch::Tensor> parts;
+      for (std::int64_t k = 0; k < q.size(0); k += 1 << 17)
+        parts.push_back(block.field->Density(q.slice(0, k, k + (1 << 17))));
+      sigma.index_copy_(0, query, torch::cat(parts));
+    }
+    sigma = sigma.view({m, kSteps});
+    const auto alpha = 1 - torch::exp(-sigma * step);
+    const auto kept = torch::cumprod(1 - alpha, 1);  // [m, K] T after each step, relative to the round's start
+    const auto t_in = transmit.index_select(0, active);
+    const auto trans = torch::cat({torch::ones({m, 1}, f32), kept.slice(1, 0, -1)}, 1) * t_in.unsqueeze(1);
+    const auto weight = alpha * trans * valid;  // [m, K]
+    const auto s_in = score.index_select(0, active);
+    torch::Tensor s_out;
+    if (window_mode) {
+      s_out = s_in + (weight * (ts >= window_start.index_select(0, active).unsqueeze(1))).sum(1);
+    } else {
+      s_out = options.mode == "opacity" ? s_in + weight.sum(1) : torch::maximum(s_in, weight.amax(1));
+    }
+    const auto t_out = t_in * kept.select(1, kSteps - 1);
+    score.index_copy_(0, active, s_out);
+    transmit.index_copy_(0, active, t_out);
+    // On while this round's last step was valid (the steps are in order: the next may be too) and
+    // the ray has not ended.
+    active = active.index({valid.select(1, kSteps - 1) & (t_out >= options.min_transmittance)});
+  }
+  return score;
+}
 
 // SurfaceField in the field's frame: `points` [N, 3] and `cameras` there, lengths in its units.
 // Runs on the points' device (SurfaceField moves them to the block's); the result [N] is there.
@@ -33,12 +106,32 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
   // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
   const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
   const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
-  const bool window_mode = options.mode == "window";
   const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32).to(device);  // [3]
   const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32).to(device);  // [3]
   // [G, G, G] bool; no copy where the grid lives on the block's device (LoadNerfBlock puts it there).
   const torch::Tensor occupied = block.grid->occupied().to(device);
-  const std::int64_t g = block.grid->resolution();
+  // Rays of several cameras are marched together, up to kBatch at a time (bounded memory); each
+  // point's S is the maximum over the cameras, taken one camera's piece (distinct points) at a time.
+  constexpr std::int64_t kBatch = 1 << 16;
+  std::vector<torch::Tensor> piece_point;
+  std::vector<SurfaceRays> pieces;
+  std::int64_t pending = 0;
+  const auto flush = [&]() {
+    if (pieces.empty()) return;
+    SurfaceRays all;
+    std::vector<torch::Tensor> o, d, e, l;
+    for (const SurfaceRays& p : pieces)
+      o.push_back(p.origin), d.push_back(p.dir), e.push_back(p.enter), l.push_back(p.dist);
+    all.origin = torch::cat(o), all.dir = torch::cat(d), all.enter = torch::cat(e), all.dist = torch::cat(l);
+    const torch::Tensor score = MarchSurfaceRays(block, all, options, step, occupied);  // [R]
+    std::int64_t first = 0;
+    for (const torch::Tensor& idx : piece_point) {
+      const std::int64_t count = idx.numel();
+      best.index_put_({idx}, torch::maximum(best.index_select(0, idx), score.slice(0, first, first + count)));
+      first += count;
+    }
+    pieces.clear(), piece_point.clear(), pending = 0;
+  };
   for (size_t c = 0; c < train.size(); c += stride) {
     const Frame& f = cameras.frames[train[c]];
     // Which points this camera sees (in front, inside the image).
@@ -63,46 +156,17 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
     const auto inv = 1.0 / torch::where(dir.abs() < 1e-9, torch::full_like(dir, 1e-9), dir);
     const auto t_a = (aabb_min - o) * inv, t_b = (aabb_max - o) * inv;
     const auto t_enter = torch::clamp_min(torch::minimum(t_a, t_b).amax(1), 0.0);  // [M]
-    for (std::int64_t s = 0; s < idx.numel(); s += 4096) {
-      const auto d_s = dist.slice(0, s, s + 4096), dir_s = dir.slice(0, s, s + 4096),
-                 t0 = t_enter.slice(0, s, s + 4096);
-      const std::int64_t m = d_s.size(0);
-      const double reach = window_mode ? 0.5 * options.window : 0.0;
-      // The longest stretch sets the chunk's step count: one scalar read per chunk.
-      const int max_steps = std::max(1, static_cast<int>(std::ceil(((d_s - t0).max().item<double>() + reach) / step)));
-      const auto ts = t0.unsqueeze(1) + (torch::arange(max_steps, f32) + 0.5) * step;  // [m, K]
-      // Window mode marches on to half a window past X; the others stop at X.
-      const auto d_end = window_mode ? d_s + 0.5 * options.window : d_s - options.stop_before;  // [m]
-      const auto valid = ts <= d_end.unsqueeze(1);                                              // [m, K]
-      const auto pos = o + dir_s.unsqueeze(1) * ts.unsqueeze(2);                                // [m, K, 3]
-      // Density only where the sample is valid and its occupancy cell is occupied.
-      const auto cell = ((pos - aabb_min) / (aabb_max - aabb_min) * g).floor().to(torch::kInt64);  // [m, K, 3]
-      const auto in_box = ((cell >= 0) & (cell < g)).all(2);
-      const auto cc = cell.clamp(0, g - 1);
-      const auto occ = occupied.index({cc.select(2, 0), cc.select(2, 1), cc.select(2, 2)});
-      const auto query = (valid & in_box & occ).reshape(-1).nonzero().squeeze(1);
-      auto sigma = torch::zeros({m * max_steps}, f32);
-      if (query.numel() > 0) {
-        const auto q = pos.reshape({-1, 3}).index_select(0, query);
-        std::vector<torch::Tensor> parts;
-        for (std::int64_t k = 0; k < q.size(0); k += 1 << 17)
-          parts.push_back(block.field->Density(q.slice(0, k, k + (1 << 17))));
-        sigma.index_copy_(0, query, torch::cat(parts));
-      }
-      sigma = sigma.view({m, max_steps});
-      const auto alpha = 1 - torch::exp(-sigma * step);
-      const auto trans = torch::cat({torch::ones({m, 1}, f32), torch::cumprod(1 - alpha, 1).slice(1, 0, -1)}, 1);
-      const auto weight = alpha * trans * valid;  // [m, K]
-      torch::Tensor s_ray;
-      if (window_mode) {
-        s_ray = (weight * (ts >= (d_s - 0.5 * options.window).unsqueeze(1))).sum(1);
-      } else {
-        s_ray = options.mode == "opacity" ? weight.sum(1) : weight.amax(1);
-      }
-      const auto sel = idx.slice(0, s, s + 4096);
-      best.index_put_({sel}, torch::maximum(best.index_select(0, sel), s_ray));
+    for (std::int64_t s = 0; s < idx.numel(); s += kBatch) {
+      const auto piece = idx.slice(0, s, s + kBatch);
+      const std::int64_t count = piece.numel();
+      pieces.push_back({o.expand({count, 3}), dir.slice(0, s, s + kBatch), t_enter.slice(0, s, s + kBatch),
+                        dist.slice(0, s, s + kBatch)});
+      piece_point.push_back(piece);
+      pending += count;
+      if (pending >= kBatch) flush();
     }
   }
+  flush();
   return best;
 }
 
@@ -171,15 +235,18 @@ torch::Tensor ViewAveragedColor(NerfBlock& block, const torch::Tensor& positions
   torch::NoGradGuard no_grad;
   // Summed on the block's device (the positions go there once); the result comes back to theirs.
   const torch::Device device = block.Device();
-  const torch::Tensor x = positions.to(device);  // [N, 3]
-  const std::vector<std::vector<float>> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  const torch::Tensor x = ToFieldFrame(block, positions.to(device));  // [N, 3]
+  const torch::Tensor dirs = DirectionsToFieldFrame(
+      block,
+      torch::tensor({1.f, 0.f, 0.f, -1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, -1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, -1.f})
+          .view({6, 3})
+          .to(device));                                                            // [6, 3]
   auto rgb = torch::zeros({x.size(0), 3}, torch::TensorOptions().device(device));  // [N, 3]
-  for (const auto& d : dirs) {
-    for (std::int64_t s = 0; s < x.size(0); s += 1 << 16) {
-      const auto p = x.slice(0, s, s + (1 << 16));
-      const auto dd = torch::tensor(d).to(device).expand({p.size(0), 3}).contiguous();
-      rgb.slice(0, s, s + (1 << 16)) += BlockForward(block, p, dd).second / 6.0;
-    }
+  // The field's density part once per point, its colour head once per direction.
+  for (std::int64_t s = 0; s < x.size(0); s += 1 << 14) {
+    const auto colors = block.field->ColorsAlong(x.slice(0, s, s + (1 << 14)), dirs);  // [n, 6, 3]
+    auto out = rgb.slice(0, s, s + (1 << 14));
+    for (int d = 0; d < 6; ++d) out += colors.select(1, d) / 6.0;  // in order: the sum rounds as it did
   }
   return rgb.to(positions.device());
 }

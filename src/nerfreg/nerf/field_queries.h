@@ -35,6 +35,9 @@ struct SurfaceFieldOptions {
   // surface, as a block's cameras saw it.
   std::string mode = "max_weight";
   double window = 0.0;  // mode "window": the stretch's length, scene units (> 0; grid extraction: 0 = a cell)
+  // A ray stops marching once its transmittance is below this: the steps it skips could add at
+  // most this much to its measure (every mode), so S changes by less than it. 0: every step.
+  double min_transmittance = 1e-5;
   void Check() const;
 };
 
