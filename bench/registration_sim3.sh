@@ -31,33 +31,12 @@ OUT_MD=${OUT_MD:-$ROOT/results/registration_sim3.md}
 mkdir -p "$WORK"
 ROWS=$WORK/rows.txt
 : > "$ROWS"
-# move.json (reg apply's T.json: the similarity of scale $1) and gt.json (the truth with block 0's
-# frame moved by it) for an object folder $2.
-similarity() {
-  python3 - "$1" "$2" <<'PY'
-import json, math, sys
-s, d = float(sys.argv[1]), sys.argv[2]
-a, th = [1 / math.sqrt(5.25), -2 / math.sqrt(5.25), 0.5 / math.sqrt(5.25)], 0.7
-c, n = math.cos(th), math.sin(th)
-x, y, z = a
-R = [[c + x * x * (1 - c), x * y * (1 - c) - z * n, x * z * (1 - c) + y * n],
-     [y * x * (1 - c) + z * n, c + y * y * (1 - c), y * z * (1 - c) - x * n],
-     [z * x * (1 - c) - y * n, z * y * (1 - c) + x * n, c + z * z * (1 - c)]]
-t = [3 * s, -1 * s, 2 * s]
-M = [[s * R[i][j] for j in range(3)] + [t[i]] for i in range(3)] + [[0, 0, 0, 1]]
-json.dump({"target_from_source": M}, open(d + "/move_%g.json" % s, "w"))
-gt = json.load(open(d + "/ground_truth.json"))
-B = gt["blocks"][0]["block_from_world"]
-gt["blocks"][0]["block_from_world"] = [[sum(M[i][k] * B[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
-json.dump(gt, open(d + "/gt_%g.json" % s, "w"))
-PY
-}
 for seed in $SEEDS; do
   d=$WORK/o$seed
   [ -f "$d/ground_truth.json" ] || "$NERFREG" render --procedural "$seed" --blocks 2 --views 60 --size 64 --supersample 1 \
     --test-every 12 --splats --quiet --out "$d" --force
   for s in $SCALES; do
-    similarity "$s" "$d"
+    python3 "$ROOT/bench/sim3_move.py" "$s" "$d"
     "$NERFREG" reg apply "$d/move_$s.json" "$d/block_0/splats.ply" --out "$d/s0_$s.ply" --quiet --force
     modes=free
     if [ "$s" = 1 ] || [ "$s" = 2 ]; then modes="free fixed"; fi
