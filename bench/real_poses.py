@@ -409,6 +409,7 @@ def run_nerfreg(info, out, nerfreg, method, calibrated):
             r[k] = v
     if "fl_x" in t:
         r["transforms_fl"] = [t.get("fl_x"), t.get("fl_y", t.get("fl_x"))]
+    r["low_confidence"] = len(t.get("low_confidence", []))  # images nerfreg itself doubts
     poses, cams, cam_of, pts = read_model(os.path.join(out, "sparse", "0"), out + ".txt")
     r.update(model_summary(poses, cams, cam_of))
     if r.get("transforms_fl"):
@@ -793,6 +794,10 @@ def write_md(j, path):
     L.append("")
     L.append("## Runs")
     L.append("")
+    L.append("`posed` of a nerfreg run also says how many of its poses it calls low-confidence and whether it "
+             "calls its SfM solution not well constrained (transforms.json `low_confidence`, "
+             "`dbarf_poses.well_constrained`).")
+    L.append("")
     L.append("| set | run | posed | wall s | stages (s) | focal px | focal error % |")
     L.append("|---|---|---|---|---|---|---|")
     for s in j["sets"]:
@@ -801,6 +806,10 @@ def write_md(j, path):
             stages = ", ".join("%s %.1f" % (a, b) for a, b in st.items() if isinstance(b, (int, float)))
             if r.get("status") == "ok":
                 posed = "%d/%d" % (r["posed"], s["images"])
+                if "low_confidence" in r:  # nerfreg's own doubts about its answer
+                    posed += ", %d low-confidence" % r["low_confidence"]
+                if r.get("well_constrained") is False:
+                    posed += ", not well constrained"
             else:
                 label = "refused" if "--intrinsics" in r.get("error", "") else "failed"
                 posed = "%s%s: `%s`" % (label, " (exit %d)" % r["rc"] if r.get("rc") else "",

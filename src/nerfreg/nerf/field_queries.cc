@@ -103,8 +103,9 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
   const std::int64_t n = points.size(0);
   auto best = torch::zeros({n}, f32);
   if (train.empty() || n == 0) return best;
-  // Cameras spread over the trajectory: every k-th training camera, at most max_cameras.
-  const int stride = std::max<int>(1, static_cast<int>(train.size()) / options.max_cameras);
+  // Cameras spread over the trajectory: at most max_cameras training cameras, evenly spaced. (A
+  // stride of size / max_cameras, rounded down, took all 22 of a 22-camera block.)
+  const std::int64_t num_cameras = std::min<std::int64_t>(static_cast<std::int64_t>(train.size()), options.max_cameras);
   const double step = options.step_size > 0 ? options.step_size : block.march.step_size;
   const auto aabb_min = torch::tensor(block.field_options.aabb_min, torch::kFloat32).to(device);  // [3]
   const auto aabb_max = torch::tensor(block.field_options.aabb_max, torch::kFloat32).to(device);  // [3]
@@ -132,8 +133,8 @@ torch::Tensor SurfaceFieldInFieldFrame(NerfBlock& block, const Dataset& cameras,
     }
     pieces.clear(), piece_point.clear(), pending = 0;
   };
-  for (size_t c = 0; c < train.size(); c += stride) {
-    const Frame& f = cameras.frames[train[c]];
+  for (std::int64_t k = 0; k < num_cameras; ++k) {
+    const Frame& f = cameras.frames[train[k * static_cast<std::int64_t>(train.size()) / num_cameras]];
     // Which points this camera sees (in front, inside the image).
     const Eigen::Matrix3f r = f.cam_from_world.RotationMatrix().cast<float>();
     const Eigen::Vector3f t = f.cam_from_world.translation.cast<float>();

@@ -21,7 +21,7 @@ namespace nerfreg {
 torch::Tensor QueryDensity(NerfBlock& block, const torch::Tensor& positions);
 
 struct SurfaceFieldOptions {
-  int max_cameras = 16;      // the training cameras used per point: the nearest in viewing direction order
+  int max_cameras = 16;      // training cameras marched from, evenly spaced over the training split
   double step_size = 0.0;    // march step; 0: the block's marching step
   double stop_before = 0.0;  // stop this far before X (0: at X, as the spec says)
   // Per ray: "max_weight" is the spec's max_i alpha_i T_i; "opacity" is the opacity accumulated

@@ -44,21 +44,36 @@ void SfmOptions::Check() const {
     if (!(t > 0)) throw std::invalid_argument("SfmOptions: round_reprojection_error_px must be positive");
 }
 
+namespace {
+
+// The posed images' camera centres (zero where not posed), their mean and how many there are.
+struct PosedCentres {
+  std::vector<Eigen::Vector3d> centres;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int count = 0;
+};
+
+PosedCentres CollectPosedCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed) {
+  PosedCentres p;
+  p.centres.assign(cam_from_world.size(), Eigen::Vector3d::Zero());
+  for (size_t k = 0; k < cam_from_world.size(); ++k) {
+    if (!posed[k]) continue;
+    p.centres[k] = cam_from_world[k].Inverse().translation;
+    p.mean += p.centres[k];
+    ++p.count;
+  }
+  if (p.count > 0) p.mean /= p.count;
+  return p;
+}
+
+}  // namespace
+
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction) {
   const size_t n = cam_from_world.size();
   std::vector<int> out(n, -1);
-  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  int count = 0;
-  for (size_t k = 0; k < n; ++k) {
-    if (!posed[k]) continue;
-    centres[k] = cam_from_world[k].Inverse().translation;
-    mean += centres[k];
-    ++count;
-  }
+  const auto [centres, mean, count] = CollectPosedCentres(cam_from_world, posed);
   if (count < 2) return out;
-  mean /= count;
   double spread = 0;
   for (size_t k = 0; k < n; ++k)
     if (posed[k]) spread += (centres[k] - mean).squaredNorm();
@@ -76,18 +91,9 @@ EdgeDirectionCheck CheckEdgeDirections(const std::vector<Rigid3d>& cam_from_worl
                                        double max_median_residual_deg) {
   EdgeDirectionCheck out;
   const size_t n = cam_from_world.size();
-  std::vector<Eigen::Vector3d> centres(n, Eigen::Vector3d::Zero());
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  int count = 0;
-  for (size_t k = 0; k < n; ++k) {
-    if (!posed[k]) continue;
-    centres[k] = cam_from_world[k].Inverse().translation;
-    mean += centres[k];
-    ++count;
-  }
+  const auto [centres, mean, count] = CollectPosedCentres(cam_from_world, posed);
   out.off_line_fraction = std::numeric_limits<double>::infinity();
   if (count >= 3) {
-    mean /= count;
     Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
     for (size_t k = 0; k < n; ++k)
       if (posed[k]) scatter += (centres[k] - mean) * (centres[k] - mean).transpose();
