@@ -328,39 +328,38 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   // any t, so too few essential-matrix inliers leave no edge either way.
   if (options.early_rejection && (!e_valid || cv::countNonZero(mask) < options.min_inliers)) return std::nullopt;
   if (e_valid) {
-    cv::Mat r, t;
-    inliers = cv::recoverPose(e, pi, pj, identity_k, r, t, mask);
-    cv::cv2eigen(r, rot);
-    cv::cv2eigen(t, trans);
+    std::vector<Eigen::Vector2d> all_i(num_matches), all_j(num_matches);
+    for (int m = 0; m < num_matches; ++m) all_i[m] = {pi[m].x, pi[m].y}, all_j[m] = {pj[m].x, pj[m].y};
+    std::vector<uint8_t> in_front(num_matches, 1);  // cv::recoverPose takes no mask as all matches
+    if (static_cast<int>(mask.total()) == num_matches) mask.reshape(1, 1).copyTo(in_front);
+    Eigen::Matrix3d e_eigen;
+    cv::cv2eigen(e, e_eigen);
+    inliers = RecoverPoseFromEssential(e_eigen, all_i, all_j, &in_front, &rot, &trans);
     // The pose refined on the inliers, then the inliers chosen again among all matches (Sampson
     // distance within the threshold, in front of both cameras), until they stay the same.
     for (int round = 0; (usac || options.refine_ransac) && round < 3 && inliers >= 5; ++round) {
       std::vector<Eigen::Vector2d> xi, xj;
       for (int m = 0; m < num_matches; ++m)
-        if (mask.at<uint8_t>(m) != 0) xi.emplace_back(pi[m].x, pi[m].y), xj.emplace_back(pj[m].x, pj[m].y);
+        if (in_front[m] != 0) xi.push_back(all_i[m]), xj.push_back(all_j[m]);
       Eigen::Matrix3d rot_refined = rot;
       Eigen::Vector3d trans_refined = trans;
       RefineRelativePose(xi, xj, threshold, &rot_refined, &trans_refined);
       const Eigen::Matrix3d e_refined = Skew(trans_refined) * rot_refined;
-      cv::Mat refined_mask(num_matches, 1, CV_8U);
+      std::vector<uint8_t> refined(num_matches);
       for (int m = 0; m < num_matches; ++m)
-        refined_mask.at<uint8_t>(m) =
-            std::abs(SampsonDistance(e_refined, {pi[m].x, pi[m].y}, {pj[m].x, pj[m].y})) < threshold;
-      cv::Mat e_cv, r_cv, t_cv;
-      cv::eigen2cv(e_refined, e_cv);
-      const int refined_inliers = cv::recoverPose(e_cv, pi, pj, identity_k, r_cv, t_cv, refined_mask);
+        refined[m] = std::abs(SampsonDistance(e_refined, all_i[m], all_j[m])) < threshold;
       Eigen::Matrix3d r_check;
       Eigen::Vector3d t_check;
-      cv::cv2eigen(r_cv, r_check);
-      cv::cv2eigen(t_cv, t_check);
-      // recoverPose chooses among the decompositions of e_refined by cheirality; where it picks
-      // another one than the refined pose, the refinement went astray: keep the pose before it.
+      const int refined_inliers = RecoverPoseFromEssential(e_refined, all_i, all_j, &refined, &r_check, &t_check);
+      // The decomposition of e_refined chosen by cheirality; where it is another one than the
+      // refined pose, the refinement went astray: keep the pose before it.
       if ((r_check - rot_refined).norm() > 1e-6 || (t_check - trans_refined).norm() > 1e-6 || refined_inliers < 5)
         break;
-      const bool same = cv::countNonZero(refined_mask != mask) == 0;
-      rot = rot_refined, trans = trans_refined, mask = refined_mask, inliers = refined_inliers;
+      const bool same = refined == in_front;
+      rot = rot_refined, trans = trans_refined, in_front = refined, inliers = refined_inliers;
       if (same) break;
     }
+    mask = cv::Mat(in_front, true);
   }
   // A homography on the same matches that explains them about as well (COLMAP's ratio 0.8) is
   // a planar scene or photos from one spot. Seen from one spot (the rays agree once the

@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <iterator>
 #include <numeric>
+#include <ceres/ceres.h>
+#include <ceres/sphere_manifold.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
 #include <random>
 
@@ -325,6 +329,110 @@ TEST(ViewGraph, RefinementReturnsToTheTruthAndGainsLittleFromIt) {
   const double gain = RelativePoseCost(xi, xj, scale, r_true, t_true) - RelativePoseCost(xi, xj, scale, r, t);
   EXPECT_GE(gain, 0.0);
   EXPECT_LT(gain, 2.0);
+}
+
+// The old refinement, kept here as the reference: a Ceres Problem with one automatically
+// differentiated residual block and Cauchy loss per correspondence, the rotation a quaternion on its
+// manifold and the translation on the sphere. RefineRelativePose (Ceres' TinySolver on a five-
+// parameter step) must reach the same minimum.
+struct ReferenceSampsonCost {
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
+    Eigen::Matrix<T, 3, 3> skew;
+    skew << T(0), -t[2], t[1], t[2], T(0), -t[0], -t[1], t[0], T(0);
+    const Eigen::Matrix<T, 3, 3> e = skew * rotation.toRotationMatrix();
+    const Eigen::Matrix<T, 3, 1> a = xi.homogeneous().cast<T>(), b = xj.homogeneous().cast<T>();
+    const Eigen::Matrix<T, 3, 1> ea = e * a, eb = e.transpose() * b;
+    residual[0] = b.dot(ea) / sqrt(ea.template head<2>().squaredNorm() + eb.template head<2>().squaredNorm());
+    return true;
+  }
+  Eigen::Vector2d xi, xj;
+};
+
+TEST(ViewGraph, RefinementReachesTheMinimumOfCeresFullSolver) {
+  const SyntheticPair pair = MakePair(200, 40, 11);
+  std::vector<Eigen::Vector2d> xi, xj;
+  for (const auto& [a, b] : pair.matches) xi.push_back(pair.keypoints_i[a]), xj.push_back(pair.keypoints_j[b]);
+  const double scale = 1.0 / 500;
+  const Eigen::Matrix3d r_start =
+      Eigen::AngleAxisd(2 * M_PI / 180, Eigen::Vector3d(1, 0.4, -0.3).normalized()).toRotationMatrix() *
+      pair.j_from_i.RotationMatrix();
+  const Eigen::Vector3d t_start = (pair.j_from_i.translation.normalized() + Eigen::Vector3d(0, 0.05, -0.03)).normalized();
+  Eigen::Quaterniond q(r_start);
+  Eigen::Vector3d t = t_start;
+  ceres::Problem problem;
+  for (size_t k = 0; k < xi.size(); ++k)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReferenceSampsonCost, 1, 4, 3>(
+                                 new ReferenceSampsonCost{xi[k], xj[k]}),
+                             new ceres::CauchyLoss(scale), q.coeffs().data(), t.data());
+  problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  problem.SetManifold(t.data(), new ceres::SphereManifold<3>);
+  ceres::Solver::Options solver;
+  solver.max_num_iterations = 100;
+  solver.function_tolerance = 1e-12;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  ASSERT_TRUE(summary.IsSolutionUsable());
+  Eigen::Matrix3d r = r_start;
+  Eigen::Vector3d tr = t_start;
+  RefineRelativePose(xi, xj, scale, &r, &tr);
+  const double cost_reference = RelativePoseCost(xi, xj, scale, q.normalized().toRotationMatrix(), t);
+  const double cost = RelativePoseCost(xi, xj, scale, r, tr);
+  EXPECT_GT(RelativePoseCost(xi, xj, scale, r_start, t_start) - cost, 100.0);  // it did move
+  EXPECT_NEAR(cost, cost_reference, 1e-4 * cost_reference);
+  EXPECT_LT(RotationErrorDeg(Eigen::Quaterniond(r), q.normalized()), 0.005);
+  EXPECT_GT(tr.dot(t.normalized()), std::cos(0.01 * M_PI / 180));
+}
+
+// RecoverPoseFromEssential picks what cv::recoverPose picks, with the same correspondences in front:
+// the true essential matrix and its negation, and one estimated from matches with outliers, on a
+// pair with some points beyond recoverPose's 50-unit cut (baseline 1).
+TEST(ViewGraph, RecoverPoseFromEssentialAgreesWithOpenCvsRecoverPose) {
+  SyntheticPair pair = MakePair(200, 60, 7);
+  const Eigen::Vector3d t_unit = pair.j_from_i.translation.normalized();
+  const Rigid3d j_from_i(pair.j_from_i.rotation, t_unit);
+  for (int k = 0; k < 30; ++k) {  // far points, at 60-150 baselines
+    const Eigen::Vector3d x_in_i(0.1 * k - 1.5, 0.05 * k - 0.7, 60 + 3 * k);
+    pair.keypoints_i.push_back(x_in_i.hnormalized());
+    pair.keypoints_j.push_back((j_from_i * x_in_i).hnormalized());
+  }
+  const int n = static_cast<int>(pair.keypoints_i.size());
+  std::vector<cv::Point2d> pi, pj;
+  for (int k = 0; k < n; ++k) {
+    pi.push_back({pair.keypoints_i[k].x(), pair.keypoints_i[k].y()});
+    pj.push_back({pair.keypoints_j[k].x(), pair.keypoints_j[k].y()});
+  }
+  const cv::Mat identity = cv::Mat::eye(3, 3, CV_64F);
+  cv::Mat ransac_mask;
+  const cv::Mat e_estimated = cv::findEssentialMat(pi, pj, identity, cv::RANSAC, 0.999, 1.0 / 500, 1000, ransac_mask);
+  ASSERT_EQ(e_estimated.rows, 3);
+  Eigen::Matrix3d e_true, e_fit;
+  e_true = Skew(t_unit) * pair.j_from_i.RotationMatrix();
+  cv::cv2eigen(e_estimated, e_fit);
+  for (const auto& [e, use_mask] : {std::pair(e_true, false), std::pair(Eigen::Matrix3d(-e_true), false),
+                                    std::pair(e_fit, true)}) {
+    cv::Mat e_cv, r_cv, t_cv, mask_cv = use_mask ? ransac_mask.clone() : cv::Mat(n, 1, CV_8U, cv::Scalar(1));
+    cv::eigen2cv(e, e_cv);
+    const int count_cv = cv::recoverPose(e_cv, pi, pj, identity, r_cv, t_cv, mask_cv);
+    std::vector<uint8_t> mask(n, 1);
+    if (use_mask) ransac_mask.reshape(1, 1).copyTo(mask);
+    Eigen::Matrix3d r, r_expected;
+    Eigen::Vector3d t, t_expected;
+    const int count = RecoverPoseFromEssential(e, pair.keypoints_i, pair.keypoints_j, &mask, &r, &t);
+    cv::cv2eigen(r_cv, r_expected);
+    cv::cv2eigen(t_cv, t_expected);
+    EXPECT_LT((r - r_expected).norm(), 1e-9);
+    EXPECT_LT((t - t_expected).norm(), 1e-9);
+    EXPECT_LT(RotationErrorDeg(Eigen::Quaterniond(r), pair.j_from_i.rotation), use_mask ? 1.0 : 1e-6);
+    int differ = 0;
+    for (int k = 0; k < n; ++k) differ += (mask[k] != 0) != (mask_cv.at<uint8_t>(k) != 0);
+    EXPECT_LE(differ, 2) << "of " << count_cv << " in front";
+    EXPECT_NEAR(count, count_cv, 2);
+    EXPECT_GE(count, 150);
+    EXPECT_EQ(mask[n - 1], 0) << "a point 147 baselines away counts as in front";
+  }
 }
 
 // Small renders are enlarged before SIFT, photo-sized images are not (upsample_max_side), and the
