@@ -298,10 +298,6 @@ std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& c
 
 namespace {
 
-bool SameIntrinsics(const Camera& a, const Camera& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.k1 == b.k1 && a.k2 == b.k2;
-}
-
 // An edge's relative pose as its inlier matches give it with `cameras`' intrinsics: refined from
 // the view graph's estimate, which was made with the graph's (prior) intrinsics. Self-calibrated,
 // the rotation an essential matrix gives moves with the focal length: on ViSP's cube, a prior 23 %
@@ -336,8 +332,7 @@ std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::
     }
     const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
     const bool recalibrated = graph_intrinsics && !e.panoramic &&
-                              (!SameIntrinsics(sfm.view_graph.cameras[e.i], cameras[e.i]) ||
-                               !SameIntrinsics(sfm.view_graph.cameras[e.j], cameras[e.j]));
+                              (sfm.view_graph.cameras[e.i] != cameras[e.i] || sfm.view_graph.cameras[e.j] != cameras[e.j]);
     const Rigid3d measured = recalibrated ? EdgeWithIntrinsics(e, sfm.view_graph, cameras) : e.j_from_i;
     const double angle = RotationErrorDeg(j_from_i.rotation, measured.rotation);
     const double direction = AngleDeg(j_from_i.translation, measured.translation);

@@ -236,30 +236,25 @@ class BlockRegistration {
 void JudgeRegistration(BlockRegistrationResult* r) {
   const bool same_kind = r->source_kind == r->target_kind;
   const int agreeing = r->agreeing_candidates;
-  const double threshold = same_kind ? kUntrustedConfidence : kUntrustedConfidenceMixed;
-  const double floor = same_kind ? kConfirmedConfidenceFloor : kConfirmedConfidenceFloorMixed;
-  if (agreeing > 0) {
-    if (r->confidence >= floor) {
-      r->status = "registered";
-      r->status_reason.clear();
-      return;
-    }
-    r->status = "untrusted";
-    r->status_reason = fmt::format(
-        "confidence {:.2f} < {:.2f} although {} other candidate{} at the kept pose: candidates can end in the "
-        "same wrong pose, and the inputs agree there too little to believe it",
-        r->confidence, floor, agreeing, agreeing == 1 ? " ended" : "s ended");
-    return;
-  }
-  if (r->confidence >= threshold) {
+  // A pose another candidate ended at needs only the floor; an unconfirmed one the threshold.
+  const double needed = agreeing > 0 ? (same_kind ? kConfirmedConfidenceFloor : kConfirmedConfidenceFloorMixed)
+                                     : (same_kind ? kUntrustedConfidence : kUntrustedConfidenceMixed);
+  if (r->confidence >= needed) {
     r->status = "registered";
     r->status_reason.clear();
     return;
   }
   r->status = "untrusted";
-  r->status_reason = fmt::format(
-      "confidence {:.2f} < {:.2f} and {}: the inputs may not overlap, or show different things", r->confidence,
-      threshold, agreeing == 0 ? "no other candidate ended at the kept pose" : "no other candidate to confirm it");
+  if (agreeing > 0) {
+    r->status_reason = fmt::format(
+        "confidence {:.2f} < {:.2f} although {} other candidate{} at the kept pose: candidates can end in the "
+        "same wrong pose, and the inputs agree there too little to believe it",
+        r->confidence, needed, agreeing, agreeing == 1 ? " ended" : "s ended");
+  } else {
+    r->status_reason = fmt::format(
+        "confidence {:.2f} < {:.2f} and {}: the inputs may not overlap, or show different things", r->confidence,
+        needed, agreeing == 0 ? "no other candidate ended at the kept pose" : "no other candidate to confirm it");
+  }
 }
 
 void CheckOccupied(Eigen::Index points, const std::string& name, double min_density) {

@@ -1,6 +1,7 @@
 #include "nerfreg/sfm/global_sfm.h"
 
 #include <algorithm>
+#include <numeric>
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
@@ -123,12 +124,9 @@ namespace {
 // One group for equal cameras, else one per image.
 std::vector<int> DefaultCameraGroups(const std::vector<Camera>& cameras) {
   std::vector<int> same(cameras.size(), 0), own(cameras.size());
-  for (size_t k = 0; k < cameras.size(); ++k) {
-    own[k] = static_cast<int>(k);
-    const Camera &a = cameras[k], &b = cameras[0];
-    if (a.width != b.width || a.height != b.height || a.fx != b.fx || a.fy != b.fy || a.cx != b.cx || a.cy != b.cy)
-      return own;
-  }
+  std::iota(own.begin(), own.end(), 0);
+  for (const Camera& camera : cameras)
+    if (camera != cameras[0]) return own;
   return same;
 }
 

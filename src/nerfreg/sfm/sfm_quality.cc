@@ -64,19 +64,17 @@ SfmQuality AssessSfm(const SfmResult& result, const std::vector<Camera>& cameras
       }
     angles.push_back(widest * 180.0 / M_PI);
   }
-  std::vector<double> per_image;
-  q.min_points_per_image = -1;
-  q.min_multiview_points_per_image = -1;
+  std::vector<double> per_image, multiview_per_image;  // over the posed images
   for (size_t k = 0; k < n; ++k) {
     if (!result.posed[k]) continue;
     per_image.push_back(q.points_per_image[k]);
-    q.min_points_per_image =
-        q.min_points_per_image < 0 ? q.points_per_image[k] : std::min(q.min_points_per_image, q.points_per_image[k]);
-    q.min_multiview_points_per_image =
-        q.min_multiview_points_per_image < 0 ? multiview[k] : std::min(q.min_multiview_points_per_image, multiview[k]);
+    multiview_per_image.push_back(multiview[k]);
   }
-  q.min_points_per_image = std::max(q.min_points_per_image, 0);
-  q.min_multiview_points_per_image = std::max(q.min_multiview_points_per_image, 0);
+  const auto min_or_zero = [](const std::vector<double>& v) {
+    return v.empty() ? 0 : static_cast<int>(*std::min_element(v.begin(), v.end()));
+  };
+  q.min_points_per_image = min_or_zero(per_image);
+  q.min_multiview_points_per_image = min_or_zero(multiview_per_image);
   q.median_points_per_image = UpperMedian(per_image);
   q.median_track_length = UpperMedian(track_lengths);
   q.median_triangulation_angle_deg = UpperMedian(angles);
