@@ -15,7 +15,6 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/stats.h"
 #include "nerfreg/util/timer.h"
-#include "nerfreg/viewgraph/two_view_refinement.h"
 
 namespace nerfreg {
 
@@ -296,29 +295,8 @@ std::vector<ImagePoseConfidence> NetworkConfidence(const std::vector<Rigid3d>& c
   return out;
 }
 
-namespace {
-
-// An edge's relative pose as its inlier matches give it with `cameras`' intrinsics: refined from
-// the view graph's estimate, which was made with the graph's (prior) intrinsics. Self-calibrated,
-// the rotation an essential matrix gives moves with the focal length: on ViSP's cube, a prior 23 %
-// off read as poses 4-8 deg off their own edges.
-Rigid3d EdgeWithIntrinsics(const ViewGraphEdge& e, const ViewGraph& graph, const std::vector<Camera>& cameras) {
-  std::vector<Eigen::Vector2d> xi, xj;
-  for (const auto& [a, b] : e.inlier_matches) {
-    xi.push_back(cameras[e.i].CamFromImg(graph.keypoints[e.i][a]).head<2>());
-    xj.push_back(cameras[e.j].CamFromImg(graph.keypoints[e.j][b]).head<2>());
-  }
-  Eigen::Matrix3d rot = e.j_from_i.rotation.toRotationMatrix();
-  Eigen::Vector3d trans = e.j_from_i.translation;
-  RefineRelativePose(xi, xj, 1.0 / cameras[e.i].fx, &rot, &trans);  // 1 px, the view graph's threshold
-  return Rigid3d(Eigen::Quaterniond(rot), trans.normalized());
-}
-
-}  // namespace
-
 std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras) {
   const int n = static_cast<int>(cameras.size());
-  const bool graph_intrinsics = sfm.view_graph.cameras.size() == cameras.size();
   std::vector<std::vector<double>> residuals(n), direction_residuals(n);
   std::vector<int> left_out(n, 0);
   for (size_t q = 0; q < sfm.view_graph.edges.size(); ++q) {
@@ -331,11 +309,8 @@ std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::
       continue;
     }
     const Rigid3d j_from_i = sfm.cam_from_world[e.j] * sfm.cam_from_world[e.i].Inverse();
-    const bool recalibrated = graph_intrinsics && !e.panoramic &&
-                              (sfm.view_graph.cameras[e.i] != cameras[e.i] || sfm.view_graph.cameras[e.j] != cameras[e.j]);
-    const Rigid3d measured = recalibrated ? EdgeWithIntrinsics(e, sfm.view_graph, cameras) : e.j_from_i;
-    const double angle = RotationErrorDeg(j_from_i.rotation, measured.rotation);
-    const double direction = AngleDeg(j_from_i.translation, measured.translation);
+    const double angle = RotationErrorDeg(j_from_i.rotation, e.j_from_i.rotation);
+    const double direction = AngleDeg(j_from_i.translation, e.j_from_i.translation);
     for (int k : {e.i, e.j}) {
       residuals[k].push_back(angle);
       if (!e.panoramic) direction_residuals[k].push_back(direction);  // photos from one spot: none

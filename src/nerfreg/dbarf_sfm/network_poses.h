@@ -231,8 +231,9 @@ NetworkEdgeAverage AverageNetworkEdges(int num_images, const std::vector<Network
                                        const ViewGraph& graph, const RelativePoseAveragingOptions& options,
                                        double graph_edge_weight = 0);
 // Per image, the confidence of the SfM's poses (see the top of this file): residuals over the
-// edges the solution was made from (sfm.edge_used; all edges where it is empty), edges_left_out,
-// observations and their mean reprojection error. Unposed images keep the defaults.
+// edges the solution was made from (sfm.edge_used; all edges where it is empty) as the view graph
+// holds them (self-calibrated, measured again with the refined intrinsics: RunGlobalSfm),
+// edges_left_out, observations and their mean reprojection error. Unposed images keep the defaults.
 std::vector<ImagePoseConfidence> SfmConfidence(const SfmResult& sfm, const std::vector<Camera>& cameras);
 
 // The network method's per-image confidence of cameras (see the top of this file): against the view

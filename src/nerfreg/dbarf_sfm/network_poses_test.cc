@@ -95,45 +95,6 @@ TEST(NetworkPoses, SfmConfidenceChecksTheEdgesTheSolutionUsedAndCountsTheOthers)
   EXPECT_GT(all[0].rotation_residual_deg, 30.0);  // the wrong edges' median: a right pose doubted
 }
 
-// Self-calibrated, the view graph measured its edges with the prior intrinsics; the confidence
-// measures each used edge again from its inlier matches with the refined ones, so an edge rotation
-// biased by the prior (here 6 deg) does not read as a wrong pose. Kept as measured when the
-// intrinsics did not change.
-TEST(NetworkPoses, SfmConfidenceMeasuresEdgesAgainWithTheRefinedIntrinsics) {
-  SfmResult sfm;
-  const int n = 3;
-  for (int k = 0; k < n; ++k)
-    sfm.cam_from_world.push_back(LookAt({4 * std::sin(0.2 * k), 0.3 * k, -4 * std::cos(0.2 * k)}, {0, 0, 0}));
-  sfm.cameras.assign(n, Camera::Pinhole(64, 48, 60, 60, 32, 24));
-  sfm.posed.assign(n, true);
-  sfm.view_graph.keypoints.resize(n);
-  for (int p = 0; p < 60; ++p) {
-    const Eigen::Vector3d x(std::sin(1.7 * p), std::cos(2.3 * p), 0.8 * std::sin(0.9 * p + 1));
-    for (int k = 0; k < n; ++k) {
-      const Eigen::Vector3d c = sfm.cam_from_world[k] * x;
-      sfm.view_graph.keypoints[k].emplace_back(60 * c.x() / c.z() + 32, 60 * c.y() / c.z() + 24);
-    }
-  }
-  const Eigen::Quaterniond bias(Eigen::AngleAxisd(6 * M_PI / 180, Eigen::Vector3d(0.3, 1, 0.2).normalized()));
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      ViewGraphEdge e;
-      e.i = i, e.j = j;
-      const Rigid3d j_from_i = sfm.cam_from_world[j] * sfm.cam_from_world[i].Inverse();
-      e.j_from_i = Rigid3d(bias * j_from_i.rotation, j_from_i.translation.normalized());
-      for (int p = 0; p < 60; ++p) e.inlier_matches.push_back({p, p});
-      sfm.view_graph.edges.push_back(e);
-    }
-  }
-  sfm.view_graph.cameras = sfm.cameras;  // intrinsics unchanged: the edges count as measured
-  EXPECT_NEAR(SfmConfidence(sfm, sfm.cameras)[0].rotation_residual_deg, 6.0, 1e-6);
-  sfm.view_graph.cameras.assign(n, Camera::Pinhole(64, 48, 75, 75, 32, 24));  // a prior 25 % off
-  for (const ImagePoseConfidence& c : SfmConfidence(sfm, sfm.cameras)) {
-    EXPECT_LT(c.rotation_residual_deg, 0.05);
-    EXPECT_LT(c.direction_residual_deg, 0.5);
-  }
-}
-
 // A photo the SfM cannot pose, placed by the network with relative poses 16 deg off on one source
 // (as a view 40 deg below an orbit was): its edges between the posed sources disagree, and auto
 // reports it not posed, with the reason, instead of counting it. Exact edges are kept.

@@ -203,6 +203,24 @@ struct Solution {
 
 }  // namespace
 
+void MeasureEdgesWithIntrinsics(const std::vector<Camera>& cameras, ViewGraph* graph) {
+  if (cameras.size() != graph->cameras.size() || cameras.size() != graph->keypoints.size())
+    throw std::invalid_argument("MeasureEdgesWithIntrinsics: cameras, graph cameras and keypoints differ in count");
+  for (ViewGraphEdge& e : graph->edges) {
+    if (e.panoramic || (cameras[e.i] == graph->cameras[e.i] && cameras[e.j] == graph->cameras[e.j])) continue;
+    std::vector<Eigen::Vector2d> xi, xj;
+    for (const auto& [a, b] : e.inlier_matches) {
+      xi.push_back(cameras[e.i].CamFromImg(graph->keypoints[e.i][a]).head<2>());
+      xj.push_back(cameras[e.j].CamFromImg(graph->keypoints[e.j][b]).head<2>());
+    }
+    Eigen::Matrix3d rot = e.j_from_i.RotationMatrix();
+    Eigen::Vector3d trans = e.j_from_i.translation;
+    RefineRelativePose(xi, xj, 1.0 / cameras[e.i].fx, &rot, &trans);  // 1 px, the view graph's threshold
+    e.j_from_i = Rigid3d(Eigen::Quaterniond(rot), trans.normalized());
+  }
+  graph->cameras = cameras;
+}
+
 SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
                        const std::vector<int>& camera_group) {
   options.Check();
@@ -365,8 +383,15 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   // Centres contradicting the two-view directions are reported, not solved again: global
   // positioning from other random starts and translation averaging reached the same contradicted
   // solutions on the low-texture renders where this was seen.
+  // Self-calibrated, the edges were measured with the prior intrinsics: again with the refined ones,
+  // so that whatever compares the cameras with the edges (the check below, each pose's confidence,
+  // auto's checks of network poses) compares like with like.
+  // (A graph without cameras, as synthetic tests build them, says nothing to compare with.)
+  if (solution.cameras.size() == static_cast<size_t>(n) && result.view_graph.cameras.size() == static_cast<size_t>(n))
+    MeasureEdgesWithIntrinsics(solution.cameras, &result.view_graph);
   if (options.max_edge_direction_residual_deg > 0 && solution.posed.size() == static_cast<size_t>(n)) {
-    const EdgeDirectionCheck directions = CheckEdgeDirections(solution.cam_from_world, solution.posed, graph, usable,
+    const EdgeDirectionCheck directions = CheckEdgeDirections(solution.cam_from_world, solution.posed,
+                                                              result.view_graph, usable,
                                                               options.max_edge_direction_residual_deg);
     LOG_DEBUG("sfm centres against the two-view directions: median {:.1f} deg over {} edges",
               directions.median_residual_deg, directions.num_edges);
