@@ -37,8 +37,18 @@ def nerfreg_pairs(logf):
     return None, None
 
 
-def run_size(n, args, python):
-    info = rp.prepare_spider("spider", rp.SETS["spider"], args.work, args.nerfreg, n)
+# Trajectories (--trajectories): the set's name, the render's scene and path arguments, and what it is.
+TRAJECTORIES = {
+    "orbit": ("spider", ["--mesh", rp.SPIDER, "--trajectory", "orbit"], "spider.obj on an orbit"),
+    "forward": ("forward", ["--procedural", "5000", "--trajectory", "forward"],
+                "procedural scene 5000 (held out), forward-facing look-at views"),
+}
+
+
+def run_size(n, args, python, trajectory="orbit"):
+    name, scene, what = TRAJECTORIES[trajectory]
+    info = rp.prepare_spider(name, rp.SETS["spider"], args.work, args.nerfreg, n, scene)
+    info["what"] = what
     work = os.path.dirname(info["images_dir"])
     gt = rp.gt_poses(info, "cam_from_world")
     runs = {}
@@ -67,10 +77,12 @@ def run_size(n, args, python):
         r["truth"] = rp.compare(poses, gt) if poses else {"common": 0}
         r["poses"] = rp.poses_json(poses)
         runs[key] = r
-        rp.log("N=%d %s: %s, posed %s/%d, %.1f s, peak %s MB" % (n, key, r.get("status"), r.get("posed", "-"), n,
-                                                                r.get("wall_s", 0), rp.fmt(r["peak_rss_mb"], "%.0f")))
+        rp.log("%s N=%d %s: %s, posed %s/%d, %.1f s, peak %s MB" % (
+            trajectory, n, key, r.get("status"), r.get("posed", "-"), n, r.get("wall_s", 0),
+            rp.fmt(r["peak_rss_mb"], "%.0f")))
     res = {k: v for k, v in info.items() if k not in ("gt_matrices",)}
     res["views"] = n
+    res["trajectory"] = trajectory
     res["runs"] = runs
     return res
 
@@ -93,13 +105,15 @@ def two_view(n, args):
 def growth(sizes):
     """Per method, the exponent b of wall_s ~ a N^b, least squares in log-log over the sizes it ran."""
     out = {}
-    for key in sorted({k for s in sizes for k in s["runs"]}):
-        pts = [(s["views"], s["runs"][key]["wall_s"]) for s in sizes
-               if key in s["runs"] and s["runs"][key].get("status") == "ok"]
-        if len(pts) >= 2:
-            x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-            b, a = np.polyfit(x, y, 1)
-            out[key] = {"exponent": float(b), "sizes": [p[0] for p in pts]}
+    for traj in sorted({s.get("trajectory", "orbit") for s in sizes}):
+        of = [s for s in sizes if s.get("trajectory", "orbit") == traj]
+        for key in sorted({k for s in of for k in s["runs"]}):
+            pts = [(s["views"], s["runs"][key]["wall_s"]) for s in of
+                   if key in s["runs"] and s["runs"][key].get("status") == "ok"]
+            if len(pts) >= 2:
+                x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+                b, a = np.polyfit(x, y, 1)
+                out["%s, %s" % (key, traj)] = {"exponent": float(b), "sizes": [p[0] for p in pts]}
     return out
 
 
@@ -117,7 +131,9 @@ def write_md(j, path):
                                                               v["colmap"][0].strip(), v["pycolmap"]))
     L.append("")
     L.append("Sets: `nerfreg render --mesh spider.obj --trajectory orbit --views N --size 640x480 --distortion -0.05 "
-             "--noise 0.01 --jpeg 90 --seed 1` (bench/real_poses.py's photo-like `spider` set at N views). Every "
+             "--noise 0.01 --jpeg 90 --seed 1` (bench/real_poses.py's photo-like `spider` set at N views; `orbit`) "
+             "and the same with `--procedural 5000 --trajectory forward` in place of the mesh and orbit (a held-out "
+             "procedural scene seen by forward-facing look-at views, as bench/dbarf_speed.sh's; `forward`). Every "
              "method gets the render's intrinsics and keeps them (nerfreg `--intrinsics`, COLMAP one `OPENCV` camera, "
              "focal and distortion not refined). Runs one after another, each with the machine's default thread "
              "count, timed by the wall clock; peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
@@ -126,9 +142,9 @@ def write_md(j, path):
              "cost: nerfreg's stage time over the pairs it matched; COLMAP's exhaustive matching stage (matching "
              "and geometric verification) over all N (N - 1) / 2 pairs.")
     L.append("")
-    L.append("| N | method | posed | wall s | peak MB | stages (s) | pairs | per pair ms | rot median deg | rot max deg "
-             "| centre median % | centre max % |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    L.append("| set | N | method | posed | wall s | peak MB | stages (s) | pairs | per pair ms | rot median deg "
+             "| rot max deg | centre median % | centre max % |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for s in j["sizes"]:
         for k, r in s["runs"].items():
             st = r.get("stage_s") or {}
@@ -137,8 +153,8 @@ def write_md(j, path):
             t = r.get("truth", {})
             posed = "%d/%d" % (r["posed"], s["views"]) if r.get("status") == "ok" else "failed: `%s`" % r.get("error", "")
             pairs = "%s of %s" % (r["pairs"], r.get("pairs_possible", r["pairs"])) if r.get("pairs") else "-"
-            L.append("| %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
-                s["views"], k, posed, fmt(r.get("wall_s"), "%.1f"), fmt(r.get("peak_rss_mb"), "%.0f"), stages or "-",
+            L.append("| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+                s.get("trajectory", "orbit"), s["views"], k, posed, fmt(r.get("wall_s"), "%.1f"), fmt(r.get("peak_rss_mb"), "%.0f"), stages or "-",
                 pairs, pp or "-", fmt(t.get("rot_deg_median")), fmt(t.get("rot_deg_max")),
                 fmt(t.get("center_pct_median"), "%.2f"), fmt(t.get("center_pct_max"), "%.2f")))
     L.append("")
@@ -166,7 +182,7 @@ def write_md(j, path):
     L.append("")
     L.append("Exponent b of wall s ~ a N^b, least squares on log-log over the sizes run (the issue's target: b <= 1.5).")
     L.append("")
-    L.append("| method | b | sizes |")
+    L.append("| method, set | b | sizes |")
     L.append("|---|---|---|")
     for k, g in j["growth"].items():
         L.append("| %s | %.2f | %s |" % (k, g["exponent"], ", ".join(str(x) for x in g["sizes"])))
@@ -180,6 +196,7 @@ def main():
     r = sub.add_parser("run")
     r.add_argument("--work", required=True)
     r.add_argument("--sizes", default="24 48 96")
+    r.add_argument("--trajectories", default="orbit", help="orbit and / or forward (TRAJECTORIES)")
     r.add_argument("--methods", default="nerfreg colmap38 colmap4")
     r.add_argument("--nerfreg", required=True)
     r.add_argument("--out-prefix", required=True)
@@ -201,11 +218,12 @@ def main():
          "json": args.out_prefix + ".json", "sizes": []}
     t0 = time.time()
     sizes = [int(x) for x in args.sizes.split()]
-    for n in sizes:
-        rp.log("N = %d" % n)
-        j["sizes"].append(run_size(n, args, python))
+    trajectories = args.trajectories.split()
+    for traj, n in [(t, n) for t in trajectories for n in sizes]:
+        rp.log("%s, N = %d" % (traj, n))
+        j["sizes"].append(run_size(n, args, python, traj))
         j["growth"] = growth(j["sizes"])
-        if n == min(sizes) and args.two_view_bench and os.path.exists(args.two_view_bench):
+        if traj == "orbit" and n == min(sizes) and args.two_view_bench and os.path.exists(args.two_view_bench):
             rp.log("two-view bench, N = %d" % n)
             j["two_view"] = two_view(n, args)
         j["machine"]["loadavg_end"] = open("/proc/loadavg").read().split()[:3]

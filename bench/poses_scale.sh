@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# How posing time grows with the number of photos: photo-like 640x480 orbits of spider.obj (radial
-# distortion, noise, JPEG 90; intrinsics given) at N views, `nerfreg dbarf poses --method classical`
+# How posing time grows with the number of photos: photo-like 640x480 orbits of spider.obj and
+# forward-facing views of a held-out procedural scene (radial distortion, noise, JPEG 90;
+# intrinsics given) at N views, `nerfreg dbarf poses --method classical`
 # against COLMAP 3.8 (Debian `colmap`) and COLMAP 4's global mapper (pycolmap 4.2.1), in one run:
 # images posed, rotation and centre errors against the truth, stage timings, per-pair cost, wall
 # time, peak memory (GNU time), and the growth exponent of each method's wall time. The renders,
@@ -8,7 +9,8 @@
 # Writes $OUT.json (every number, command lines, versions, the machine) and $OUT.md.
 #
 # Usage: bench/poses_scale.sh
-# Environment: SIZES (default "24 48 96"; "24 48 96 192" for the largest too), METHODS (default
+# Environment: SIZES (default "24 48 96"; "24 48 96 192" for the largest too), TRAJECTORIES (default
+#   "orbit forward": spider.obj on an orbit, and procedural scene 5000's forward-facing views), METHODS (default
 #   "nerfreg colmap38 colmap4"), NERFREG (default build/nerfreg), WORK (default /tmp/poses_scale),
 #   OUT (default results/poses_scale), VENV (default .bench-venv, made as bench/real_poses.sh does),
 #   TWO_VIEW_BENCH (default build/bench/nerfreg_two_view_bench: the two-view estimators pair by pair
@@ -22,6 +24,7 @@ VENV=${VENV:-$ROOT/.bench-venv}
 WORK=${WORK:-/tmp/poses_scale}
 OUT=${OUT:-$ROOT/results/poses_scale}
 SIZES=${SIZES:-"24 48 96"}
+TRAJECTORIES=${TRAJECTORIES:-"orbit forward"}
 METHODS=${METHODS:-"nerfreg colmap38 colmap4"}
 TWO_VIEW_BENCH=${TWO_VIEW_BENCH:-$ROOT/build/bench/nerfreg_two_view_bench}
 [ $# -eq 0 ] || { echo "usage: $0 (set SIZES, METHODS, NERFREG, WORK, OUT, VENV in the environment)" >&2; exit 2; }
@@ -37,6 +40,6 @@ if ! "$VENV/bin/python" -c 'import numpy, PIL, pycolmap; assert pycolmap.__versi
   "$VENV/bin/pip" install --quiet $PINS
 fi
 
-exec "$VENV/bin/python" "$ROOT/bench/poses_scale.py" run --work "$WORK" --sizes "$SIZES" --methods "$METHODS" \
+exec "$VENV/bin/python" "$ROOT/bench/poses_scale.py" run --work "$WORK" --sizes "$SIZES" --trajectories "$TRAJECTORIES" --methods "$METHODS" \
   --nerfreg "$NERFREG" --out-prefix "$OUT" --two-view-bench "$TWO_VIEW_BENCH" \
-  --command "SIZES=\"$SIZES\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"
+  --command "SIZES=\"$SIZES\" TRAJECTORIES=\"$TRAJECTORIES\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"

@@ -307,9 +307,11 @@ def prepare_visp(name, spec, work, nerfreg):
     return info
 
 
-def prepare_spider(name, spec, work, nerfreg, views):
+def prepare_spider(name, spec, work, nerfreg, views, scene=None):
+    """scene: the render's scene and path arguments (default: spider.obj on an orbit)."""
+    scene = scene or ["--mesh", SPIDER, "--trajectory", "orbit"]
     d = os.path.join(work, "%s%d" % (name, views))
-    cmd = [nerfreg, "render", "--mesh", SPIDER, "--trajectory", "orbit", "--views", str(views), "--size", "640x480",
+    cmd = [nerfreg, "render"] + scene + ["--views", str(views), "--size", "640x480",
            "--distortion", str(SPIDER_DISTORTION), "--noise", str(SPIDER_NOISE), "--jpeg", "90", "--seed", "1",
            "--out", d, "--force", "--quiet"]
     if not os.path.exists(os.path.join(d, "transforms.json")):
