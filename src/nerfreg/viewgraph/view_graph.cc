@@ -293,6 +293,7 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   // Normalised coordinates: the pixel threshold becomes threshold / focal.
   const double threshold = options.ransac_threshold_px / focal_px;
   const bool usac = options.estimator == TwoViewEstimator::kUsac;
+  const int method = usac ? cv::USAC_MAGSAC : cv::RANSAC;
   const int num_matches = static_cast<int>(matches.size());
   const int e_iterations =
       options.early_rejection
@@ -372,27 +373,7 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
           ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
           : kMaxHomographyIterations;
   cv::Mat h_mask;
-  // This fit only counts the matches a homography explains at the essential matrix's threshold
-  // (and gives a panoramic pair its rotation), so USAC runs here with the MSAC score and no local
-  // optimisation: USAC_MAGSAC's settings (MAGSAC++ score, sigma-consensus optimisation) took 70 %
-  // of a forward-facing pair's geometry (25.5 ms a pair, 6.1 ms with these; 40 pairs of a 96-view
-  // forward set), and 2 of those 40 overlapping pairs got no edge with them, none with these.
-  // Elsewhere the same edges: spider24's orbit 6.0 -> 6.5 ms a pair, ViSP's cube 11.1 -> 13.2.
-  cv::Mat h;
-  if (usac) {
-    cv::UsacParams params;
-    params.confidence = options.ransac_confidence;
-    params.isParallel = false;
-    params.loMethod = cv::LOCAL_OPTIM_NULL;
-    params.maxIterations = h_iterations;
-    params.randomGeneratorState = 0;
-    params.sampler = cv::SAMPLING_UNIFORM;
-    params.score = cv::SCORE_METHOD_MSAC;
-    params.threshold = threshold;
-    h = cv::findHomography(pi, pj, h_mask, params);
-  } else {
-    h = cv::findHomography(pi, pj, cv::RANSAC, threshold, h_mask, h_iterations, options.ransac_confidence);
-  }
+  const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
   const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
   bool panoramic = false;
   if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {

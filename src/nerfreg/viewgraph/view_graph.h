@@ -30,9 +30,7 @@ namespace nerfreg {
 // matches.
 enum class TwoViewEstimator {
   kRansac,  // cv::RANSAC: up to 1000 hypotheses (2000 for the homography) on a pair with few inliers
-  // cv::USAC_MAGSAC's settings for the essential matrix: MAGSAC++ scoring, local optimisation; the
-  // homography by USAC with the MSAC score and no local optimisation (view_graph.cc says why).
-  kUsac,
+  kUsac,    // cv::USAC_MAGSAC: MAGSAC++ scoring, local optimisation, SPRT early rejection of hypotheses
 };
 
 // "ransac" or "usac" (the values of --two-view); anything else throws InputError naming --two-view.
