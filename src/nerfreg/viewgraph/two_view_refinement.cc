@@ -34,8 +34,8 @@ Eigen::Matrix<T, 3, 3> SkewOf(const Eigen::Matrix<T, 3, 1>& v) {
 // five parameters a step from the start pose (rotation exp(w) * R0; translation t0 + B d, normalised,
 // B an orthonormal basis of t0's tangent plane). TinySolver is Ceres' dense Levenberg-Marquardt for
 // problems this small: the Problem it replaces built one residual block (a cost function and a
-// loss) per correspondence and spent 75 % of a pair's two-view geometry there (ViSP's cube, 1700
-// inliers a pair: 44 of 60 ms).
+// loss) per correspondence and spent 70 % of a pair's two-view geometry there (ViSP's cube, 1700
+// inliers a pair: 44 of 62 ms).
 //
 // Cauchy's loss enters the residual: r~ = sign(d) sqrt(rho(d^2)) with d the Sampson distance over
 // `scale` and rho(s) = log(1 + s), so 0.5 |r~|^2 is the same objective Ceres minimised (up to its
