@@ -54,8 +54,8 @@ struct Camera {
   // Every field equal: the same image size, model and parameters.
   bool operator==(const Camera& other) const {
     return width == other.width && height == other.height && fx == other.fx && fy == other.fy && cx == other.cx &&
-           cy == other.cy && k1 == other.k1 && k2 == other.k2 && p1 == other.p1 && p2 == other.p2 &&
-           k3 == other.k3 && k4 == other.k4 && model == other.model;
+           cy == other.cy && k1 == other.k1 && k2 == other.k2 && p1 == other.p1 && p2 == other.p2 && k3 == other.k3 &&
+           k4 == other.k4 && model == other.model;
   }
   bool operator!=(const Camera& other) const { return !(*this == other); }
 };

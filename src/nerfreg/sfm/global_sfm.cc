@@ -390,9 +390,8 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   if (solution.cameras.size() == static_cast<size_t>(n) && result.view_graph.cameras.size() == static_cast<size_t>(n))
     MeasureEdgesWithIntrinsics(solution.cameras, &result.view_graph);
   if (options.max_edge_direction_residual_deg > 0 && solution.posed.size() == static_cast<size_t>(n)) {
-    const EdgeDirectionCheck directions = CheckEdgeDirections(solution.cam_from_world, solution.posed,
-                                                              result.view_graph, usable,
-                                                              options.max_edge_direction_residual_deg);
+    const EdgeDirectionCheck directions = CheckEdgeDirections(
+        solution.cam_from_world, solution.posed, result.view_graph, usable, options.max_edge_direction_residual_deg);
     LOG_DEBUG("sfm centres against the two-view directions: median {:.1f} deg over {} edges",
               directions.median_residual_deg, directions.num_edges);
     if (directions.contradicted) {

@@ -110,7 +110,7 @@ struct SfmResult {
   // The graph the poses came from, with its keypoints; self-calibrated, its edges measured again
   // with the refined intrinsics (MeasureEdgesWithIntrinsics), which view_graph.cameras then holds.
   ViewGraph view_graph;
-  int num_edges_used = 0;                 // edges consistent with the averaged rotations
+  int num_edges_used = 0;  // edges consistent with the averaged rotations
   // Per view_graph edge: whether it was one of those (the edges the tracks and positions came from).
   std::vector<bool> edge_used;
   int num_collapse_resolves = 0;  // solutions found collapsed and solved again

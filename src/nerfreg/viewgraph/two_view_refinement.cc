@@ -48,8 +48,7 @@ struct RefinementResiduals {
                       const Eigen::Matrix3d& rot, const Eigen::Vector3d& trans)
       : xi_(xi), xj_(xj), inv_scale_(1 / scale), rot_(rot), trans_(trans.normalized()) {
     // Any unit vector not parallel to t0 completes the basis.
-    const Eigen::Vector3d helper =
-        std::abs(trans_.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d helper = std::abs(trans_.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
     basis_.col(0) = trans_.cross(helper).normalized();
     basis_.col(1) = trans_.cross(basis_.col(0));
   }

@@ -358,14 +358,15 @@ TEST(ViewGraph, RefinementReachesTheMinimumOfCeresFullSolver) {
   const Eigen::Matrix3d r_start =
       Eigen::AngleAxisd(2 * M_PI / 180, Eigen::Vector3d(1, 0.4, -0.3).normalized()).toRotationMatrix() *
       pair.j_from_i.RotationMatrix();
-  const Eigen::Vector3d t_start = (pair.j_from_i.translation.normalized() + Eigen::Vector3d(0, 0.05, -0.03)).normalized();
+  const Eigen::Vector3d t_start =
+      (pair.j_from_i.translation.normalized() + Eigen::Vector3d(0, 0.05, -0.03)).normalized();
   Eigen::Quaterniond q(r_start);
   Eigen::Vector3d t = t_start;
   ceres::Problem problem;
   for (size_t k = 0; k < xi.size(); ++k)
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReferenceSampsonCost, 1, 4, 3>(
-                                 new ReferenceSampsonCost{xi[k], xj[k]}),
-                             new ceres::CauchyLoss(scale), q.coeffs().data(), t.data());
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ReferenceSampsonCost, 1, 4, 3>(new ReferenceSampsonCost{xi[k], xj[k]}),
+        new ceres::CauchyLoss(scale), q.coeffs().data(), t.data());
   problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
   problem.SetManifold(t.data(), new ceres::SphereManifold<3>);
   ceres::Solver::Options solver;
@@ -411,8 +412,8 @@ TEST(ViewGraph, RecoverPoseFromEssentialAgreesWithOpenCvsRecoverPose) {
   Eigen::Matrix3d e_true, e_fit;
   e_true = Skew(t_unit) * pair.j_from_i.RotationMatrix();
   cv::cv2eigen(e_estimated, e_fit);
-  for (const auto& [e, use_mask] : {std::pair(e_true, false), std::pair(Eigen::Matrix3d(-e_true), false),
-                                    std::pair(e_fit, true)}) {
+  for (const auto& [e, use_mask] :
+       {std::pair(e_true, false), std::pair(Eigen::Matrix3d(-e_true), false), std::pair(e_fit, true)}) {
     cv::Mat e_cv, r_cv, t_cv, mask_cv = use_mask ? ransac_mask.clone() : cv::Mat(n, 1, CV_8U, cv::Scalar(1));
     cv::eigen2cv(e, e_cv);
     const int count_cv = cv::recoverPose(e_cv, pi, pj, identity, r_cv, t_cv, mask_cv);
