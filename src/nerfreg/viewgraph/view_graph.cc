@@ -92,6 +92,37 @@ constexpr double kPlanarInlierRatio = 0.8;
 // ... and panoramic (no translation direction) when its inlier rays, rotated by the homography's
 // rotation, differ by less than this median angle.
 constexpr double kPanoramicParallaxDeg = 0.5;
+// ... and is not tried where the essential matrix's rotations leave this median angle (4x the
+// above: a margin for the rotation the homography would find being that far from theirs).
+constexpr double kPanoramicScreenDeg = 2.0;
+
+// The median angle (degrees, the upper median) between the rays of the masked matches once those of
+// image i are rotated by j_from_i.
+double MedianParallaxDeg(const std::vector<cv::Point2d>& pi, const std::vector<cv::Point2d>& pj, const cv::Mat& mask,
+                         const Eigen::Matrix3d& j_from_i) {
+  std::vector<double> angles;
+  for (size_t m = 0; m < pi.size(); ++m) {
+    if (mask.at<uint8_t>(static_cast<int>(m)) == 0) continue;
+    const Eigen::Vector3d a = j_from_i * Eigen::Vector3d(pi[m].x, pi[m].y, 1), b(pj[m].x, pj[m].y, 1);
+    angles.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
+  }
+  if (angles.empty()) return 0;
+  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+  return angles[angles.size() / 2];
+}
+
+// Whether the essential matrix's pose (rot, trans) rules out that the pair is panoramic: both of
+// its rotations (the chosen one and its twisted pair, 180 deg about the translation) leave the
+// median inlier ray kPanoramicScreenDeg or more from its match, so only a rotation at least
+// kPanoramicScreenDeg - kPanoramicParallaxDeg away from both could bring it within
+// kPanoramicParallaxDeg.
+bool PanoramicRuledOut(const std::vector<cv::Point2d>& pi, const std::vector<cv::Point2d>& pj, const cv::Mat& mask,
+                       const Eigen::Matrix3d& rot, const Eigen::Vector3d& trans) {
+  const Eigen::Vector3d t = trans.normalized();
+  const Eigen::Matrix3d twisted = (2 * t * t.transpose() - Eigen::Matrix3d::Identity()) * rot;
+  return MedianParallaxDeg(pi, pj, mask, rot) >= kPanoramicScreenDeg &&
+         MedianParallaxDeg(pi, pj, mask, twisted) >= kPanoramicScreenDeg;
+}
 
 // Hypotheses drawn at most (OpenCV's defaults for the essential matrix and the homography).
 constexpr int kMaxEssentialIterations = 1000;
@@ -367,35 +398,33 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   // from the homography and the edge has no translation direction.
   // Only a homography with more than kPlanarInlierRatio of the essential matrix's inliers (and
   // min_inliers) changes the edge: with early rejection, the hypotheses are capped for that count.
-  const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
-  const int h_iterations =
-      options.early_rejection
-          ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
-          : kMaxHomographyIterations;
-  cv::Mat h_mask;
-  const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
-  const int h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
+  // It is not estimated where the essential matrix rules a pure rotation out (PanoramicRuledOut):
+  // on forward-facing pairs the homography was most of a pair's geometry time.
+  int h_inliers = 0;
   bool panoramic = false;
-  if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
-    Eigen::Matrix3d hm;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
-    if (r_h.determinant() < 0) r_h = -r_h;
-    std::vector<double> parallax;
-    for (size_t m = 0; m < matches.size(); ++m) {
-      if (h_mask.at<uint8_t>(static_cast<int>(m)) == 0) continue;
-      const Eigen::Vector3d a = r_h * Eigen::Vector3d(pi[m].x, pi[m].y, 1), b(pj[m].x, pj[m].y, 1);
-      parallax.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
-    }
-    std::nth_element(parallax.begin(), parallax.begin() + parallax.size() / 2, parallax.end());
-    if (parallax[parallax.size() / 2] < kPanoramicParallaxDeg) {
-      panoramic = true;
-      rot = r_h;
-      trans.setZero();
-      mask = h_mask;
-      inliers = h_inliers;
+  if (!(e_valid && inliers >= options.min_inliers && PanoramicRuledOut(pi, pj, mask, rot, trans))) {
+    const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
+    const int h_iterations =
+        options.early_rejection
+            ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
+            : kMaxHomographyIterations;
+    cv::Mat h_mask;
+    const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
+    h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
+    if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
+      Eigen::Matrix3d hm;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
+      if (r_h.determinant() < 0) r_h = -r_h;
+      if (MedianParallaxDeg(pi, pj, h_mask, r_h) < kPanoramicParallaxDeg) {
+        panoramic = true;
+        rot = r_h;
+        trans.setZero();
+        mask = h_mask;
+        inliers = h_inliers;
+      }
     }
   }
   if (inliers < options.min_inliers) return std::nullopt;
