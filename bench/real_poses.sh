@@ -16,7 +16,8 @@
 #   METHODS (default "nerfreg colmap38 colmap4"), WORK (default /tmp/real_poses), OUT (default
 #   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap),
 #   TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the binary's own).
-# Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only), visp-images-data.
+# Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only); installs visp-images-data
+# (scripts/setup.sh) where it is missing.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 NERFREG=${NERFREG:-$ROOT/build/nerfreg}
@@ -35,6 +36,8 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
+# ViSP's image sets (cube, Castle-simu), which only this bench reads.
+bash "$ROOT/scripts/setup.sh" visp-images-data
 command -v colmap >/dev/null || { echo "error: colmap (3.8) not on PATH" >&2; exit 2; }
 [ -x "$NERFREG" ] || { echo "error: $NERFREG: not an executable (set NERFREG)" >&2; exit 2; }
 

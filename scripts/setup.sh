@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package nerfreg needs. Idempotent: packages already present are skipped,
-# and apt is not touched at all when nothing is missing.
+# and apt is not touched at all when nothing is missing. Arguments name more packages, for a bench
+# that needs data the build and tests do not (bench/real_poses.sh: visp-images-data).
 set -euo pipefail
 
 PACKAGES=(
@@ -31,6 +32,7 @@ PACKAGES=(
   sweethome3d-furniture
   # COLMAP interop tests and baselines
   colmap
+  "$@"
 )
 
 missing=()
