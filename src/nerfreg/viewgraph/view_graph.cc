@@ -1,6 +1,7 @@
 #include "nerfreg/viewgraph/view_graph.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -95,6 +96,9 @@ constexpr double kPanoramicParallaxDeg = 0.5;
 // ... and is not tried where the essential matrix's rotations leave this median angle (4x the
 // above: a margin for the rotation the homography would find being that far from theirs).
 constexpr double kPanoramicScreenDeg = 2.0;
+// A homography fitted with few hypotheses is fitted again with the full cap where its rotation
+// leaves the median ray within this (2x the panoramic cut).
+constexpr double kFarRefitDeg = 1.0;
 
 // The median angle (degrees, the upper median) between the rays of the masked matches once those of
 // image i are rotated by j_from_i.
@@ -354,7 +358,8 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   } else {
     e = cv::findEssentialMat(pi, pj, identity_k, cv::RANSAC, options.ransac_confidence, threshold, e_iterations, mask);
   }
-  const bool e_valid = e.rows == 3 && e.cols == 3;  // else degenerate, or several solutions stacked
+  const bool e_valid = e.rows == 3 && e.cols == 3;                     // else degenerate, or several solutions stacked
+  const int estimator_inliers = e_valid ? cv::countNonZero(mask) : 0;  // before the test in front
   // Early rejection: a homography's inliers fit the essential matrix [t]x R of its rotation for
   // any t, so too few essential-matrix inliers leave no edge either way.
   if (options.early_rejection && (!e_valid || cv::countNonZero(mask) < options.min_inliers)) return std::nullopt;
@@ -403,28 +408,56 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   int h_inliers = 0;
   bool panoramic = false;
   if (!(e_valid && inliers >= options.min_inliers && PanoramicRuledOut(pi, pj, mask, rot, trans))) {
-    const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
-    const int h_iterations =
-        options.early_rejection
-            ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
-            : kMaxHomographyIterations;
-    cv::Mat h_mask;
-    const cv::Mat h = cv::findHomography(pi, pj, method, threshold, h_mask, h_iterations, options.ransac_confidence);
-    h_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
-    if (h_inliers >= options.min_inliers && h_inliers > kPlanarInlierRatio * inliers) {
-      Eigen::Matrix3d hm;
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d r_h = svd.matrixU() * svd.matrixV().transpose();
-      if (r_h.determinant() < 0) r_h = -r_h;
-      if (MedianParallaxDeg(pi, pj, h_mask, r_h) < kPanoramicParallaxDeg) {
-        panoramic = true;
-        rot = r_h;
-        trans.setZero();
-        mask = h_mask;
-        inliers = h_inliers;
+    // The homography fitted with hypotheses capped for h_needed inliers: its inlier mask, count,
+    // and rotation's median parallax (infinite where it cannot make the pair panoramic).
+    struct Fit {
+      cv::Mat h_mask;
+      int h_inliers = 0;
+      Eigen::Matrix3d r_h = Eigen::Matrix3d::Identity();
+      double parallax_deg = std::numeric_limits<double>::infinity();
+    };
+    const auto fit_homography = [&](int h_needed) {
+      const int h_iterations =
+          options.early_rejection
+              ? RansacIterationCap(num_matches, h_needed, 4, options.ransac_confidence, kMaxHomographyIterations)
+              : kMaxHomographyIterations;
+      Fit f;
+      const cv::Mat h =
+          cv::findHomography(pi, pj, method, threshold, f.h_mask, h_iterations, options.ransac_confidence);
+      f.h_inliers = h.empty() ? 0 : cv::countNonZero(f.h_mask);
+      if (f.h_inliers >= options.min_inliers && f.h_inliers > kPlanarInlierRatio * inliers) {
+        Eigen::Matrix3d hm;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) hm(a, b) = h.at<double>(a, b);
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(hm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        f.r_h = svd.matrixU() * svd.matrixV().transpose();
+        if (f.r_h.determinant() < 0) f.r_h = -f.r_h;
+        f.parallax_deg = MedianParallaxDeg(pi, pj, f.h_mask, f.r_h);
       }
+      return f;
+    };
+    const int h_needed = std::max(options.min_inliers, static_cast<int>(kPlanarInlierRatio * inliers) + 1);
+    const int estimator_needed = static_cast<int>(kPlanarInlierRatio * estimator_inliers) + 1;
+    Fit fit;
+    if (options.early_rejection && estimator_needed > h_needed) {
+      // Too few inliers in front (short baselines: nearly every point beyond 50 baselines): a
+      // homography capped for min_inliers takes all 2000 hypotheses (~48 ms a pair, 46 % of the
+      // geometry on 192 forward-facing views). First one capped for the essential matrix's own
+      // count, which a panoramic pair's homography reaches; only where its rotation leaves the rays
+      // within kFarRefitDeg is it fitted again as before. On those 192 views: 76 -> 62 s, 10 of
+      // 2560 edges (panoramic ones) fewer, median rotation error 0.0987 -> 0.0990 deg.
+      fit = fit_homography(estimator_needed);
+      if (fit.parallax_deg < kFarRefitDeg) fit = fit_homography(h_needed);
+    } else {
+      fit = fit_homography(h_needed);
+    }
+    h_inliers = fit.h_inliers;
+    if (fit.parallax_deg < kPanoramicParallaxDeg) {
+      panoramic = true;
+      rot = fit.r_h;
+      trans.setZero();
+      mask = fit.h_mask;
+      inliers = fit.h_inliers;
     }
   }
   if (inliers < options.min_inliers) return std::nullopt;
