@@ -24,7 +24,10 @@ struct BundleAdjustmentOptions {
   // rotation-translation trades and 50 stopped short of the minimum.
   int max_iterations = 100;
   // Up to this many cameras the reduced camera system is solved densely (DENSE_SCHUR, as COLMAP
-  // chooses): faster than the sparse factorisation for small sets, same result.
+  // chooses), beyond by conjugate gradients on the implicit Schur complement (ITERATIVE_SCHUR,
+  // Jacobi-preconditioned). Forward-facing views make that system dense (every camera sees every
+  // other's points), where the sparse factorisation took 2/3 of the adjustment: 192 such views
+  // 23.1 -> 12.2 s with the same iterations and poses (0.0990 deg); on orbits the two are even.
   int dense_schur_max_cameras = 50;
   // Ceres threads. More than one makes the Schur complement's sums, and so the result, depend on
   // the scheduling: the same images would give different cameras from run to run (the SfM cache's

@@ -48,39 +48,46 @@ TEST(Triangulation, DltRecoversAPointAndTheChecksRejectBadTracks) {
   EXPECT_FALSE(TriangulateTrack(tracks[0], s.graph.keypoints, s.cameras, close, posed, strict, &p));
 }
 
+// Both linear solvers: the dense Schur complement (up to dense_schur_max_cameras) and the
+// iterative one beyond, each from the same perturbed start.
 TEST(BundleAdjustment, RecoversPerturbedCamerasAndPointsFromNoisyKeypoints) {
-  SyntheticSceneOptions o;
-  o.num_cameras = 8;
-  o.num_points = 300;
-  o.keypoint_noise_px = 0.5;
-  const SyntheticScene s = MakeSyntheticScene(o);
-  const std::vector<Track> tracks = BuildTracks(s.graph, {}, TrackOptions{});
-  std::mt19937 rng(7);
-  std::normal_distribution<double> g(0.0, 1.0);
-  std::vector<Rigid3d> poses = s.cam_from_world;
-  for (size_t k = 1; k < poses.size(); ++k) {  // camera 0 is the fixed gauge
-    poses[k] = Rigid3d(SmallRotation(rng, 1.0) * poses[k].rotation,
-                       poses[k].translation + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)));
+  for (const int dense_schur_max_cameras : {50, 0}) {
+    SCOPED_TRACE(dense_schur_max_cameras == 0 ? "iterative Schur" : "dense Schur");
+    SyntheticSceneOptions o;
+    o.num_cameras = 8;
+    o.num_points = 300;
+    o.keypoint_noise_px = 0.5;
+    const SyntheticScene s = MakeSyntheticScene(o);
+    const std::vector<Track> tracks = BuildTracks(s.graph, {}, TrackOptions{});
+    std::mt19937 rng(7);
+    std::normal_distribution<double> g(0.0, 1.0);
+    std::vector<Rigid3d> poses = s.cam_from_world;
+    for (size_t k = 1; k < poses.size(); ++k) {  // camera 0 is the fixed gauge
+      poses[k] = Rigid3d(SmallRotation(rng, 1.0) * poses[k].rotation,
+                         poses[k].translation + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)));
+    }
+    std::vector<SfmPoint> points;
+    for (const Track& t : tracks) {
+      const int id = s.keypoint_point[t.elements[0].image][t.elements[0].keypoint];
+      points.push_back({s.points[id] + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)), t.elements});
+    }
+    const std::vector<bool> posed(poses.size(), true);
+    BundleAdjustmentOptions options;
+    options.dense_schur_max_cameras = dense_schur_max_cameras;
+    const auto summary = BundleAdjust(s.cameras, s.graph.keypoints, posed, 0, &poses, &points, options);
+    EXPECT_GT(summary.initial_rms_px, 3.0);
+    // The residual of 2D noise sigma 0.5 px is ~0.5 * sqrt(2) px rms, a little less after fitting.
+    EXPECT_LT(summary.final_rms_px, 0.75);
+    EXPECT_GT(summary.final_rms_px, 0.4);
+    // Rotations aligned on rotations: a centre-only fit would add its own rotation error of about
+    // (centre error / spread). Measured: median 0.07 deg (0.5 px noise, a camera sees its points under
+    // ~28 deg, so its rotation and translation trade off), centres 0.0045 of a ~8 baseline.
+    const PoseEvaluation e = EvaluatePoses(poses, s.cam_from_world, PoseAlignment::kRotationsAndCenters);
+    ASSERT_TRUE(e.aligned);
+    EXPECT_LT(e.median_rotation_deg, 0.12);
+    for (double r : e.rotation_error_deg) EXPECT_LT(r, 0.25);
+    for (double c : e.center_error) EXPECT_LT(c / e.widest_baseline, 0.003);
   }
-  std::vector<SfmPoint> points;
-  for (const Track& t : tracks) {
-    const int id = s.keypoint_point[t.elements[0].image][t.elements[0].keypoint];
-    points.push_back({s.points[id] + 0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)), t.elements});
-  }
-  const std::vector<bool> posed(poses.size(), true);
-  const auto summary = BundleAdjust(s.cameras, s.graph.keypoints, posed, 0, &poses, &points, BundleAdjustmentOptions{});
-  EXPECT_GT(summary.initial_rms_px, 3.0);
-  // The residual of 2D noise sigma 0.5 px is ~0.5 * sqrt(2) px rms, a little less after fitting.
-  EXPECT_LT(summary.final_rms_px, 0.75);
-  EXPECT_GT(summary.final_rms_px, 0.4);
-  // Rotations aligned on rotations: a centre-only fit would add its own rotation error of about
-  // (centre error / spread). Measured: median 0.07 deg (0.5 px noise, a camera sees its points under
-  // ~28 deg, so its rotation and translation trade off), centres 0.0045 of a ~8 baseline.
-  const PoseEvaluation e = EvaluatePoses(poses, s.cam_from_world, PoseAlignment::kRotationsAndCenters);
-  ASSERT_TRUE(e.aligned);
-  EXPECT_LT(e.median_rotation_deg, 0.12);
-  for (double r : e.rotation_error_deg) EXPECT_LT(r, 0.25);
-  for (double c : e.center_error) EXPECT_LT(c / e.widest_baseline, 0.003);
 }
 
 TEST(BundleAdjustment, SpreadPointSubsetCoversEveryCellLongestTracksFirst) {
