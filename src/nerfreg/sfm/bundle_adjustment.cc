@@ -1,5 +1,6 @@
 #include "nerfreg/sfm/bundle_adjustment.h"
 #include "nerfreg/posegraph/ceres_solve.h"
+#include "nerfreg/sfm/reprojection_cost.h"
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/timer.h"
 
@@ -21,49 +22,6 @@ void BundleAdjustmentOptions::Check() const {
 }
 
 namespace {
-
-// Camera parameters: angle-axis rotation (3), translation (3) of cam_from_world. Intrinsics: focal
-// (fx), k1, k2 of the image's group; fy / fx, the principal point and the other distortion
-// coefficients are the image's own constants.
-struct ProjectionCost {
-  ProjectionCost(const Eigen::Vector2d& uv, const Camera& c)
-      : uv_(uv), aspect_(c.fy / c.fx), cx_(c.cx), cy_(c.cy), p1_(c.p1), p2_(c.p2), k3_(c.k3), k4_(c.k4) {}
-  template <typename T>
-  bool operator()(const T* camera, const T* point, const T* intrinsics, T* residual) const {
-    return Residual(camera, point, intrinsics[0], intrinsics[1], intrinsics[2], residual);
-  }
-  template <typename T, typename I>
-  bool Residual(const T* camera, const T* point, const I& focal, const I& k1, const I& k2, T* residual) const {
-    T p[3];
-    ceres::AngleAxisRotatePoint(camera, point, p);
-    for (int k = 0; k < 3; ++k) p[k] += camera[3 + k];
-    // Points behind the camera keep a finite residual; triangulation removes them later.
-    const T z = p[2] > T(1e-6) ? p[2] : T(1e-6);
-    const T u = p[0] / z, v = p[1] / z;
-    const T r2 = u * u + v * v;
-    const T radial = T(1) + r2 * (k1 + r2 * (k2 + r2 * (T(k3_) + r2 * T(k4_))));
-    const T ud = u * radial + T(2 * p1_) * u * v + T(p2_) * (r2 + T(2) * u * u);
-    const T vd = v * radial + T(p1_) * (r2 + T(2) * v * v) + T(2 * p2_) * u * v;
-    residual[0] = focal * ud + T(cx_) - T(uv_.x());
-    residual[1] = focal * T(aspect_) * vd + T(cy_) - T(uv_.y());
-    return true;
-  }
-  Eigen::Vector2d uv_;
-  double aspect_, cx_, cy_, p1_, p2_, k3_, k4_;
-};
-
-// The same residual with the intrinsics held: without their parameter block the automatic
-// derivatives carry 9 dual parts instead of 12 (3.3 of the 7.7 s of Jacobians on 192 views).
-struct FixedIntrinsicsProjectionCost {
-  FixedIntrinsicsProjectionCost(const Eigen::Vector2d& uv, const Camera& c)
-      : cost_(uv, c), focal_(c.fx), k1_(c.k1), k2_(c.k2) {}
-  template <typename T>
-  bool operator()(const T* camera, const T* point, T* residual) const {
-    return cost_.Residual(camera, point, focal_, k1_, k2_, residual);
-  }
-  ProjectionCost cost_;
-  double focal_, k1_, k2_;
-};
 
 // Fisheye cameras: (fx * (x/z - x_n), fy * (y/z - y_n)) on undistorted normalised coordinates.
 struct NormalizedCost {
@@ -171,13 +129,11 @@ BundleAdjustmentSummary BundleAdjust(std::vector<Camera>* cameras, const std::ve
                                      new NormalizedCost(cam.CamFromImg(uv), cam.fx, cam.fy)),
                                  loss, params[e.image].data(), point.x_in_world.data());
       } else if (refine_intrinsics) {
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<ProjectionCost, 2, 6, 3, 3>(new ProjectionCost(uv, cam)), loss,
-            params[e.image].data(), point.x_in_world.data(), intrinsics[group[e.image]].data());
+        problem.AddResidualBlock(new ReprojectionCost(uv, cam, true), loss, params[e.image].data(),
+                                 point.x_in_world.data(), intrinsics[group[e.image]].data());
       } else {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<FixedIntrinsicsProjectionCost, 2, 6, 3>(
-                                     new FixedIntrinsicsProjectionCost(uv, cam)),
-                                 loss, params[e.image].data(), point.x_in_world.data());
+        problem.AddResidualBlock(new ReprojectionCost(uv, cam, false), loss, params[e.image].data(),
+                                 point.x_in_world.data());
       }
       ++summary.num_observations;
     }
