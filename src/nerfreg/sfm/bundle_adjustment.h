@@ -25,12 +25,13 @@ struct BundleAdjustmentOptions {
   int max_iterations = 100;
   // Up to this many cameras the reduced camera system is solved densely (DENSE_SCHUR, as COLMAP
   // chooses), beyond by conjugate gradients on the implicit Schur complement (ITERATIVE_SCHUR,
-  // Jacobi-preconditioned). Forward-facing views make that system dense (every camera sees every
-  // other's points), where the sparse factorisation took 2/3 of the adjustment: 192 such views
-  // 23.1 -> 12.2 s with the same iterations and poses (0.0990 deg); on orbits the two are even.
+  // Jacobi-preconditioned): forward-facing views make that system dense (every camera sees every
+  // other's points), and factorising it sparsely took most of the adjustment's time, for the same
+  // iterations and poses (docs/poses_and_views.md).
   int dense_schur_max_cameras = 50;
-  // Ceres threads. More than one makes the Schur complement's sums, and so the result, depend on
-  // the scheduling: the same images would give different cameras from run to run (the SfM cache's
+  // Ceres threads. More than one makes sums over residuals (the cost, which steers the trust
+  // region; with DENSE_SCHUR also the Schur complement) and so the result depend on the
+  // scheduling: the same images would give different cameras from run to run (the SfM cache's
   // test caught it under load).
   int num_threads = 1;
   // false holds every rotation at its value (GLOMAP's first adjustment after global positioning:

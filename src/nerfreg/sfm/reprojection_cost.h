@@ -22,7 +22,16 @@ namespace nerfreg {
 // removes them later).
 struct ReprojectionResidual {
   ReprojectionResidual(const Eigen::Vector2d& uv, const Camera& c)
-      : uv(uv), aspect(c.fy / c.fx), cx(c.cx), cy(c.cy), p1(c.p1), p2(c.p2), k3(c.k3), k4(c.k4), fx(c.fx), k1(c.k1),
+      : uv(uv),
+        aspect(c.fy / c.fx),
+        cx(c.cx),
+        cy(c.cy),
+        p1(c.p1),
+        p2(c.p2),
+        k3(c.k3),
+        k4(c.k4),
+        fx(c.fx),
+        k1(c.k1),
         k2(c.k2) {}
   // With the intrinsics block.
   template <typename T>

@@ -55,13 +55,12 @@ TEST(ReprojectionCost, AnalyticJacobiansEqualAutomaticDerivatives) {
         std::vector<double*> blocks{pose.data(), point.data()};
         if (refine) blocks.push_back(intrinsics.data());
         const Evaluation a = Evaluate(analytic, blocks);
-        const Evaluation reference =
-            refine ? Evaluate(ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 6, 3, 3>(
-                                  new ReprojectionResidual(uv, camera)),
-                              blocks)
-                   : Evaluate(ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 6, 3>(
-                                  new ReprojectionResidual(uv, camera)),
-                              blocks);
+        const Evaluation reference = refine ? Evaluate(ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 6, 3, 3>(
+                                                           new ReprojectionResidual(uv, camera)),
+                                                       blocks)
+                                            : Evaluate(ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 6, 3>(
+                                                           new ReprojectionResidual(uv, camera)),
+                                                       blocks);
         for (int r = 0; r < 2; ++r)
           EXPECT_NEAR(a.residual[r], reference.residual[r], 1e-9 * (1 + std::abs(reference.residual[r])));
         ASSERT_EQ(a.jacobians.size(), reference.jacobians.size());
