@@ -719,6 +719,9 @@ def pair(res, a, b):
     return next((p for p in res["pairs"] if p["a"] == a and p["b"] == b), {})
 
 
+NO_CONSENSUS_DEG = 2.0
+
+
 def targets(res, calibrated, c38, c4, castle):
     """The issue's pass / fail targets for each nerfreg run: every image COLMAP 4 poses is posed;
     median rotation agreement with both COLMAPs <= max(0.2 deg, 2x their own disagreement);
@@ -727,6 +730,10 @@ def targets(res, calibrated, c38, c4, castle):
     runs = res["runs"]
     floor = pair(res, c38, c4).get("rot_deg_median")
     threshold = max(0.2, 2 * floor) if floor is not None else None
+    # COLMAPs further apart than an image may be off and still count as posed (2 deg) are no
+    # consensus: one of them failed (COLMAP 3.8 on Castle-simu came out 26.7 deg off the truth in
+    # one run, 0.15 in another), and 2x their difference would pass anything.
+    no_consensus = floor is not None and floor > NO_CONSENSUS_DEG
     for k in (["nerfreg classical", "nerfreg auto"] if calibrated else []) + ["nerfreg uncal"]:
         r = runs.get(k)
         if r is None:
@@ -737,7 +744,10 @@ def targets(res, calibrated, c38, c4, castle):
         t["covers_colmap4"] = {"pass": bool(c4_poses) and c4_poses <= mine, "missing": sorted(c4_poses - mine),
                                "colmap4_posed": len(c4_poses), "posed": len(mine)} if c4_poses else {"pass": None}
         meds = [pair(res, k, c).get("rot_deg_median") for c in (c38, c4)]
-        if threshold is not None and all(m is not None for m in meds) and r.get("status") == "ok":
+        if no_consensus:
+            t["rotation_agreement"] = {"pass": None, "no_consensus_deg": floor, "worst_median_deg": max(
+                (m for m in meds if m is not None), default=None)}
+        elif threshold is not None and all(m is not None for m in meds) and r.get("status") == "ok":
             t["rotation_agreement"] = {"pass": max(meds) <= threshold, "worst_median_deg": max(meds),
                                        "threshold_deg": threshold}
         else:
@@ -851,8 +861,11 @@ def write_md(j, path):
                                                                              len(c["missing"]))
                                    if c.get("colmap4_posed") else "")
             ra = t["rotation_agreement"]
-            rot = pf(ra["pass"]) + (" (%s <= %s)" % (fmt(ra.get("worst_median_deg")), fmt(ra.get("threshold_deg")))
-                                    if ra.get("threshold_deg") is not None else "")
+            if ra.get("no_consensus_deg") is not None:
+                rot = "no consensus: the COLMAPs %s deg apart" % fmt(ra["no_consensus_deg"])
+            else:
+                rot = pf(ra["pass"]) + (" (%s <= %s)" % (fmt(ra.get("worst_median_deg")), fmt(ra.get("threshold_deg")))
+                                        if ra.get("threshold_deg") is not None else "")
             tr = t.get("truth_0.1deg")
             L.append("| %s | %s | %s | %s | %s |" % (s["name"], k, cov, rot,
                                                     (pf(tr["pass"]) + " (%s deg)" % fmt(tr["median_deg"])) if tr else "-"))
