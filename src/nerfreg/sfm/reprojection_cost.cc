@@ -22,25 +22,17 @@ bool ReprojectionCost::Evaluate(double const* const* parameters, double* residua
   const double k1 = refine_intrinsics_ ? parameters[2][1] : r_.k1;
   const double k2 = refine_intrinsics_ ? parameters[2][2] : r_.k2;
 
-  // p = R(w) x + t, and dp/dw = -[R x]_x J_l(w) with J_l the left Jacobian of SO(3). Below
-  // theta^2 = machine epsilon the rotation is first order, as ceres::AngleAxisRotatePoint has it.
-  Eigen::Matrix3d rotation, dp_dw;
-  Eigen::Vector3d p;
+  // p = R(w) x + t. Below theta^2 = machine epsilon the rotation is first order, as
+  // ceres::AngleAxisRotatePoint has it.
+  Eigen::Matrix3d rotation;
   const double theta2 = w.squaredNorm();
-  if (theta2 > std::numeric_limits<double>::epsilon()) {
-    ceres::AngleAxisToRotationMatrix(camera, ceres::ColumnMajorAdapter3x3(rotation.data()));
-    const Eigen::Vector3d rx = rotation * x;
-    p = rx + t;
-    const double theta = std::sqrt(theta2);
-    const Eigen::Matrix3d sw = Skew(Eigen::Vector3d(w));
-    const Eigen::Matrix3d left_jacobian = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * sw +
-                                          (theta - std::sin(theta)) / (theta2 * theta) * sw * sw;
-    dp_dw = -Skew(rx) * left_jacobian;
-  } else {
+  const bool first_order = !(theta2 > std::numeric_limits<double>::epsilon());
+  if (first_order)
     rotation = Eigen::Matrix3d::Identity() + Skew(Eigen::Vector3d(w));
-    p = x + w.cross(x) + t;
-    dp_dw = -Skew(Eigen::Vector3d(x));
-  }
+  else
+    ceres::AngleAxisToRotationMatrix(camera, ceres::ColumnMajorAdapter3x3(rotation.data()));
+  const Eigen::Vector3d rx = first_order ? Eigen::Vector3d(x + w.cross(x)) : Eigen::Vector3d(rotation * x);
+  const Eigen::Vector3d p = rx + t;
   const bool clamped = !(p.z() > 1e-6);
   const double z = clamped ? 1e-6 : p.z();
   const double u = p.x() / z, v = p.y() / z;
@@ -65,6 +57,16 @@ bool ReprojectionCost::Evaluate(double const* const* parameters, double* residua
   d_p.row(0) *= focal;
   d_p.row(1) *= focal * r_.aspect;
   if (jacobians[0] != nullptr) {
+    // dp/dw = -[R x]_x J_l(w), J_l the left Jacobian of SO(3) (first order: -[x]_x).
+    Eigen::Matrix3d dp_dw;
+    if (first_order) {
+      dp_dw = -Skew(Eigen::Vector3d(x));
+    } else {
+      const double theta = std::sqrt(theta2);
+      const Eigen::Matrix3d sw = Skew(Eigen::Vector3d(w));
+      dp_dw = -Skew(rx) * (Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * sw +
+                           (theta - std::sin(theta)) / (theta2 * theta) * sw * sw);
+    }
     Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[0]);
     j.leftCols<3>() = d_p * dp_dw;
     j.rightCols<3>() = d_p;
