@@ -68,6 +68,9 @@ if(NOT NERFREG_LEARNED_CORE_ONLY)
   find_package(Open3D REQUIRED)
   find_package(Ceres REQUIRED)
   find_package(OpenCV REQUIRED COMPONENTS core imgproc features2d calib3d)
+  # oneDNN (libdnnl2 is LibTorch's own dependency; libdnnl-dev adds its headers): the SIFT
+  # matcher's u8 x s8 descriptor products (viewgraph/view_graph.cc).
+  find_package(dnnl CONFIG REQUIRED)
 endif()
 if(NERFREG_BUILD_TESTS)
   find_package(GTest REQUIRED)

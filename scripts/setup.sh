@@ -15,6 +15,8 @@ PACKAGES=(
   libgloo-dev
   # edges: ray casting, point-cloud baselines, pose graphs, image features
   libembree-dev libopen3d-dev libceres-dev libopencv-dev
+  # oneDNN's headers: the SIFT matcher's integer descriptor products (its library comes with LibTorch)
+  libdnnl-dev
   # header-only and small utilities
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
   # photos' EXIF (focal length, sensor resolution, orientation; util/exif.cc)

@@ -7,12 +7,12 @@
 #include <open3d/pipelines/registration/Registration.h>
 #include <open3d/utility/Logging.h>
 #include <open3d/utility/Random.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
+#include "nerfreg/util/omp_threads.h"
 #include "nerfreg/util/timer.h"
 
 namespace nerfreg {
@@ -34,23 +34,6 @@ open3d::geometry::PointCloud ToCloud(const Eigen::Matrix3Xd& pts) {
   for (Eigen::Index i = 0; i < pts.cols(); ++i) cloud.points_.push_back(pts.col(i));
   return cloud;
 }
-
-// One OpenMP thread while it lives (the previous count restored after). Open3D's RANSAC draws its
-// samples from one generator shared by every thread (under a mutex), and its ICP gathers the
-// correspondences and adds up the normal equations in the order the threads finish: with several
-// threads one input and seed give different poses from run to run (bits in ICP, the hypothesis in
-// RANSAC, which the candidate choice can turn into another answer). Normals and FPFH features are
-// written per point and stay parallel.
-class OneOmpThread {
- public:
-  OneOmpThread() : threads_(omp_get_max_threads()) { omp_set_num_threads(1); }
-  ~OneOmpThread() { omp_set_num_threads(threads_); }
-  OneOmpThread(const OneOmpThread&) = delete;
-  OneOmpThread& operator=(const OneOmpThread&) = delete;
-
- private:
-  int threads_;
-};
 
 // Downsampled at `voxel`, normals within normal_radius scaled as the voxel is.
 std::shared_ptr<open3d::geometry::PointCloud> Prepare(const open3d::geometry::PointCloud& cloud,
@@ -134,7 +117,12 @@ ClassicalRegistrationResult RegisterPointClouds(const Eigen::Matrix3Xd& source, 
   const auto f_tgt =
       reg::ComputeFPFHFeature(*tgt, open3d::geometry::KDTreeSearchParamHybrid(o.feature_radius * k, 100));
   reg::RegistrationResult r;
-  const OneOmpThread one_thread;  // repeatable RANSAC and ICP
+  // One OpenMP thread: Open3D's RANSAC draws its samples from one generator shared by every thread
+  // (under a mutex), and its ICP gathers the correspondences and adds up the normal equations in
+  // the order the threads finish: with several threads one input and seed give different poses
+  // from run to run (bits in ICP, the hypothesis in RANSAC, which the candidate choice can turn
+  // into another answer). Normals and FPFH features are written per point and stay parallel.
+  const ScopedOmpThreads one_thread(1);
   open3d::utility::random::Seed(static_cast<int>(o.seed));
   if (o.method == "ransac") {
     const double dist = o.max_correspondence_distance > 0 ? o.max_correspondence_distance * k : 1.5 * voxel;
@@ -180,7 +168,7 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
   const double prepare_seconds = prepare.Seconds();
   const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
   std::vector<ClassicalRegistrationResult> out;
-  const OneOmpThread one_thread;  // repeatable ICP
+  const ScopedOmpThreads one_thread(1);  // repeatable ICP (see above)
   for (const Rigid3d& start : starts) {
     Timer one;
     const auto r = Icp(*src, *tgt, d, start.ToMatrix(), o);

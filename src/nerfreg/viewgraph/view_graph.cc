@@ -10,12 +10,14 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <oneapi/dnnl/dnnl.h>
 #include <optional>
 #include <stdexcept>
 
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/omp_threads.h"
 #include "nerfreg/util/timer.h"
 #include "nerfreg/viewgraph/two_view_refinement.h"
 
@@ -161,14 +163,15 @@ cv::Mat ToGray8(const Image& im) {
 }
 
 // Mutual nearest neighbours passing the ratio test in both directions, from one matrix of
-// descriptor dot products (one BLAS GEMM instead of two brute-force passes):
+// descriptor dot products (one GEMM instead of two brute-force passes):
 // |a - b|^2 = |a|^2 + |b|^2 - 2 a.b. The product is column-major, so each column (one keypoint
 // of b against every keypoint of a) is contiguous: a's running best two are updated without
 // branches (the compiler vectorises it), and b's best two are one pass over the column.
 // The best two distances of one keypoint of b over every row of a, and the row of the best (the
 // first such row on ties).
+template <typename T>
 struct ColumnBest {
-  float c1 = INFINITY, c2 = INFINITY;
+  T c1 = std::numeric_limits<T>::max(), c2 = std::numeric_limits<T>::max();
   int i1 = -1;
 };
 
@@ -177,17 +180,24 @@ struct ColumnBest {
 // kLanes independent best-two lanes (row i in lane i % kLanes) so that both updates are branchless
 // and vectorise, then merges the lanes; the result equals the sequential search's exactly. Built
 // for AVX2 and for baseline x86-64, chosen at run time (the build targets baseline x86-64).
+// T: float (the BLAS product) or int32_t (oneDNN's integer product); the distances are the same
+// integers in both (below 2^24, so exact in float), and so are the matches. The rows' arrays are
+// declared unaliased: with T = int32_t, j1 could otherwise alias d1 and d2 and GCC would not
+// vectorise the updates.
 constexpr int kLanes = 16;
+template <typename T>
 #if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-ColumnBest
-ScanColumn(const float* column, const float* norms_a, float norm_b, int na, int j, float* d1, float* d2, int* j1) {
-  float c1[kLanes], c2[kLanes];
+ColumnBest<T>
+ScanColumn(const T* __restrict column, const T* __restrict norms_a, T norm_b, int na, int j, T* __restrict d1,
+           T* __restrict d2, int* __restrict j1) {
+  constexpr T kFar = std::numeric_limits<T>::max();
+  T c1[kLanes], c2[kLanes];
   int i1[kLanes];
-  for (int l = 0; l < kLanes; ++l) c1[l] = c2[l] = INFINITY, i1[l] = -1;
+  for (int l = 0; l < kLanes; ++l) c1[l] = c2[l] = kFar, i1[l] = -1;
   const auto update = [&](int i, int l) {
-    const float d = norms_a[i] + norm_b - 2 * column[i];
+    const T d = norms_a[i] + norm_b - 2 * column[i];
     const bool row_better = d < d1[i];
     d2[i] = row_better ? d1[i] : std::min(d2[i], d);
     j1[i] = row_better ? j : j1[i];
@@ -204,7 +214,7 @@ ScanColumn(const float* column, const float* norms_a, float norm_b, int na, int 
   int best = 0;
   for (int l = 1; l < kLanes; ++l)
     if (c1[l] < c1[best] || (c1[l] == c1[best] && i1[l] >= 0 && (i1[best] < 0 || i1[l] < i1[best]))) best = l;
-  ColumnBest out;
+  ColumnBest<T> out;
   out.c1 = c1[best];
   out.i1 = i1[best];
   out.c2 = c2[best];
@@ -213,47 +223,115 @@ ScanColumn(const float* column, const float* norms_a, float norm_b, int na, int 
   return out;
 }
 
-}  // namespace
+// Whether oneDNN's u8 x s8 product gives exact 32-bit sums on this CPU. With VNNI (vpdpbusd) it
+// does; without, oneDNN's int8 kernels add pairs of products in saturating 16-bit sums (vpmaddubsw;
+// its "int8 computations" guide), which SIFT's bytes overflow (255 x 127 x 2 > 32767). Checked once
+// on a product that saturates there, so a CPU without VNNI takes the float product and gets the
+// same matches.
+bool Int8ProductIsExactOnThisCpu() {
+  static const bool exact = [] {
+    const unsigned isa = static_cast<unsigned>(dnnl_get_effective_cpu_isa());
+    const unsigned vnni = static_cast<unsigned>(dnnl_cpu_isa_avx512_core_vnni);
+    if ((isa & vnni) != vnni) return false;
+    constexpr int kSide = 64, kDepth = 128;
+    const std::vector<uint8_t> a(kSide * kDepth, 255);
+    const std::vector<int8_t> b(kSide * kDepth, 127);
+    std::vector<int32_t> c(kSide * kSide, 0);
+    const int32_t offset = 0;
+    const ScopedOmpThreads one_thread(1);
+    if (dnnl_gemm_u8s8s32('N', 'T', 'F', kSide, kSide, kDepth, 1.f, a.data(), kDepth, 0, b.data(), kDepth, 0, 0.f,
+                          c.data(), kSide, &offset) != dnnl_success) {
+      return false;
+    }
+    return std::all_of(c.begin(), c.end(), [](int32_t v) { return v == kDepth * 255 * 127; });
+  }();
+  return exact;
+}
 
-std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
-                                                  double ratio) {
-  const int na = static_cast<int>(a_bytes.rows()), nb = static_cast<int>(b_bytes.rows());
-  if (na < 2 || nb < 2) return {};
-  const Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> a = a_bytes.cast<float>(), b = b_bytes.cast<float>();
-  const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
-  // dot = a b^T (na x nb, column-major) through the BLAS: OpenBLAS's kernels use the CPU's widest
-  // vectors (the build targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here.
-  // kColumnBlock columns of b at a time into this thread's buffer, kept between calls: a fresh
-  // na x nb product (64 MB at 4000 keypoints) cost as much in page faults as the product itself.
-  // The products of 0..255 integers over 128 terms are exact in float, so any blocking gives the
-  // same distances.
+// Matches from the column-major products of a's rows with blocks of kColumnBlock rows of b:
+// `product(j0, columns, dot)` writes a_i.b_j (as T) for j in [j0, j0 + columns) into
+// dot[(j - j0) * na + i]; norms_a[i] + norm_b(j) - 2 dot is the squared distance.
+template <typename T, typename Product, typename NormB>
+std::vector<std::pair<int, int>> MutualRatioMatches(int na, int nb, const std::vector<T>& norms_a, NormB norm_b,
+                                                    double ratio, Product product) {
   constexpr int kColumnBlock = 256;
-  thread_local std::vector<float> dot;
+  // This thread's buffer, kept between calls: a fresh na x nb product (64 MB at 4000 keypoints)
+  // cost as much in page faults as the product itself.
+  thread_local std::vector<T> dot;
   dot.resize(static_cast<size_t>(na) * std::min(nb, kColumnBlock));
-  const char transpose = 'T', keep = 'N';
-  const int depth = 128;
-  const float one = 1, zero = 0;
+  constexpr T kFar = std::numeric_limits<T>::max();
   const float r2 = static_cast<float>(ratio * ratio);
-  std::vector<float> d1a(na, INFINITY), d2a(na, INFINITY);
+  std::vector<T> d1a(na, kFar), d2a(na, kFar);
   std::vector<int> j1a(na, -1), best_ba(nb, -1);
-  const float* norms_a = norms_a_vector.data();
   for (int j0 = 0; j0 < nb; j0 += kColumnBlock) {
     const int columns = std::min(kColumnBlock, nb - j0);
-    sgemm_(&transpose, &keep, &na, &columns, &depth, &one, a.data(), &depth, b.row(j0).data(), &depth, &zero,
-           dot.data(), &na);
+    product(j0, columns, dot.data());
     for (int c = 0; c < columns; ++c) {
       const int j = j0 + c;
-      const ColumnBest best = ScanColumn(dot.data() + static_cast<size_t>(c) * na, norms_a, norms_b(j), na, j,
-                                         d1a.data(), d2a.data(), j1a.data());
-      if (best.c1 < r2 * best.c2) best_ba[j] = best.i1;
+      const ColumnBest<T> best = ScanColumn<T>(dot.data() + static_cast<size_t>(c) * na, norms_a.data(), norm_b(j), na,
+                                               j, d1a.data(), d2a.data(), j1a.data());
+      if (best.i1 >= 0 && static_cast<float>(best.c1) < r2 * static_cast<float>(best.c2)) best_ba[j] = best.i1;
     }
   }
   std::vector<std::pair<int, int>> out;
   for (int i = 0; i < na; ++i) {
     const int j = j1a[i];
-    if (j >= 0 && d1a[i] < r2 * d2a[i] && best_ba[j] == i) out.push_back({i, j});
+    if (j >= 0 && static_cast<float>(d1a[i]) < r2 * static_cast<float>(d2a[i]) && best_ba[j] == i)
+      out.push_back({i, j});
   }
   return out;
+}
+
+}  // namespace
+
+bool Int8DescriptorProductIsExact() { return Int8ProductIsExactOnThisCpu(); }
+
+std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
+                                                  double ratio, DescriptorProduct product) {
+  const int na = static_cast<int>(a_bytes.rows()), nb = static_cast<int>(b_bytes.rows());
+  if (na < 2 || nb < 2) return {};
+  if (product == DescriptorProduct::kAuto)
+    product = Int8DescriptorProductIsExact() ? DescriptorProduct::kInt8 : DescriptorProduct::kFloat;
+  if (product == DescriptorProduct::kInt8) {
+    if (!Int8DescriptorProductIsExact())
+      throw std::logic_error("MatchDescriptors: oneDNN's int8 product is not exact here");
+    // oneDNN multiplies u8 by s8 only: b stays u8 and a is stored as a - 128, so the product is
+    // a.b - 128 sum(b), and the 128 sum(b) goes into b's norm term: |a|^2 + (|b|^2 - 256 sum(b)) - 2 (a - 128).b.
+    // Every term is an exact integer (|a|^2 <= 128 x 255^2).
+    const Eigen::Matrix<int8_t, Eigen::Dynamic, 128, Eigen::RowMajor> a_shifted =
+        (a_bytes.cast<int>().array() - 128).cast<int8_t>();
+    std::vector<int32_t> norms_a(na), norms_b(nb);
+    for (int i = 0; i < na; ++i) norms_a[i] = a_bytes.row(i).cast<int32_t>().squaredNorm();
+    for (int j = 0; j < nb; ++j)
+      norms_b[j] = b_bytes.row(j).cast<int32_t>().squaredNorm() - 256 * b_bytes.row(j).cast<int32_t>().sum();
+    // oneDNN runs its product on OpenMP threads; the pairs are already spread over the cores.
+    const ScopedOmpThreads one_thread(1);
+    return MutualRatioMatches<int32_t>(
+        na, nb, norms_a, [&](int j) { return norms_b[j]; }, ratio,
+        [&](int j0, int columns, int32_t* dot) {
+          // Row-major dot (columns x na) = b[j0 .. j0 + columns) (a - 128)^T, i.e. column-major na x columns.
+          const int32_t offset = 0;
+          if (dnnl_gemm_u8s8s32('N', 'T', 'F', columns, na, 128, 1.f, b_bytes.row(j0).data(), 128, 0, a_shifted.data(),
+                                128, 0, 0.f, dot, na, &offset) != dnnl_success) {
+            throw std::runtime_error("MatchDescriptors: oneDNN's dnnl_gemm_u8s8s32 failed");
+          }
+        });
+  }
+  const Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> a = a_bytes.cast<float>(), b = b_bytes.cast<float>();
+  const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
+  const std::vector<float> norms_a(norms_a_vector.data(), norms_a_vector.data() + na);
+  // dot = a b^T through the BLAS: OpenBLAS's kernels use the CPU's widest vectors (the build
+  // targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here. The products of
+  // 0..255 integers over 128 terms are exact in float, so any blocking gives the same distances.
+  return MutualRatioMatches<float>(
+      na, nb, norms_a, [&](int j) { return norms_b(j); }, ratio,
+      [&](int j0, int columns, float* dot) {
+        const char transpose = 'T', keep = 'N';
+        const int depth = 128;
+        const float one = 1, zero = 0;
+        sgemm_(&transpose, &keep, &na, &columns, &depth, &one, a.data(), &depth, b.row(j0).data(), &depth, &zero, dot,
+               &na);
+      });
 }
 
 namespace {
