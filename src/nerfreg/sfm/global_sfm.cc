@@ -38,7 +38,7 @@ void SfmOptions::Check() const {
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
       !(reverify_matches_px >= 0) ||
       !(max_edge_direction_residual_deg >= 0 && max_edge_direction_residual_deg <= 180) || collapse_retries < 0 ||
-      intrinsics_subset_cells < 0 || intrinsics_subset_per_cell < 1) {
+      subset_cells < 0 || subset_per_cell < 1) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
@@ -311,14 +311,13 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       triangulate_all();
       seconds_triangulation += stage.Seconds();
       stage.Restart();
-      const bool self_calibrating = options.refine_focal || options.refine_distortion;
       const bool last_round = round + 1 == options.round_reprojection_error_px.size();
-      if (!last_round && self_calibrating && options.intrinsics_subset_cells > 0) {
+      if (!last_round && options.subset_cells > 0) {
         // Before the last round the poses and intrinsics only serve to verify the matches and
         // triangulate again: a spread subset of the points will do.
         std::vector<SfmPoint> subset;
-        for (int k : SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.intrinsics_subset_cells,
-                                       options.intrinsics_subset_per_cell))
+        for (int k : SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.subset_cells,
+                                       options.subset_per_cell))
           subset.push_back(std::move(s.points[k]));
         s.points = std::move(subset);
       }
@@ -333,12 +332,11 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       ba.refine_focal = options.refine_focal && round > 0;
       ba.refine_distortion = options.refine_distortion && round > 0;
       double seconds_retriangulation = 0;
-      if (last_round && (ba.refine_focal || ba.refine_distortion) && options.intrinsics_subset_cells > 0) {
+      if (last_round && (ba.refine_focal || ba.refine_distortion) && options.subset_cells > 0) {
         // The intrinsics on a spread subset, then every track again with them. (Earlier rounds
         // already adjust such a subset alone, above.)
-        const std::vector<int> chosen =
-            SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed, options.intrinsics_subset_cells,
-                              options.intrinsics_subset_per_cell);
+        const std::vector<int> chosen = SpreadPointSubset(s.points, graph.keypoints, s.cameras, s.posed,
+                                                          options.subset_cells, options.subset_per_cell);
         if (chosen.size() < s.points.size()) {
           std::vector<SfmPoint> subset;
           for (int k : chosen) subset.push_back(s.points[k]);

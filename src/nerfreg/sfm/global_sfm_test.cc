@@ -342,8 +342,8 @@ TEST(GlobalSfm, SelfCalibrationRecoversTheFocalLengthAndDistortionOfRenderedView
   // 351.53 px with GCC, 360.17 (2.3 %) on the sanitized clang build's renders (procedural renders
   // differ between the two compilers), so the bound is 3 % here, 1 % for the default subset above.
   SfmOptions few = o;
-  few.intrinsics_subset_cells = 2;
-  few.intrinsics_subset_per_cell = 2;
+  few.subset_cells = 2;
+  few.subset_per_cell = 2;
   // (From the prior focal: the graph's cameras are the refined ones now, its edges measured with them.)
   EXPECT_TRUE(r.view_graph.cameras == r.cameras);
   const SfmResult f = RunGlobalSfm(r.view_graph, prior, few);
