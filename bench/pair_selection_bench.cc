@@ -4,9 +4,10 @@
 // the scene as i grows (a sweep), each row perturbed by noise. Retrieval and its vocabulary are
 // built from these sets per run, as SelectPairs does for real images.
 //   build/bench/nerfreg_pair_selection_bench --benchmark_counters_tabular=true
-// Measured (2-core machine shared with other builds, load average 5.8; wall time, 25 neighbours):
-// 100 images 1.65 s (1 552 pairs of 4 950), 200 2.22 s (2 980 of 19 900), 300 2.70 s (4 242 of
-// 44 850), 500 3.99 s (6 405 of 124 750).
+// Measured (2-core machine, nothing else running; wall time, 25 neighbours), with the
+// vocabulary's products by the BLAS (2026-11-29): 100 images 0.44 s (1 552 pairs of 4 950), 200
+// 0.56 s (2 980 of 19 900), 300 0.56 s (4 242 of 44 850), 500 0.90 s (6 405 of 124 750); with
+// Eigen's SSE2 products (the binary before, run minutes earlier) 100 and 200 took 3.74 and 5.35 s.
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
