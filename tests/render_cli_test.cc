@@ -54,5 +54,26 @@ TEST(Binary, OpenBlasIsBoundBeforeAtlas) {
   if (atlas != std::string::npos) EXPECT_LT(blas, atlas) << r.output;
 }
 
+// The threading environment (docs/threads.md) is in place when libgomp reads it: started without
+// the variables, libgomp's own report (OMP_DISPLAY_ENV, printed by its initialiser) comes once, from
+// the second start, and shows passive waiting (no spinning: GOMP_SPINCOUNT 0, where the default
+// is 300000); the first start ran none of the libraries' initialisers. A user's own value is kept.
+TEST(Binary, OpenMpWaitsPassivelyAndTheLibrariesInitialiseOnceUnlessTheUserSaysOtherwise) {
+  const std::string binary = NERFREG_BINARY;
+  const CommandResult unset =
+      RunShell("env -u OMP_WAIT_POLICY -u OPENBLAS_NUM_THREADS -u NERFREG_ENV_SET OMP_DISPLAY_ENV=verbose " + binary +
+               " --help 2>&1");
+  ASSERT_EQ(unset.exit_code, 0) << unset.output;
+  const size_t first = unset.output.find("GOMP_SPINCOUNT = ");
+  ASSERT_NE(first, std::string::npos) << unset.output;
+  EXPECT_EQ(unset.output.find("GOMP_SPINCOUNT = ", first + 1), std::string::npos) << unset.output;
+  EXPECT_NE(unset.output.find("GOMP_SPINCOUNT = '0'"), std::string::npos) << unset.output;
+  const CommandResult user =
+      RunShell("env -u NERFREG_ENV_SET OMP_WAIT_POLICY=ACTIVE OMP_DISPLAY_ENV=verbose " + binary + " --help 2>&1");
+  ASSERT_EQ(user.exit_code, 0) << user.output;
+  EXPECT_NE(user.output.find("OMP_WAIT_POLICY = 'ACTIVE'"), std::string::npos) << user.output;
+  EXPECT_EQ(user.output.find("GOMP_SPINCOUNT = '0'"), std::string::npos) << user.output;
+}
+
 }  // namespace
 }  // namespace nerfreg

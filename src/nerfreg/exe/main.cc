@@ -46,26 +46,45 @@ void PrintUsage() {
 #endif
 }
 
-}  // namespace
-
 // Threading environment: torch's OpenMP threads spinning after each parallel region while
 // OpenBLAS runs its own threads made a field forward+backward several times slower than passive
 // OpenMP waiting with single-threaded OpenBLAS calls (torch parallelises around them); measured in
-// docs/threads.md. Both variables are read when the libraries load, so the process re-executes
-// itself once with them set.
-void EnsureThreadingEnvironment(char** argv) {
-  if (std::getenv("NERFREG_ENV_SET") != nullptr) return;
-  // Already set (by the user or a script): nothing to change, so no second start-up (loading the
-  // libraries again).
-  if (std::getenv("OMP_WAIT_POLICY") != nullptr && std::getenv("OPENBLAS_NUM_THREADS") != nullptr) return;
-  setenv("NERFREG_ENV_SET", "1", 1);
-  setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
-  setenv("OPENBLAS_NUM_THREADS", "1", 0);
-  execv("/proc/self/exe", argv);  // returns only on failure: then carry on as we are
+// docs/threads.md. libgomp and OpenBLAS read both variables in their own initialisers, before
+// main, so a process started without them runs itself again with them set. This runs from the
+// executable's .preinit_array: after the libraries are loaded but before any of them is
+// initialised (the ELF rule glibc follows), so the first start costs the loading alone, not
+// the libraries' initialisation (~0.45 s, most of it LibTorch's; done in main(), as until
+// 2026-11-29, it was paid twice). libc's `environ` is not set up yet here, hence envp.
+void EnsureThreadingEnvironment(int /*argc*/, char** argv, char** envp) {
+  if (envp == nullptr || argv == nullptr) return;
+  bool wait = false, blas = false, again = false;
+  int count = 0;
+  for (char** e = envp; *e != nullptr; ++e, ++count) {
+    wait = wait || std::strncmp(*e, "OMP_WAIT_POLICY=", 16) == 0;
+    blas = blas || std::strncmp(*e, "OPENBLAS_NUM_THREADS=", 21) == 0;
+    again = again || std::strncmp(*e, "NERFREG_ENV_SET=", 16) == 0;
+  }
+  // Already set (by the user or a script), or this is the second start: nothing to change.
+  if (again || (wait && blas)) return;
+  static char wait_policy[] = "OMP_WAIT_POLICY=PASSIVE", blas_threads[] = "OPENBLAS_NUM_THREADS=1",
+              marker[] = "NERFREG_ENV_SET=1";
+  char** env = static_cast<char**>(std::malloc((count + 4) * sizeof(char*)));
+  if (env == nullptr) return;
+  int n = 0;
+  for (int k = 0; k < count; ++k) env[n++] = envp[k];
+  if (!wait) env[n++] = wait_policy;
+  if (!blas) env[n++] = blas_threads;
+  env[n++] = marker;
+  env[n] = nullptr;
+  execve("/proc/self/exe", argv, env);  // returns only on failure: then carry on as we are
+  std::free(env);
 }
+__attribute__((section(".preinit_array"),
+               used)) void (*ensure_threading_environment)(int, char**, char**) = &EnsureThreadingEnvironment;
+
+}  // namespace
 
 int main(int argc, char** argv) {
-  EnsureThreadingEnvironment(argv);
   nerfreg::InstallOutputSignalHandlers();
   nerfreg::InitLogging(nerfreg::LogOptions{});
   nerfreg::InitThreads();
