@@ -62,8 +62,8 @@ struct ViewGraphOptions {
   // has fewer than min_inliers inliers is no edge whatever its homography says (a homography's
   // inliers also fit the essential matrix [t]x R of its rotation for any t), so the homography is
   // fitted only to pairs that pass, and its hypotheses are capped as in (1) for the inliers that
-  // would make the pair planar (0.8 of the essential matrix's). false: 1000 / 2000 hypotheses and
-  // every homography fitted.
+  // would make the pair planar (0.8 of the essential matrix's), and at most 500 (view_graph.cc,
+  // kMaxEarlyHomographyIterations). false: 1000 / 2000 hypotheses and every homography fitted.
   bool early_rejection = true;
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
