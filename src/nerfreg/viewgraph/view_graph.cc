@@ -193,12 +193,10 @@ struct ColumnBest {
 // vectorise the updates.
 constexpr int kLanes = 16;
 template <typename T>
-#if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-ColumnBest<T>
-ScanColumn(const T* __restrict column, const T* __restrict norms_a, T norm_b, int na, int j, T* __restrict d1,
-           T* __restrict d2, int* __restrict j1) {
+inline __attribute__((always_inline)) ColumnBest<T> ScanColumnBody(const T* __restrict column,
+                                                                   const T* __restrict norms_a, T norm_b, int na, int j,
+                                                                   T* __restrict d1, T* __restrict d2,
+                                                                   int* __restrict j1) {
   constexpr T kFar = std::numeric_limits<T>::max();
   T c1[kLanes], c2[kLanes];
   int i1[kLanes];
@@ -229,6 +227,25 @@ ScanColumn(const T* __restrict column, const T* __restrict norms_a, T norm_b, in
     if (l != best) out.c2 = std::min(out.c2, c1[l]);
   return out;
 }
+
+// The body inlined into one function per element type, each built for AVX-512, AVX2 and baseline
+// x86-64 (Clang takes no function template with target_clones).
+#if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
+#define NERFREG_SCAN_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define NERFREG_SCAN_CLONES
+#endif
+NERFREG_SCAN_CLONES ColumnBest<float> ScanColumn(const float* __restrict column, const float* __restrict norms_a,
+                                                 float norm_b, int na, int j, float* __restrict d1,
+                                                 float* __restrict d2, int* __restrict j1) {
+  return ScanColumnBody<float>(column, norms_a, norm_b, na, j, d1, d2, j1);
+}
+NERFREG_SCAN_CLONES ColumnBest<int32_t> ScanColumn(const int32_t* __restrict column, const int32_t* __restrict norms_a,
+                                                   int32_t norm_b, int na, int j, int32_t* __restrict d1,
+                                                   int32_t* __restrict d2, int* __restrict j1) {
+  return ScanColumnBody<int32_t>(column, norms_a, norm_b, na, j, d1, d2, j1);
+}
+#undef NERFREG_SCAN_CLONES
 
 // Whether oneDNN's u8 x s8 product gives exact 32-bit sums on this CPU. With VNNI (vpdpbusd) it
 // does; without, oneDNN's int8 kernels add pairs of products in saturating 16-bit sums (vpmaddubsw;
@@ -275,8 +292,8 @@ std::vector<std::pair<int, int>> MutualRatioMatches(int na, int nb, const std::v
     product(j0, columns, dot.data());
     for (int c = 0; c < columns; ++c) {
       const int j = j0 + c;
-      const ColumnBest<T> best = ScanColumn<T>(dot.data() + static_cast<size_t>(c) * na, norms_a.data(), norm_b(j), na,
-                                               j, d1a.data(), d2a.data(), j1a.data());
+      const ColumnBest<T> best = ScanColumn(dot.data() + static_cast<size_t>(c) * na, norms_a.data(), norm_b(j), na, j,
+                                            d1a.data(), d2a.data(), j1a.data());
       if (best.i1 >= 0 && static_cast<float>(best.c1) < r2 * static_cast<float>(best.c2)) best_ba[j] = best.i1;
     }
   }
