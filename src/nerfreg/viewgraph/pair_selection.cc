@@ -10,12 +10,7 @@
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
-
-// The Fortran BLAS's single-precision product (OpenBLAS where setup.sh installed it), as in
-// view_graph.cc: C = op(A) op(B), column-major.
-extern "C" void sgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
-                       const float* alpha, const float* a, const int* lda, const float* b, const int* ldb,
-                       const float* beta, float* c, const int* ldc);
+#include "nerfreg/viewgraph/descriptor_product.h"
 
 namespace nerfreg {
 namespace {
@@ -32,12 +27,9 @@ std::vector<int> NearestCenters(const DescriptorsF& x, const DescriptorsF& cente
   const int n = static_cast<int>(x.rows()), k = static_cast<int>(centers.rows());
   std::vector<int> nearest(n, 0);
   if (n == 0 || k == 0) return nearest;
-  // Row-major dot (n x k) = x centers^T, i.e. column-major k x n = centers x^T.
+  // dot[r * k + c] = centers_c . x_r: row r holds x_r's products with every centre.
   std::vector<float> dot(static_cast<size_t>(n) * k);
-  const char transpose = 'T', keep = 'N';
-  const int depth = 128;
-  const float one = 1, zero = 0;
-  sgemm_(&transpose, &keep, &k, &n, &depth, &one, centers.data(), &depth, x.data(), &depth, &zero, dot.data(), &k);
+  DotProducts128(centers.data(), k, x.data(), n, dot.data());
   for (int r = 0; r < n; ++r) {
     const float* row = dot.data() + static_cast<size_t>(r) * k;
     float best = center_norms[0] - 2 * row[0];

@@ -19,13 +19,8 @@
 #include "nerfreg/util/logging.h"
 #include "nerfreg/util/omp_threads.h"
 #include "nerfreg/util/timer.h"
+#include "nerfreg/viewgraph/descriptor_product.h"
 #include "nerfreg/viewgraph/two_view_refinement.h"
-
-// The Fortran BLAS's single-precision product (any libblas.so.3; OpenBLAS where setup.sh installed
-// it, threads set by exe/main.cc): C = op(A) op(B), column-major.
-extern "C" void sgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
-                       const float* alpha, const float* a, const int* lda, const float* b, const int* ldb,
-                       const float* beta, float* c, const int* ldc);
 
 namespace nerfreg {
 
@@ -133,12 +128,11 @@ bool PanoramicRuledOut(const std::vector<cv::Point2d>& pi, const std::vector<cv:
 // Hypotheses drawn at most (OpenCV's defaults for the essential matrix and the homography).
 constexpr int kMaxEssentialIterations = 1000;
 constexpr int kMaxHomographyIterations = 2000;
-// ... and for the homography with early rejection. Its costly fits are those refitted for a
-// small pair whose essential matrix has its inliers beyond the cheirality test's depth (short
-// baselines, below): at 2000 hypotheses 239 such fits took 10.3 of the 28 CPU s of the two-view
-// geometry on 192 forward-facing views, for 50 panoramic edges. At 500: 34.1 -> 30.7 s, median
-// rotation error 0.0890 -> 0.0903 deg (96 views: 15.1 -> 14.5 s, 0.0909 -> 0.0904); not fitting
-// them again at all: 28.8 s but 0.0951 deg. The real sets of bench/real_poses.sh are unchanged.
+// ... and for the homography with early rejection. Its costly fits are the refits of pairs whose
+// essential matrix has its inliers beyond the cheirality test's depth (short baselines, below): at 2000 hypotheses 239
+// such fits took 10.3 of the 28 CPU s of the two-view geometry on 192 forward-facing views, for 50 panoramic edges. At
+// 500: 34.1 -> 30.7 s, median rotation error 0.0890 -> 0.0903 deg (96 views: 15.1 -> 14.5 s, 0.0909 -> 0.0904); not
+// fitting them again at all: 28.8 s but 0.0951 deg. The real sets of bench/real_poses.sh are unchanged.
 constexpr int kMaxEarlyHomographyIterations = 500;
 
 // The hypotheses that find, with probability `confidence`, an all-inlier sample of `sample_size`
@@ -185,8 +179,7 @@ struct ColumnBest {
 // One column of squared distances d_i = |a_i|^2 + |b_j|^2 - 2 a_i.b_j, read once: updates each row's
 // running best two (d1, d2, j1) and returns the column's best two. The column's search keeps
 // kLanes independent best-two lanes (row i in lane i % kLanes) so that both updates are branchless
-// and vectorise, then merges the lanes; the result equals the sequential search's exactly. Built
-// for AVX2 and for baseline x86-64, chosen at run time (the build targets baseline x86-64).
+// and vectorise, then merges the lanes; the result equals the sequential search's exactly.
 // T: float (the BLAS product) or int32_t (oneDNN's integer product); the distances are the same
 // integers in both (below 2^24, so exact in float), and so are the matches. The rows' arrays are
 // declared unaliased: with T = int32_t, j1 could otherwise alias d1 and d2 and GCC would not
@@ -229,7 +222,8 @@ inline __attribute__((always_inline)) ColumnBest<T> ScanColumnBody(const T* __re
 }
 
 // The body inlined into one function per element type, each built for AVX-512, AVX2 and baseline
-// x86-64 (Clang takes no function template with target_clones).
+// x86-64 and chosen at run time (the build targets baseline x86-64; Clang takes no function
+// template with target_clones).
 #if defined(__x86_64__) && (defined(__clang__) || defined(__GNUC__))
 #define NERFREG_SCAN_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else
@@ -252,7 +246,9 @@ NERFREG_SCAN_CLONES ColumnBest<int32_t> ScanColumn(const int32_t* __restrict col
 // its "int8 computations" guide), which SIFT's bytes overflow (255 x 127 x 2 > 32767). Checked once
 // on a product that saturates there, so a CPU without VNNI takes the float product and gets the
 // same matches.
-bool Int8ProductIsExactOnThisCpu() {
+}  // namespace
+
+bool Int8DescriptorProductIsExact() {
   static const bool exact = [] {
     const unsigned isa = static_cast<unsigned>(dnnl_get_effective_cpu_isa());
     const unsigned vnni = static_cast<unsigned>(dnnl_cpu_isa_avx512_core_vnni);
@@ -271,6 +267,8 @@ bool Int8ProductIsExactOnThisCpu() {
   }();
   return exact;
 }
+
+namespace {
 
 // Matches from the column-major products of a's rows with blocks of kColumnBlock rows of b:
 // `product(j0, columns, dot)` writes a_i.b_j (as T) for j in [j0, j0 + columns) into
@@ -308,8 +306,6 @@ std::vector<std::pair<int, int>> MutualRatioMatches(int na, int nb, const std::v
 
 }  // namespace
 
-bool Int8DescriptorProductIsExact() { return Int8ProductIsExactOnThisCpu(); }
-
 std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes, const SiftDescriptors& b_bytes,
                                                   double ratio, DescriptorProduct product) {
   const int na = static_cast<int>(a_bytes.rows()), nb = static_cast<int>(b_bytes.rows());
@@ -344,18 +340,11 @@ std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a_bytes
   const Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> a = a_bytes.cast<float>(), b = b_bytes.cast<float>();
   const Eigen::VectorXf norms_a_vector = a.rowwise().squaredNorm(), norms_b = b.rowwise().squaredNorm();
   const std::vector<float> norms_a(norms_a_vector.data(), norms_a_vector.data() + na);
-  // dot = a b^T through the BLAS: OpenBLAS's kernels use the CPU's widest vectors (the build
-  // targets baseline x86-64, where Eigen has SSE2 only), 3x Eigen's product here. The products of
-  // 0..255 integers over 128 terms are exact in float, so any blocking gives the same distances.
+  // dot = a b^T through the BLAS (3x Eigen's product here). The products of 0..255 integers over
+  // 128 terms are exact in float, so any blocking gives the same distances.
   return MutualRatioMatches<float>(
       na, nb, norms_a, [&](int j) { return norms_b(j); }, ratio,
-      [&](int j0, int columns, float* dot) {
-        const char transpose = 'T', keep = 'N';
-        const int depth = 128;
-        const float one = 1, zero = 0;
-        sgemm_(&transpose, &keep, &na, &columns, &depth, &one, a.data(), &depth, b.row(j0).data(), &depth, &zero, dot,
-               &na);
-      });
+      [&](int j0, int columns, float* dot) { DotProducts128(a.data(), na, b.row(j0).data(), columns, dot); });
 }
 
 namespace {
