@@ -15,7 +15,8 @@
 # Environment: NERFREG (default build/nerfreg), SETS (default "cube castle spider"),
 #   METHODS (default "nerfreg colmap38 colmap4"), WORK (default /tmp/real_poses), OUT (default
 #   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap),
-#   TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the binary's own).
+#   TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the binary's own), SEEDS (default
+#   "1 2 3 4": the classical run again with `--seed S` on the sets with a truth; "" for none).
 # Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only); installs visp-images-data
 # (scripts/setup.sh) where it is missing.
 set -euo pipefail
@@ -26,6 +27,7 @@ WORK=${WORK:-/tmp/real_poses}
 OUT=${OUT:-$ROOT/results/real_poses}
 SETS=${SETS:-"cube castle spider"}
 METHODS=${METHODS:-"nerfreg colmap38 colmap4"}
+SEEDS=${SEEDS-"1 2 3 4"}
 VIEWS=24
 ARGS="$*"
 while [ $# -gt 0 ]; do
@@ -50,5 +52,5 @@ if ! "$VENV/bin/python" -c 'import numpy, PIL, pycolmap; assert pycolmap.__versi
 fi
 
 exec "$VENV/bin/python" "$ROOT/bench/real_poses.py" run --work "$WORK" --sets "$SETS" --methods "$METHODS" \
-  --spider-views "$VIEWS" --nerfreg "$NERFREG" --out-prefix "$OUT" \
-  --command "SETS=\"$SETS\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/real_poses.sh $ARGS"
+  --spider-views "$VIEWS" --seeds "$SEEDS" --nerfreg "$NERFREG" --out-prefix "$OUT" \
+  --command "SETS=\"$SETS\" METHODS=\"$METHODS\" SEEDS=\"$SEEDS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/real_poses.sh $ARGS"

@@ -102,11 +102,17 @@ int RunDbarfPoses(int argc, char** argv) {
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
   std::string pairs = "auto", two_view = TwoViewEstimatorName(options.sfm.view_graph.estimator);
   AddViewGraphOptions(app, &options.sfm.view_graph, &pairs, &two_view);
+  unsigned int seed = 0;
+  app.add_option("--seed", seed,
+                 "Random seed of the two-view estimates (USAC) and of global positioning's start (default 0); other "
+                 "seeds show how much the poses owe to the random draws");
   std::string device = "cpu";
   AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   options.sfm.view_graph.pairs.strategy = ParsePairStrategy(pairs);
   options.sfm.view_graph.estimator = ParseTwoViewEstimator(two_view);
+  options.sfm.view_graph.seed = seed;
+  options.sfm.global_positioning.seed += seed;
   options.device = ParseDevice(device);
   job.force = common.force;
   PoseImageFolder(job);

@@ -441,7 +441,7 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
     params.loMethod = cv::LOCAL_OPTIM_SIGMA;
     params.loSampleSize = 50;
     params.maxIterations = e_iterations;
-    params.randomGeneratorState = 0;
+    params.randomGeneratorState = static_cast<int>(options.seed);
     params.sampler = cv::SAMPLING_UNIFORM;
     params.score = cv::SCORE_METHOD_MAGSAC;
     params.threshold = threshold;

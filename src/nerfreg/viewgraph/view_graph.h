@@ -42,6 +42,10 @@ struct ViewGraphOptions {
   double ratio = 0.8;                // Lowe ratio test
   double ransac_threshold_px = 1.0;  // essential-matrix RANSAC threshold, pixels
   double ransac_confidence = 0.999;
+  // The random state of USAC's hypotheses (--seed), the same for every pair. Where pairs have few
+  // matches the inlier sets, and through the tracks the poses, change with it: bench/real_poses.sh
+  // reports the spread over seeds. cv::RANSAC seeds its own generator.
+  unsigned int seed = 0;
   int min_inliers = 30;  // fewer geometric inliers: no edge
   // The essential matrix's estimator (--two-view). USAC, the default: fewer wrong edges, cheaper
   // on pairs that do not overlap and more accurate poses on the orbit and Castle-simu; its own
@@ -152,8 +156,8 @@ std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a, cons
 // essential matrix, cheirality, and the homography test for panoramic pairs. keypoints_*: the
 // images' keypoints in normalised image coordinates (Camera::CamFromImg's x / z, y / z);
 // threshold_px / focal_px: the RANSAC threshold in normalised units. nullopt: fewer than
-// options.min_inliers inliers (no edge). Deterministic (OpenCV's estimators seed their own
-// generators). The edge's i, j are left 0.
+// options.min_inliers inliers (no edge). Deterministic: USAC draws from options.seed, cv::RANSAC
+// seeds its own generator. The edge's i, j are left 0.
 std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Vector2d>& keypoints_i,
                                                      const std::vector<Eigen::Vector2d>& keypoints_j,
                                                      const std::vector<std::pair<int, int>>& matches, double focal_px,
