@@ -655,15 +655,21 @@ def bench_set(info, args, python):
         if "colmap4" in methods:
             for suffix, triple in run_colmap4(info, os.path.join(work, "colmap4"), True, python):
                 add("COLMAP 4 global" + suffix, triple)
-    # The classical run again with other random seeds (`--seed`; the run above is seed 0), where a
-    # truth scores them: how much of its error the random draws decide.
-    seed_runs = {}
-    if calibrated and "gt_matrices" in info and "nerfreg" in methods:
-        for seed in [int(x) for x in args.seeds.split()]:
+    # nerfreg's runs again with other random seeds (`--seed`; the runs above are seed 0): the
+    # classical one where there are intrinsics and a truth, the uncalibrated one everywhere. How much
+    # of the error the random draws decide, and whether one of them goes wrong.
+    seed_runs = {}  # run name -> {seed: (result, poses)}
+    seed_list = [int(x) for x in args.seeds.split()] if "nerfreg" in methods else []
+    if calibrated and "gt_matrices" in info:
+        for seed in seed_list:
             r, p, _ = run_nerfreg(info, os.path.join(work, "nerfreg_classical_seed%d" % seed), args.nerfreg, "classical",
                                   True, seed)
-            seed_runs[seed] = (r, p)
+            seed_runs.setdefault("nerfreg classical", {})[seed] = (r, p)
             log("%s nerfreg classical --seed %d: %s, %.1f s" % (name, seed, r["status"], r.get("wall_s", 0)))
+    for seed in seed_list:
+        r, p, _ = run_nerfreg(info, os.path.join(work, "nerfreg_uncal_seed%d" % seed), args.nerfreg, None, False, seed)
+        seed_runs.setdefault("nerfreg uncal", {})[seed] = (r, p)
+        log("%s nerfreg uncal --seed %d: %s, %.1f s" % (name, seed, r["status"], r.get("wall_s", 0)))
     if "nerfreg" in methods:
         add("nerfreg uncal", run_nerfreg(info, os.path.join(work, "nerfreg_uncal"), args.nerfreg, None, False))
     if "colmap38" in methods:
@@ -712,15 +718,20 @@ def bench_set(info, args, python):
             m.update(a=a, b=b)
             pairs.append(m)
     res["pairs"] = pairs
-    if gt and seed_runs:
-        seeds = []
-        for seed, (r, p) in sorted(([(0, (runs["nerfreg classical"], poses["nerfreg classical"]))]
-                                    if "nerfreg classical" in runs else []) + list(seed_runs.items())):
-            m = compare(p, gt) if p else {}
-            seeds.append({"seed": seed, "status": r.get("status"), "posed": len(p), "wall_s": r.get("wall_s"),
-                          "command": r.get("command"), "rot_deg_median": m.get("rot_deg_median"),
-                          "rot_deg_max": m.get("rot_deg_max"), "center_pct_median": m.get("center_pct_median")})
-        res["seeds"] = seeds
+    # Each seeded run against the truth where there is one, else against COLMAP 4.
+    seed_ref = "truth" if gt else c4
+    seed_ref_poses = gt if gt else poses.get(c4)
+    res["seeds"] = []
+    for run_name, by_seed in seed_runs.items():
+        rows = []
+        all_runs = ([(0, (runs[run_name], poses[run_name]))] if run_name in runs else []) + sorted(by_seed.items())
+        for seed, (r, p) in all_runs:
+            m = compare(p, seed_ref_poses) if p and seed_ref_poses else {}
+            rows.append({"seed": seed, "status": r.get("status"), "posed": len(p), "wall_s": r.get("wall_s"),
+                         "command": r.get("command"), "focal_px": r.get("focal_px"),
+                         "rot_deg_median": m.get("rot_deg_median"), "rot_deg_max": m.get("rot_deg_max"),
+                         "center_pct_median": m.get("center_pct_median")})
+        res["seeds"].append({"run": run_name, "reference": seed_ref, "runs": rows})
     ref_motion = next((k for k in (c38, c4, "COLMAP 3.8 uncal") if poses.get(k)), None)
     if gt:
         res["motion"] = dict(motion(gt, np.zeros((0, 3))), source="truth")
@@ -864,20 +875,30 @@ def write_md(j, path):
     L.append("")
     seeded = [s for s in j["sets"] if s.get("seeds")]
     if seeded:
-        L.append("## Random seeds (nerfreg classical against the truth)")
+        L.append("## Random seeds")
         L.append("")
         L.append("`--seed S` draws other two-view hypotheses (USAC) and another start for global positioning; "
-                 "seed 0 is the classical run above. The spread is how much of the error the draws decide.")
+                 "seed 0 is the run in the tables above. Median rotation difference per seed against the truth, "
+                 "else against COLMAP 4 (focal in px where self-calibrated). The spread is how much of the error "
+                 "the draws decide.")
         L.append("")
-        L.append("| set | rot median deg per seed | median of them | min | max | COLMAP 3.8 / COLMAP 4 |")
-        L.append("|---|---|---|---|---|---|")
+        L.append("| set | run | against | per seed: rot median deg (focal) | median | min | max | COLMAP 3.8 / COLMAP 4 |")
+        L.append("|---|---|---|---|---|---|---|---|")
         for s in seeded:
-            vals = [x["rot_deg_median"] for x in s["seeds"] if x.get("rot_deg_median") is not None]
-            per = ", ".join("%d: %s" % (x["seed"], fmt(x.get("rot_deg_median"))) for x in s["seeds"])
-            refs = " / ".join(fmt(pair(s, c, "truth").get("rot_deg_median")) for c in ("COLMAP 3.8", "COLMAP 4 global"))
-            L.append("| %s | %s | %s | %s | %s | %s |" % (
-                s["name"], per, fmt(float(np.median(vals)) if vals else None), fmt(min(vals) if vals else None),
-                fmt(max(vals) if vals else None), refs))
+            for block in s["seeds"]:
+                vals = [x["rot_deg_median"] for x in block["runs"] if x.get("rot_deg_median") is not None]
+                per = ", ".join("%d: %s%s" % (x["seed"], fmt(x.get("rot_deg_median")),
+                                              " (%.0f)" % np.mean(x["focal_px"]) if block["run"] == "nerfreg uncal"
+                                              and x.get("focal_px") else "") for x in block["runs"])
+                if block["reference"] == "truth":
+                    c38k, c4k = (("COLMAP 3.8 uncal", "COLMAP 4 global uncal") if block["run"] == "nerfreg uncal"
+                                 else ("COLMAP 3.8", "COLMAP 4 global"))
+                    refs = " / ".join(fmt(pair(s, c, "truth").get("rot_deg_median")) for c in (c38k, c4k))
+                else:
+                    refs = "-"
+                L.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
+                    s["name"], block["run"], block["reference"], per, fmt(float(np.median(vals)) if vals else None),
+                    fmt(min(vals) if vals else None), fmt(max(vals) if vals else None), refs))
         L.append("")
     L.append("## Targets (issue 42)")
     L.append("")
@@ -935,7 +956,7 @@ def main():
     r.add_argument("--sets", default=DEFAULT_SETS)
     r.add_argument("--methods", default="nerfreg colmap38 colmap4")
     r.add_argument("--spider-views", type=int, default=24)
-    r.add_argument("--seeds", default="1 2 3 4", help="other --seed values of the classical run on sets with a truth")
+    r.add_argument("--seeds", default="1 2 3 4", help="other --seed values of nerfreg's classical (sets with a truth) and uncalibrated runs")
     r.add_argument("--nerfreg", required=True)
     r.add_argument("--out-prefix", required=True)
     r.add_argument("--command", default="")

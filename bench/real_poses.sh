@@ -16,7 +16,8 @@
 #   METHODS (default "nerfreg colmap38 colmap4"), WORK (default /tmp/real_poses), OUT (default
 #   results/real_poses), VENV (default .bench-venv: made here with pinned numpy, pillow, pycolmap),
 #   TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the binary's own), SEEDS (default
-#   "1 2 3 4": the classical run again with `--seed S` on the sets with a truth; "" for none).
+#   "1 2 3 4": nerfreg's uncalibrated run, and its classical run on the sets with a truth, again with
+#   `--seed S`; "" for none).
 # Needs colmap 3.8 on PATH, python3 with venv, PyPI (first run only); installs visp-images-data
 # (scripts/setup.sh) where it is missing.
 set -euo pipefail
