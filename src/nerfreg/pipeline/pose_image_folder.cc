@@ -81,15 +81,19 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
 
 // Cameras of photos without a calibration file: a focal prior per image from its EXIF (or its size,
 // util/exif.h), principal point at the centre, no distortion; `group` gets one camera group per
-// make / model / size, whose intrinsics the SfM estimates and refines together.
+// make / model / size, whose intrinsics the SfM estimates and refines together. size_guess: whether
+// every prior came from the image size (no EXIF focal length at all).
 std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const std::vector<Image>& images,
-                                 const std::vector<ExifInfo>& exif, const std::string& dir, std::vector<int>* group) {
+                                 const std::vector<ExifInfo>& exif, const std::string& dir, std::vector<int>* group,
+                                 bool* size_guess) {
   std::vector<Camera> cameras;
   std::map<std::string, int> group_of;
   group->clear();
+  *size_guess = true;
   for (size_t k = 0; k < names.size(); ++k) {
     const Image& im = images[k];
     const FocalPrior prior = FocalPriorFromExif(exif[k], im.width, im.height, JoinPaths(dir, names[k]));
+    if (prior.source != "image-size") *size_guess = false;
     const std::string maker = exif[k].make + (exif[k].model.empty() ? "" : " " + exif[k].model);
     const std::string key =
         (maker.empty() ? "unknown camera" : maker) + " " + std::to_string(im.width) + "x" + std::to_string(im.height);
@@ -324,7 +328,11 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     for (const Image& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   } else {
-    cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group);
+    bool size_guess = false;
+    cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group, &size_guess);
+    // A focal length guessed from the image size can start the solve in a wrong minimum: solved
+    // again from 1.4x and 0.7x it (SfmOptions::focal_starts).
+    if (size_guess) o.poses.sfm.focal_starts = {1.0, 1.4};
   }
   if (!calibrated || o.refine_intrinsics) {
     o.poses.sfm.view_graph.estimate_focal = !calibrated;

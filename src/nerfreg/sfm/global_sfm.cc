@@ -5,9 +5,11 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <thread>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
@@ -43,6 +45,8 @@ void SfmOptions::Check() const {
   }
   for (double t : round_reprojection_error_px)
     if (!(t > 0)) throw std::invalid_argument("SfmOptions: round_reprojection_error_px must be positive");
+  for (double f : focal_starts)
+    if (!(f > 0 && std::isfinite(f))) throw std::invalid_argument("SfmOptions: focal_starts must be positive");
 }
 
 namespace {
@@ -221,9 +225,11 @@ void MeasureEdgesWithIntrinsics(const std::vector<Camera>& cameras, ViewGraph* g
   graph->cameras = cameras;
 }
 
-SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
-                       const std::vector<int>& camera_group) {
-  options.Check();
+namespace {
+
+// RunGlobalSfm from one start: the cameras as given.
+SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
+                           const std::vector<int>& camera_group) {
   const int n = static_cast<int>(graph.names.size());
   if (static_cast<int>(cameras.size()) != n || static_cast<int>(graph.keypoints.size()) != n ||
       (!camera_group.empty() && static_cast<int>(camera_group.size()) != n)) {
@@ -486,6 +492,58 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   for (auto& point : result.points) point.x_in_world = new_from_old * point.x_in_world;
   result.seconds_sfm = timer.Seconds();
   return result;
+}
+
+int NumObservations(const SfmResult& r) {
+  int n = 0;
+  for (const SfmPoint& p : r.points) n += static_cast<int>(p.elements.size());
+  return n;
+}
+
+}  // namespace
+
+SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
+                       const std::vector<int>& camera_group) {
+  options.Check();
+  if (!options.refine_focal || options.focal_starts.size() < 2)
+    return SolveFromCameras(graph, cameras, options, camera_group);
+  if (cameras.size() != graph.names.size())
+    throw std::invalid_argument("RunGlobalSfm: one camera, keypoint list and group per image");
+  const Timer timer;
+  const int num_starts = static_cast<int>(options.focal_starts.size());
+  std::vector<SfmResult> results(num_starts);
+  std::vector<std::exception_ptr> errors(num_starts);
+  // Each start is single-threaded (Ceres with one thread): two at a time on two threads.
+  const auto solve = [&](int s) {
+    try {
+      std::vector<Camera> start = cameras;
+      for (Camera& c : start) c.fx *= options.focal_starts[s], c.fy *= options.focal_starts[s];
+      ViewGraph measured = graph;
+      if (measured.cameras.size() == cameras.size()) MeasureEdgesWithIntrinsics(start, &measured);
+      results[s] = SolveFromCameras(measured, start, options, camera_group);
+    } catch (...) {
+      errors[s] = std::current_exception();
+    }
+  };
+  for (int s = 0; s < num_starts; s += 2) {
+    std::thread second;
+    if (s + 1 < num_starts) second = std::thread(solve, s + 1);
+    solve(s);
+    if (second.joinable()) second.join();
+  }
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+  int best = 0;
+  for (int s = 0; s < num_starts; ++s) {
+    const int obs = NumObservations(results[s]);
+    if (obs > NumObservations(results[best])) best = s;
+    LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
+             cameras[0].fx * options.focal_starts[s], options.focal_starts[s],
+             results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx, results[s].num_points, obs);
+  }
+  LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", options.focal_starts[best],
+           num_starts, timer.Seconds());
+  return std::move(results[best]);
 }
 
 SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,

@@ -91,6 +91,13 @@ struct SfmOptions {
   // (CheckEdgeDirections: their median angle above this, degrees, over at least 3 edges) is
   // reported as degenerate (SfmResult::degenerate). 0 turns the check off.
   double max_edge_direction_residual_deg = 40.0;
+  // Self-calibration from a guessed focal length (refine_focal, a prior from the image size): the
+  // solve runs from each of these multiples of the cameras' focal lengths, the edges measured again
+  // at each (MeasureEdgesWithIntrinsics), two at a time, and the solution whose points keep the
+  // most observations is kept: a focal guessed from the image size can start the solve in a wrong
+  // minimum, which its own checks do not see, and a start elsewhere leaves
+  // (docs/poses_and_views.md, self-calibration). Empty or one value: one start.
+  std::vector<double> focal_starts;
   void Check() const;  // throws std::invalid_argument
 };
 
