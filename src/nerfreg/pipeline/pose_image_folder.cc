@@ -331,7 +331,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     bool size_guess = false;
     cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group, &size_guess);
     // A focal length guessed from the image size can start the solve in a wrong minimum: solved
-    // again from 1.4x and 0.7x it (SfmOptions::focal_starts).
+    // again from 1.4x it (SfmOptions::focal_starts).
     if (size_guess) o.poses.sfm.focal_starts = {1.0, 1.4};
   }
   if (!calibrated || o.refine_intrinsics) {

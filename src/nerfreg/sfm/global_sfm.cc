@@ -473,6 +473,7 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
   }
   result.points = std::move(kept);
   result.num_points = static_cast<int>(result.points.size());
+  result.num_observations = num_observations;
   result.mean_reprojection_error_px = num_observations > 0 ? sum_error / num_observations : 0;
 
   // The frame: the root camera at the identity, mean distance of the others to it = 1.
@@ -494,12 +495,6 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
   return result;
 }
 
-int NumObservations(const SfmResult& r) {
-  int n = 0;
-  for (const SfmPoint& p : r.points) n += static_cast<int>(p.elements.size());
-  return n;
-}
-
 }  // namespace
 
 SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
@@ -507,8 +502,6 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   options.Check();
   if (!options.refine_focal || options.focal_starts.size() < 2)
     return SolveFromCameras(graph, cameras, options, camera_group);
-  if (cameras.size() != graph.names.size())
-    throw std::invalid_argument("RunGlobalSfm: one camera, keypoint list and group per image");
   const Timer timer;
   const int num_starts = static_cast<int>(options.focal_starts.size());
   std::vector<SfmResult> results(num_starts);
@@ -535,11 +528,11 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     if (e) std::rethrow_exception(e);
   int best = 0;
   for (int s = 0; s < num_starts; ++s) {
-    const int obs = NumObservations(results[s]);
-    if (obs > NumObservations(results[best])) best = s;
+    if (results[s].num_observations > results[best].num_observations) best = s;
     LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
              cameras[0].fx * options.focal_starts[s], options.focal_starts[s],
-             results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx, results[s].num_points, obs);
+             results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx, results[s].num_points,
+             results[s].num_observations);
   }
   LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", options.focal_starts[best],
            num_starts, timer.Seconds());

@@ -116,6 +116,7 @@ struct SfmResult {
   std::vector<double> focal_stddev_px;
   std::vector<SfmPoint> points;  // the triangulated tracks, elements index view_graph.keypoints
   int num_points = 0;
+  int num_observations = 0;               // the points' elements, all together
   double mean_reprojection_error_px = 0;  // over the final observations
   // The graph the poses came from, with its keypoints; self-calibrated, its edges measured again
   // with the refined intrinsics (MeasureEdgesWithIntrinsics), which view_graph.cameras then holds.

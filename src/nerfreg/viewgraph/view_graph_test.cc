@@ -12,7 +12,6 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
 #include <random>
-#include <set>
 
 #include <cmath>
 
