@@ -1,5 +1,5 @@
 // `nerf import` end to end: an instant-ngp snapshot (.ingp) with its transforms.json becomes a
-// block that `nerf render` renders from those cameras.
+// block that `nerf render` renders from those cameras; `reg register` takes the snapshot itself.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -7,6 +7,8 @@
 #include "cli_test_util.h"
 #include "nerfreg/data/ngp_test_snapshot.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/reg/registration_input.h"
+#include "nerfreg/util/json_util.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/image.h"
 #include "nerfreg/util/test_util.h"
@@ -47,6 +49,21 @@ TEST(NgpImportCli, ImportThenRender) {
     for (float v : im.data) non_white += v < 0.99f;
   }
   EXPECT_GT(non_white, 0);  // the occupied region is seen
+
+  // reg register reads the snapshot itself, imported as above, in the transforms.json's frame: the
+  // same occupied points as the imported block's (not ngp's unit cube, 4x larger and shifted).
+  const auto direct = LoadRegistrationInput(dir.File("scene.ingp"), SplatFieldOptions());
+  NerfBlockInput imported(LoadNerfBlock(dir.File("b.ckpt")));
+  EXPECT_EQ(direct->Kind(), "nerf");
+  const Eigen::Matrix3Xd a = direct->OccupiedPoints(0, 3), b = imported.OccupiedPoints(0, 3);
+  ASSERT_GT(a.cols(), 0);
+  ASSERT_EQ(a.cols(), b.cols());
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9);
+  const CommandResult reg =
+      RunNerfreg("reg register " + dir.File("scene.ingp") + " " + dir.File("b.ckpt") +
+                 " --method ransac --refine icp --scale fixed --min-density 0 --quiet --out " + dir.File("t.json"));
+  EXPECT_NE(reg.exit_code, 2) << reg.output;
+  EXPECT_EQ(ReadJsonFile(dir.File("t.json"))["source_kind"], "nerf") << reg.output;
 }
 
 }  // namespace

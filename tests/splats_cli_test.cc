@@ -4,10 +4,12 @@
 // and, with --inverse, back.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 #include "cli_test_util.h"
 #include "nerfreg/data/ground_truth.h"
+#include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/geometry/alignment.h"
@@ -140,6 +142,82 @@ TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister)
   EXPECT_LE(RotationErrorDeg(est.rotation, want.rotation), 2.0) << sj.dump();
   EXPECT_LE(TranslationError(est.translation, want.translation), 0.02 * kObjectExtent) << sj.dump();
   EXPECT_NEAR(est.scale / want.scale, 1.0, 0.01) << sj.dump();
+}
+
+// nerfstudio trains, and `ns-export gaussian-splat` writes, in each run's own trained frame,
+// p_file = s (R p_capture + t) (its dataparser_transforms.json). Two such exports of one object
+// with the files beside them: reg register recovers the similarity between the captures' own
+// frames (the truth), not between the trained frames; register-many merges the splats and the
+// captures' cameras (--cameras) in input 0's capture frame.
+TEST(SplatsCli, NerfstudioExportsRegisterAndMergeInTheirCapturesUnits) {
+  ScopedTempDir dir;
+  const CommandResult render =
+      RunNerfreg("render --procedural 7 --blocks 2 --views 60 --size 64 --supersample 1 --splats --quiet --out " +
+                 dir.File("data"));
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+  const Sim3d truth = GroundTruthFile(dir.File("data/ground_truth.json")).TargetFromSource(0, 1);
+  // Each run's trained_from_capture: nerfstudio's auto scale and orientation differ per run.
+  const Sim3d trained_from_capture[2] = {
+      Sim3d(0.37, Eigen::Quaterniond(Eigen::AngleAxisd(0.9, Eigen::Vector3d(1, 2, 0).normalized())),
+            Eigen::Vector3d(0.2, -0.1, 0.05)),
+      Sim3d(1.9, Eigen::Quaterniond(Eigen::AngleAxisd(-2.1, Eigen::Vector3d(0, 1, 1).normalized())),
+            Eigen::Vector3d(-0.3, 0.4, 0.1))};
+  std::string splat[2], dataparser[2];
+  for (int k = 0; k < 2; ++k) {
+    const std::string run = dir.File("ns" + std::to_string(k));
+    splat[k] = run + "/splat.ply";
+    dataparser[k] = run + "/dataparser_transforms.json";
+    std::filesystem::create_directories(run);
+    WriteSplatPly(TransformSplats(ReadSplatPly(dir.File("data/block_" + std::to_string(k) + "/splats.ply")),
+                                  trained_from_capture[k]),
+                  splat[k]);
+    WriteDataparserTransforms(trained_from_capture[k], dataparser[k]);
+  }
+
+  const CommandResult reg = RunNerfreg("reg register " + splat[0] + " " + splat[1] + " --source-dataparser " +
+                                       dataparser[0] + " --target-dataparser " + dataparser[1] +
+                                       " --method ransac --seed 0 --quiet --out " + dir.File("t.json"));
+  ASSERT_EQ(reg.exit_code, 0) << reg.output;
+  const Json t = ReadJsonFile(dir.File("t.json"));
+  EXPECT_EQ(t["source_frame"]["dataparser"], dataparser[0]);
+  EXPECT_EQ(t["target_frame"]["dataparser"], dataparser[1]);
+  const Sim3d est = ReadPose(dir.File("t.json"));
+  EXPECT_LE(RotationErrorDeg(est.rotation, truth.rotation), 2.0) << t.dump();
+  EXPECT_LE(TranslationError(est.translation, truth.translation), 0.02 * kObjectExtent) << t.dump();
+  EXPECT_NEAR(est.scale / truth.scale, 1.0, 0.01) << t.dump();
+  std::printf("nerfstudio exports in capture units: %.3f deg, scale %.4f (truth %.4f)\n",
+              RotationErrorDeg(est.rotation, truth.rotation), est.scale, truth.scale);
+
+  const std::string many = "reg register-many " + splat[0] + " " + splat[1] + " --dataparser 0=" + dataparser[0] +
+                           " --dataparser 1=" + dataparser[1] + " --quiet --out " + dir.File("many.json");
+  const CommandResult merged =
+      RunNerfreg(many + " --merged-splats " + dir.File("merged.ply") + " --merged-cameras " + dir.File("cams.json") +
+                 " --cameras 0=" + dir.File("data/block_0") + " --cameras 1=" + dir.File("data/block_1"));
+  ASSERT_EQ(merged.exit_code, 0) << merged.output;
+  EXPECT_EQ(ReadJsonFile(dir.File("many.json"))["options"]["capture_from_file"].size(), 2u);
+  // Input 0's splats and cameras are back in their capture's frame, input 1's moved there by the truth.
+  const Splats s0 = ReadSplatPly(dir.File("data/block_0/splats.ply")), m = ReadSplatPly(dir.File("merged.ply"));
+  ASSERT_EQ(m.size(), s0.size() + ReadSplatPly(splat[1]).size());
+  EXPECT_LT((m.position.leftCols(s0.size()) - s0.position).cwiseAbs().maxCoeff(), 1e-4);
+  const Dataset cams = ReadTransformsJson(dir.File("cams.json"));
+  const Dataset c0 = ReadTransformsJson(dir.File("data/block_0/transforms.json")),
+                c1 = ReadTransformsJson(dir.File("data/block_1/transforms.json"));
+  ASSERT_EQ(cams.frames.size(), c0.frames.size() + c1.frames.size());
+  const auto centre = [](const Frame& f) { return Eigen::Vector3d(f.cam_from_world.Inverse().translation); };
+  EXPECT_LT((centre(cams.frames[0]) - centre(c0.frames[0])).norm(), 1e-6);
+  double worst = 0;
+  for (size_t i = 0; i < c1.frames.size(); ++i) {
+    const Frame& f = cams.frames[c0.frames.size() + i];
+    worst = std::max(worst, (centre(f) - truth.Inverse() * centre(c1.frames[i])).norm());
+  }
+  EXPECT_LT(worst, 0.02 * kObjectExtent);
+
+  // A K that names no input, or no K: one named error.
+  for (const std::string& bad : {"2=" + dataparser[0], dataparser[0]}) {
+    const CommandResult r = RunNerfreg(many + " --force --dataparser " + bad);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("error: --dataparser"), std::string::npos) << r.output;
+  }
 }
 
 }  // namespace

@@ -104,6 +104,29 @@ Sim3d TransformDataparser(const Sim3d& trained_from_old, const Sim3d& new_from_o
   return trained_from_old * new_from_old.Inverse();
 }
 
+void MoveCameras(Dataset* cameras, const Sim3d& new_from_old) {
+  Dataset& cams = *cameras;
+  for (Frame& f : cams.frames) {
+    f.cam_from_world = new_from_old.TransformCamera(f.cam_from_world);
+    f.near *= new_from_old.scale;
+    f.far *= new_from_old.scale;
+  }
+  if (cams.aabb_min && cams.aabb_max) {
+    Eigen::AlignedBox3d moved;
+    const Eigen::AlignedBox3d box(*cams.aabb_min, *cams.aabb_max);
+    for (int k = 0; k < 8; ++k)
+      moved.extend(new_from_old * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
+    cams.aabb_min = moved.min();
+    cams.aabb_max = moved.max();
+  }
+  if (cams.applied_transform) {
+    Eigen::Matrix4d a = Eigen::Matrix4d::Identity();
+    a.topRows(3) = *cams.applied_transform;
+    cams.applied_transform = (new_from_old.ToMatrix() * a).topRows(3);
+  }
+  if (cams.trained_from_data) cams.trained_from_data = *cams.trained_from_data * new_from_old.Inverse();
+}
+
 ColmapModel TransformColmapModel(const ColmapModel& model, const Sim3d& new_from_old) {
   ColmapModel out = model;
   for (auto& [id, image] : out.images) image.cam_from_world = new_from_old.TransformCamera(image.cam_from_world);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "nerfreg/data/colmap.h"
+#include "nerfreg/data/dataset.h"
 #include "nerfreg/data/npy.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/geometry/rigid3.h"
@@ -32,6 +33,12 @@ Json TransformTransformsJson(const Json& json, const Sim3d& new_from_old, const 
 // nerfstudio's dataparser_transforms.json beside a moved transforms.json: the trained model's
 // frame stays where it was, so trained_from_new = trained_from_old * old_from_new.
 Sim3d TransformDataparser(const Sim3d& trained_from_old, const Sim3d& new_from_old);
+
+// A Dataset's cameras moved in place: each frame's cam_from_world (Sim3d::TransformCamera: a rigid
+// camera, its centre moved by the Sim(3)), near / far times s, the aabb replaced by the box around
+// the moved one, nerfstudio's applied_transform composed with the Sim(3), and trained_from_data
+// kept pointing at the same trained frame.
+void MoveCameras(Dataset* cameras, const Sim3d& new_from_old);
 
 // A COLMAP model: images' cam_from_world moved (Sim3d::TransformCamera: a rigid camera, its
 // centre moved by the Sim(3)), points3D moved; cameras, tracks and colours unchanged.

@@ -23,9 +23,11 @@ int RunNerfRender(int argc, char** argv);
 int RunNerfEval(int argc, char** argv);
 int RunNerfExport(int argc, char** argv);
 int RunNerfImport(int argc, char** argv);
-// Registration (exe/reg_commands.cc)
+// Registration (exe/reg_commands.cc), its evaluation (exe/reg_eval_command.cc)
 int RunRegRegister(int argc, char** argv);
 int RunRegEval(int argc, char** argv);
+// ICP on the grids (--icp-points, --no-flips, --icp-distance) of reg register and reg eval.
+void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, double* icp_distance);
 // reg register-many (exe/reg_many_command.cc)
 int RunRegRegisterMany(int argc, char** argv);
 // --max-points of reg register and register-many.

@@ -2,14 +2,15 @@
 #include <fmt/format.h>
 
 #include "nerfreg/data/splat_ply.h"
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
-#include "nerfreg/pipeline/evaluate_pairs.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/field_alignment.h"
 #include "nerfreg/reg/registration_success.h"
 #include "nerfreg/registration/registration_options.h"
+#include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -18,8 +19,6 @@
 #include "nerfreg/util/torch_device.h"
 
 using namespace nerfreg;
-
-namespace {
 
 // ICP on the grids: its points and the half-turn check (GridRegistrationOptions); the points as
 // typed, parsed by IcpPointsFromName after CLI11 has checked the name.
@@ -36,8 +35,6 @@ void AddIcpOptions(CLI::App& app, std::string* icp_points, bool* no_flips, doubl
                      fmt::format("{:g}", kDefaultIcpDistance) + ")")
       ->check(CLI::PositiveNumber);
 }
-
-}  // namespace
 
 // FPFH + RANSAC's time grows quickly with the points of a large block; the cap keeps it a few
 // seconds without changing a pose on the held-out pairs
@@ -61,20 +58,40 @@ std::string DefaultRegistrationMethod() { return FileExists(DefaultDregWeights()
 
 namespace {
 
+// A nerfstudio run's dataparser_transforms.json (file_from_capture), inverted; none for "".
+std::optional<Sim3d> CaptureFromFile(const std::string& dataparser) {
+  if (dataparser.empty()) return std::nullopt;
+  const Sim3d file_from_capture = ReadDataparserTransforms(dataparser);
+  CheckScaleInRange(file_from_capture.scale, dataparser, "scale");
+  return file_from_capture.Inverse();
+}
+
 // reg register's flags, as typed: the enums are parsed after CLI11 has checked the names.
 struct RegisterFlags {
   std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes",
                                    icp_points = "occupied", scale = "free";
   bool no_flips = false, no_block_icp = false;
   std::string device = "cpu";
+  std::string source_dataparser, target_dataparser;
   BlockRegistrationOptions options;
 };
 
 void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
   BlockRegistrationOptions& o = f->options;
   o.weights = DefaultDregWeights();
-  app.add_option("source", f->source, "Source: a NeRF block checkpoint or a 3D Gaussian splat PLY")->required();
-  app.add_option("target", f->target, "Target: a NeRF block checkpoint or a 3D Gaussian splat PLY")->required();
+  app.add_option(
+         "source", f->source,
+         "Source: a NeRF block checkpoint, an instant-ngp snapshot (.ingp, .msgpack) or a 3D Gaussian splat PLY")
+      ->required();
+  app.add_option(
+         "target", f->target,
+         "Target: a NeRF block checkpoint, an instant-ngp snapshot (.ingp, .msgpack) or a 3D Gaussian splat PLY")
+      ->required();
+  app.add_option("--source-dataparser", f->source_dataparser,
+                 "The source is in nerfstudio's trained frame (a splat from ns-export gaussian-splat): its run's "
+                 "dataparser_transforms.json, so that it registers, and T is written, in the units of its capture's "
+                 "cameras");
+  app.add_option("--target-dataparser", f->target_dataparser, "The same for the target");
   AddDeviceOption(app, &f->device);
   app.add_option("--out", f->out, "Output JSON")->required();
   app.add_option("--method", f->method,
@@ -145,7 +162,7 @@ int RunRegRegister(int argc, char** argv) {
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   BlockRegistrationOptions& o = f.options;
   o.device = ParseDevice(f.device);
-  CheckCanWriteOutput(f.out, common.force, {f.source, f.target, o.weights});
+  CheckCanWriteOutput(f.out, common.force, {f.source, f.target, o.weights, f.source_dataparser, f.target_dataparser});
   o.method = RegistrationMethodFromName(f.method);
   o.refine = RegistrationRefinementFromName(f.refine);
   o.dreg_solver = DregSolverFromName(f.dreg_solver);
@@ -155,8 +172,10 @@ int RunRegRegister(int argc, char** argv) {
   o.block_icp = !f.no_block_icp;
   o.Check();
   Timer timer;
-  const auto source = LoadRegistrationInput(f.source, o.splats, o.device);
-  const auto target = LoadRegistrationInput(f.target, o.splats, o.device);
+  const std::optional<Sim3d> source_from_file = CaptureFromFile(f.source_dataparser),
+                             target_from_file = CaptureFromFile(f.target_dataparser);
+  const auto source = LoadRegistrationInput(f.source, o.splats, o.device, source_from_file);
+  const auto target = LoadRegistrationInput(f.target, o.splats, o.device, target_from_file);
   std::unique_ptr<DregNet> net;
   if (o.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o));
   BlockRegistrationResult r = RegisterBlocks(*source, *target, o, net.get());
@@ -164,6 +183,14 @@ int RunRegRegister(int argc, char** argv) {
   Json json = r.ToJson();
   json["source"] = f.source;  // the report finds the blocks' points by these names
   json["target"] = f.target;
+  // Where an input was moved on load: T maps the source's capture frame into the target's.
+  for (const auto& [key, path, capture_from_file] :
+       {std::tuple{"source_frame", &f.source_dataparser, &source_from_file},
+        std::tuple{"target_frame", &f.target_dataparser, &target_from_file}}) {
+    if (*capture_from_file) {
+      json[key] = {{"dataparser", *path}, {"capture_from_file", MatrixToJson((*capture_from_file)->ToMatrix())}};
+    }
+  }
   WriteJsonFile(f.out, json);
   WriteRegistrationOverlays(f.out, r);
   // A person reads the summary; --json (with the logs as JSON lines) prints the record itself.
@@ -174,108 +201,4 @@ int RunRegRegister(int argc, char** argv) {
     return kExitUntrusted;
   }
   return 0;
-}
-
-namespace {
-
-// `reg eval --pairs`: every method on every pair's grids, one table.
-int EvalPairs(const PairsFileEvaluationOptions& o) {
-  const auto header = [] {
-    std::printf("%-32s %-20s %8s %10s %10s %8s %8s\n", "pair", "method", "overlap", "rot (deg)", "trans/ext", "conf",
-                "time (s)");
-  };
-  const PairsFileEvaluation r = EvaluatePairsFile(o, header, [](const PairEvaluation& row) {
-    std::printf("%-32s %-20s %8.2f %10.3f %10.4f %8.2f %8.2f\n", row.pair.c_str(), row.method.c_str(), row.overlap,
-                row.rotation_deg, row.translation / kObjectExtent, row.confidence, row.seconds);
-    std::fflush(stdout);
-  });
-  std::printf("%s", r.summary.table.c_str());
-  return 0;
-}
-
-// `reg eval --pair`: one result against the ground truth.
-int EvalPair(const std::string& pair, const std::string& gt_path, int source, int target, const std::string& out) {
-  const RegistrationError r = EvaluateRegistrationFile(pair, gt_path, source, target, out);
-  std::printf("%-22s %10s %12s %10s %8s\n", "method", "rot (deg)", "trans", "trans/ext", "success");
-  std::printf("%-22s %10.3f %12.4f %10.4f %8s\n", r.method.c_str(), r.rotation_deg, r.translation,
-              r.translation_fraction, r.success ? "yes" : "no");
-  return 0;
-}
-
-}  // namespace
-
-int RunRegEval(int argc, char** argv) {
-  CLI::App app;
-  CommonOptions common;
-  AddCommonOptions(app, &common);
-  DescribeCommand(
-      app,
-      "Registration errors against the ground truth: rotation (geodesic, degrees) and translation (full "
-      "norm, also as a fraction of the object extent 2.5). Either one result (--pair + --ground-truth) or a "
-      "table of every method on every pair of a reg make-data folder (--pairs), with mean, median and "
-      "success rates at 5 deg / 0.05 and 10 deg / 0.1.",
-      "nerfreg reg eval --pairs data/reg_val/pairs.json --methods dreg,ransac,fgr --refine none,icp");
-  std::string pair, gt_path, out, pairs_path, split = "val", weights = DefaultDregWeights(), device = "cpu";
-  AddDeviceOption(app, &device);
-  std::vector<std::string> methods = {"ransac"}, refines = {"icp"}, dreg_solvers = {"procrustes"};
-  std::vector<int> dreg_passes = {1};
-  int source = 0, target = 1, max_pairs = 0;
-  double voxel = 0.05;
-  app.add_option("--pair", pair, "Registration output (reg register)");
-  app.add_option("--ground-truth", gt_path, "ground_truth.json of the rendered dataset");
-  app.add_option("--source", source, "Source block index (default 0)");
-  app.add_option("--target", target, "Target block index (default 1)");
-  app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
-  app.add_option("--methods", methods,
-                 "With --pairs: dreg, ransac, fgr (comma separated), or truth: each --refine started at the ground "
-                 "truth (where it ends is the floor the blocks' own disagreement sets)")
-      ->delimiter(',');
-  app.add_option("--refine", refines,
-                 "With --pairs: none, icp (on the grids), block-icp (ICP on the grids, then on the blocks' occupied "
-                 "points, as reg register; real NeRF pairs only), field (block-icp, then the density fields aligned; "
-                 "real NeRF pairs only), comma separated")
-      ->delimiter(',');
-  app.add_option("--dreg-solver", dreg_solvers,
-                 "With --pairs: dreg's pose by ransac, procrustes or both (comma separated)")
-      ->delimiter(',');
-  app.add_option("--dreg-passes", dreg_passes,
-                 "With --pairs: dreg's network passes, e.g. 1,2 (comma separated; default 1)")
-      ->delimiter(',')
-      ->check(CLI::Range(1, 10));
-  app.add_option("--split", split, "With --pairs: the pairs of this split (train, val or all; default val)");
-  app.add_option("--max-pairs", max_pairs, "With --pairs: at most this many pairs");
-  double overlap_threshold = 0.8;
-  app.add_option("--overlap-threshold", overlap_threshold,
-                 "With --pairs: success is also counted apart below and above this pair overlap (default 0.8)")
-      ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--weights", weights, "DReg-NeRF weights for --methods dreg");
-  app.add_option("--voxel", voxel, "Classical downsampling voxel (default 0.05)");
-  PairEvaluationOptions eo;
-  app.add_flag("--field-overlap-only", eo.base.field.overlap_only,
-               "With --refine field: count only samples where the other block's cameras saw the surface (its grid's "
-               "mask; an experiment: no gain on the held-out real pairs, "
-               "docs/notes/2026-11-24-experiments-not-kept.md)");
-  std::string icp_points = "occupied";
-  bool no_flips = false;
-  AddIcpOptions(app, &icp_points, &no_flips, &eo.base.icp_distance);
-  app.add_option("--out", out, "Also write the errors to this JSON file");
-  if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  const torch::Device dev = ParseDevice(device);
-  if (!out.empty()) CheckCanWriteOutput(out, common.force, {pair, gt_path, pairs_path, weights});
-  if (!pairs_path.empty()) {
-    eo.base.voxel = voxel;
-    eo.base.flips = !no_flips;
-    eo.base.icp_points = IcpPointsFromName(icp_points);
-    eo.methods.clear(), eo.refines.clear(), eo.dreg_solvers.clear();
-    for (const auto& m : methods) eo.methods.push_back(PairMethodFromName(m));
-    for (const auto& r : refines) eo.refines.push_back(PairRefinementFromName(r));
-    for (const auto& d : dreg_solvers) eo.dreg_solvers.push_back(DregSolverFromName(d));
-    eo.dreg_passes = dreg_passes;
-    eo.device = dev;
-    eo.Check();
-    return EvalPairs({pairs_path, split, weights, out, max_pairs, overlap_threshold, eo});
-  }
-  if (pair.empty() || gt_path.empty())
-    ThrowInputError("reg eval", "", "--pairs FILE, or --pair FILE with --ground-truth FILE");
-  return EvalPair(pair, gt_path, source, target, out);
 }

@@ -1,4 +1,7 @@
 // reg register-many: many blocks (or splat captures) into one frame, and what it can write there.
+#include <map>
+
+#include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
@@ -8,6 +11,29 @@
 #include "nerfreg/util/logging.h"
 
 using namespace nerfreg;
+
+namespace {
+
+// "K=FILE" flags, one per input K (from 0); a malformed one or a K given twice is a named error.
+std::map<int, std::string> IndexedPaths(const std::vector<std::string>& flags, const std::string& flag) {
+  std::map<int, std::string> out;
+  for (const std::string& f : flags) {
+    const size_t eq = f.find('=');
+    int k = -1;
+    try {
+      size_t used = 0;
+      if (eq != std::string::npos && eq > 0) k = std::stoi(f.substr(0, eq), &used);
+      if (used != eq) k = -1;
+    } catch (const std::exception&) {
+      k = -1;
+    }
+    if (k < 0 || eq + 1 >= f.size()) ThrowInputError(flag, "", "K=FILE with K an input's index from 0, got " + f);
+    if (!out.emplace(k, f.substr(eq + 1)).second) ThrowInputError(flag, "", "one file per input, got two for " + f);
+  }
+  return out;
+}
+
+}  // namespace
 
 int RunRegRegisterMany(int argc, char** argv) {
   CLI::App app;
@@ -24,7 +50,8 @@ int RunRegRegisterMany(int argc, char** argv) {
   std::vector<std::string> paths;
   std::string out, refine = "field";
   ManyBlockRegistrationOptions o;
-  app.add_option("blocks", paths, "Block checkpoints or splat PLYs (the first defines the world frame)")
+  app.add_option("blocks", paths,
+                 "Block checkpoints, instant-ngp snapshots or splat PLYs (the first defines the world frame)")
       ->required()
       ->expected(2, 1000);
   app.add_option("--out", out, "Output JSON")->required();
@@ -33,6 +60,14 @@ int RunRegRegisterMany(int argc, char** argv) {
                  "Also write the splat inputs moved into the world frame, merged, to this PLY");
   app.add_option("--merged-cameras", merged_cameras,
                  "Also write every block's cameras moved into the world frame, in one transforms.json");
+  std::vector<std::string> dataparsers, cameras;
+  app.add_option("--dataparser", dataparsers,
+                 "K=FILE: input K (from 0) is in nerfstudio's trained frame (a splat from ns-export gaussian-splat); "
+                 "FILE is its run's dataparser_transforms.json, so that it registers, and is written, in the units "
+                 "of its capture's cameras (repeatable)");
+  app.add_option("--cameras", cameras,
+                 "K=FILE: the cameras of splat input K for --merged-cameras, a transforms.json, COLMAP model or LLFF "
+                 "scene in its capture's frame (repeatable)");
   app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
   app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
   AddMaxPointsOption(app, &o.max_points);
@@ -46,16 +81,22 @@ int RunRegRegisterMany(int argc, char** argv) {
                  "and the pose graph estimates every block's scale) or fixed (a rigid graph: the blocks share a unit)")
       ->check(CLI::IsMember({"free", "fixed"}));
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  CheckCanWriteOutput(out, common.force, paths);
-  if (!merged.empty()) CheckCanWriteOutput(merged, common.force, paths);
-  if (!merged_cameras.empty()) CheckCanWriteOutput(merged_cameras, common.force, paths);
+  const std::map<int, std::string> dataparser_of = IndexedPaths(dataparsers, "--dataparser"),
+                                   cameras_of = IndexedPaths(cameras, "--cameras");
+  std::vector<std::string> inputs = paths;
+  for (const auto& m : {dataparser_of, cameras_of})
+    for (const auto& [k, p] : m) inputs.push_back(p);
+  CheckCanWriteOutput(out, common.force, inputs);
+  if (!merged.empty()) CheckCanWriteOutput(merged, common.force, inputs);
+  if (!merged_cameras.empty()) CheckCanWriteOutput(merged_cameras, common.force, inputs);
+  for (const auto& [k, p] : dataparser_of) o.capture_from_file[k] = ReadDataparserTransforms(p).Inverse();
   o.refine = RegistrationRefinementFromName(refine);
   o.scale = ScaleModeFromName(scale);
   const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
   WriteJsonFile(out, r.json);
   if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
   if (!merged_cameras.empty())
-    LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras), merged_cameras);
+    LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras, cameras_of), merged_cameras);
   LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
            r.json["seconds"].get<double>());
   return 0;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/geometry/rays.h"
 #include "nerfreg/util/error.h"
@@ -147,26 +148,7 @@ void MoveNerfBlock(NerfBlock* block, const Sim3d& new_from_old) {
   if ((block->world_from_field.ToMatrix() - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff() < 1e-12) {
     block->world_from_field = Sim3d();
   }
-  Dataset& cams = block->cameras;
-  for (Frame& f : cams.frames) {
-    f.cam_from_world = new_from_old.TransformCamera(f.cam_from_world);
-    f.near *= new_from_old.scale;
-    f.far *= new_from_old.scale;
-  }
-  if (cams.aabb_min && cams.aabb_max) {
-    Eigen::AlignedBox3d moved;
-    const Eigen::AlignedBox3d box(*cams.aabb_min, *cams.aabb_max);
-    for (int k = 0; k < 8; ++k)
-      moved.extend(new_from_old * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
-    cams.aabb_min = moved.min();
-    cams.aabb_max = moved.max();
-  }
-  if (cams.applied_transform) {
-    Eigen::Matrix4d a = Eigen::Matrix4d::Identity();
-    a.topRows(3) = *cams.applied_transform;
-    cams.applied_transform = (new_from_old.ToMatrix() * a).topRows(3);
-  }
-  if (cams.trained_from_data) cams.trained_from_data = *cams.trained_from_data * new_from_old.Inverse();
+  MoveCameras(&block->cameras, new_from_old);
 }
 
 namespace {

@@ -7,11 +7,14 @@
 #include <filesystem>
 #include <map>
 
+#include "nerfreg/data/convert.h"
+#include "nerfreg/data/ngp_snapshot.h"
 #include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/nerf/field_queries.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/nerf/ngp_import.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/registration_input.h"
 #include "nerfreg/registration/registration_chain.h"
@@ -30,10 +33,18 @@ void ManyBlockRegistrationOptions::Check() const {
     ThrowInputError("--refine", "", "icp or field");
   }
   splats.Check();
+  for (const auto& [k, capture_from_file] : this->capture_from_file) {
+    if (k < 0) ThrowInputError("--dataparser", "", "K=FILE with K an input's index from 0, got " + std::to_string(k));
+    CheckScaleInRange(capture_from_file.scale, "--dataparser", "the dataparser's scale");
+  }
 }
 
 Json ManyBlockRegistrationOptions::ToJson() const {
-  return {{"min_density", min_density},
+  Json frames = Json::object();  // --dataparser: input index -> capture_from_file
+  for (const auto& [k, capture_from_file] : this->capture_from_file)
+    frames[std::to_string(k)] = MatrixToJson(capture_from_file.ToMatrix());
+  return {{"capture_from_file", frames},
+          {"min_density", min_density},
           {"voxel", voxel},
           {"max_points", max_points},
           {"min_confidence", min_confidence},
@@ -63,8 +74,18 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   // normalised frames.
   std::vector<Sim3d> normalized_from;
   Json normalization = Json::array();
-  for (const auto& p : paths) {
-    std::unique_ptr<RegistrationInput> b = LoadRegistrationInput(p, options.splats);
+  if (!options.capture_from_file.empty() && options.capture_from_file.rbegin()->first >= n) {
+    ThrowInputError("--dataparser", "",
+                    fmt::format("K=FILE with K one of the {} inputs' indices (0-{}), got {}", n, n - 1,
+                                options.capture_from_file.rbegin()->first));
+  }
+  for (int k = 0; k < n; ++k) {
+    const std::string& p = paths[k];
+    const auto frame = options.capture_from_file.find(k);
+    result.capture_from_file.push_back(frame == options.capture_from_file.end() ? Sim3d() : frame->second);
+    std::unique_ptr<RegistrationInput> b = LoadRegistrationInput(
+        p, options.splats, torch::kCPU,
+        frame == options.capture_from_file.end() ? std::nullopt : std::optional<Sim3d>(frame->second));
     Eigen::Matrix3Xd cloud = b->OccupiedPoints(options.min_density, options.seed);
     if (cloud.cols() < 100) warn("{}: only {} occupied points", p, cloud.cols());
     Sim3d nk;
@@ -186,7 +207,9 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
 Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result) {
   std::vector<Splats> moved;
   for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
-    if (IsSplatPly(paths[k])) moved.push_back(TransformSplats(ReadSplatPly(paths[k]), result.world_from_block[k]));
+    if (!IsSplatPly(paths[k])) continue;
+    const Sim3d file_from = k < result.capture_from_file.size() ? result.capture_from_file[k] : Sim3d();
+    moved.push_back(TransformSplats(ReadSplatPly(paths[k]), result.world_from_block[k] * file_from));
   }
   if (moved.empty()) ThrowInputError("--merged-splats", "", "at least one splat PLY among the inputs");
   int degree = 0;
@@ -229,17 +252,34 @@ Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlock
 }
 
 int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result,
-                       const std::string& out) {
+                       const std::string& out, const std::map<int, std::string>& splat_cameras) {
+  for (const auto& [k, path] : splat_cameras) {
+    if (k < 0 || k >= static_cast<int>(paths.size())) {
+      ThrowInputError("--cameras", "",
+                      fmt::format("K=FILE with K one of the {} inputs' indices, got {} ({})", paths.size(), k, path));
+    }
+  }
   Dataset merged;
   std::vector<std::vector<int>> blocks_of;  // per kept frame: the inputs that have its image
   std::vector<double> centre_spread, rotation_spread_deg;
   std::map<std::string, size_t> kept;  // absolute image path -> frame index
   for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
-    if (IsSplatPly(paths[k])) continue;
-    NerfBlock block = LoadNerfBlock(paths[k]);
-    MoveNerfBlock(&block, result.world_from_block[k]);
-    for (Frame f : block.cameras.frames) {
-      f.file_path = std::filesystem::absolute(block.cameras.ImagePath(f)).lexically_normal().string();
+    // Input k's cameras in its capture's frame: a block's own, or those given for a splat capture.
+    Dataset cameras;
+    const auto given = splat_cameras.find(static_cast<int>(k));
+    if (given != splat_cameras.end()) {
+      cameras = ReadCameras(given->second);
+    } else if (IsSplatPly(paths[k])) {
+      continue;
+    } else {
+      NerfBlock block = IsNgpSnapshotPath(paths[k]) ? SnapshotToNerfBlock(ReadNgpSnapshot(paths[k]), paths[k])
+                                                    : LoadNerfBlock(paths[k]);
+      cameras = std::move(block.cameras);
+      if (k < result.capture_from_file.size()) MoveCameras(&cameras, result.capture_from_file[k]);
+    }
+    MoveCameras(&cameras, result.world_from_block[k]);
+    for (Frame f : cameras.frames) {
+      f.file_path = std::filesystem::absolute(cameras.ImagePath(f)).lexically_normal().string();
       const auto [at, is_new] = kept.emplace(f.file_path, merged.frames.size());
       if (is_new) {
         merged.frames.push_back(std::move(f));
@@ -258,7 +298,8 @@ int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockReg
     }
   }
   if (merged.frames.empty()) {
-    ThrowInputError("--merged-cameras", "", "at least one block checkpoint with cameras among the inputs");
+    ThrowInputError("--merged-cameras", "",
+                    "at least one block checkpoint with cameras among the inputs, or --cameras for a splat input");
   }
   Json j = TransformsJsonFromDataset(merged);
   for (size_t i = 0; i < merged.frames.size(); ++i) {

@@ -9,6 +9,7 @@
 // registration/scale_normalization.h), every pair's chain estimates the scale, and the pose graph
 // is a Sim(3) graph solved in the normalised frames (so its thresholds mean the same for every
 // input); the per-block similarities are then carried back to the inputs' own units.
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,11 @@ struct ManyBlockRegistrationOptions {
   // that share a unit (as before Sim(3)).
   ScaleMode scale = ScaleMode::kFree;
   SplatFieldOptions splats;  // --splat-density-scale, --splat-blur: splat PLY inputs as fields
-  void Check() const;        // throws InputError naming the flag
+  // --dataparser K=FILE: input K is in a nerfstudio run's trained frame; capture_from_file (the
+  // inverse of its dataparser_transforms.json) moves it into its capture's frame on load
+  // (LoadRegistrationInput), so every pose and merged output is in the capture's units.
+  std::map<int, Sim3d> capture_from_file;
+  void Check() const;  // throws InputError naming the flag
   Json ToJson() const;
 };
 
@@ -42,9 +47,12 @@ struct ManyBlockRegistrationResult {
   // register-many writes it. Poses in the inputs' own units; the residuals in the graph's
   // (normalised with kFree) units.
   Json json;
-  int used_edges = 0;                   // pairs kept in the graph
-  int pairs = 0;                        // pairs tried
-  std::vector<Sim3d> world_from_block;  // as in json, one per input: x_in_block_0 = world_from_block[k] * x_in_k
+  int used_edges = 0;  // pairs kept in the graph
+  int pairs = 0;       // pairs tried
+  // As in json, one per input: x_in_block_0 = world_from_block[k] * x_in_k, both in the inputs'
+  // capture frames (options.capture_from_file).
+  std::vector<Sim3d> world_from_block;
+  std::vector<Sim3d> capture_from_file;  // one per input: options.capture_from_file, else the identity
   std::vector<std::string> warnings;
 };
 
@@ -52,7 +60,8 @@ struct ManyBlockRegistrationResult {
 ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
                                                const ManyBlockRegistrationOptions& options);
 
-// Every splat PLY among `paths` moved into the world frame (result.world_from_block) and merged
+// Every splat PLY among `paths` moved into the world frame (result.world_from_block after
+// result.capture_from_file) and merged
 // into one splat set (the highest SH degree of them; lower-degree splats get zero coefficients;
 // extra properties dropped unless every input has the same ones). Throws InputError when no
 // input is a splat PLY.
@@ -65,8 +74,10 @@ Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlock
 // on is listed once, with the first block's camera, the blocks that have it ("blocks") and how far
 // their cameras lie from that one ("spread": largest centre distance, world units, and rotation,
 // degrees): how well the registration agrees with the blocks' own cameras. Splat PLYs carry no
-// cameras and are skipped. Returns the number of frames; throws InputError when no input has any.
+// cameras: `splat_cameras` gives input K's (a transforms.json, COLMAP model or LLFF scene in the
+// capture's frame, as ReadCameras reads it), else it is skipped. Returns the number of frames;
+// throws InputError when no input has any.
 int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result,
-                       const std::string& out);
+                       const std::string& out, const std::map<int, std::string>& splat_cameras = {});
 
 }  // namespace nerfreg

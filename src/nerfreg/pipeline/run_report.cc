@@ -519,8 +519,18 @@ class PageBuilder {
     v.caption = "Registered blocks, target frame";
     v.t = JsonField(r.t_json, r.path.string())["target_from_source"].Matrix(4, 4);
     v.has_t = true;
-    const Eigen::Matrix3Xd tgt = ReadPlyPoints(tgt_ply.string(), options_.max_points_per_block);
-    const Eigen::Matrix3Xd src = ReadPlyPoints(src_ply.string(), options_.max_points_per_block);
+    // Inputs registered in their capture's frame (reg register --source-dataparser): their files'
+    // points moved there as registration moved them.
+    const auto in_capture = [&](const char* key, Eigen::Matrix3Xd points) {
+      if (!r.t_json.contains(key)) return points;
+      const Sim3d capture_from_file =
+          Sim3d::FromMatrix(JsonField(r.t_json, r.path.string())[key]["capture_from_file"].Matrix(4, 4), 1e-4);
+      return capture_from_file.TransformPoints(points);
+    };
+    const Eigen::Matrix3Xd tgt =
+        in_capture("target_frame", ReadPlyPoints(tgt_ply.string(), options_.max_points_per_block));
+    const Eigen::Matrix3Xd src =
+        in_capture("source_frame", ReadPlyPoints(src_ply.string(), options_.max_points_per_block));
     used_.insert(src_ply);
     used_.insert(tgt_ply);
     v.objects.push_back(

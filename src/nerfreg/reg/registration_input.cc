@@ -4,7 +4,9 @@
 
 #include "nerfreg/data/sim3_apply.h"
 #include "nerfreg/data/splat_ply.h"
+#include "nerfreg/data/ngp_snapshot.h"
 #include "nerfreg/nerf/field_queries.h"
+#include "nerfreg/nerf/ngp_import.h"
 #include "nerfreg/reg/reg_grid.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -79,26 +81,44 @@ Eigen::Matrix3Xd SplatInput::OccupiedPoints(double min_density, unsigned seed, b
   return out;
 }
 
-std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
-                                                         const SplatFieldOptions& splat_options,
-                                                         const torch::Device& device) {
-  std::unique_ptr<RegistrationInput> input;
+bool IsNgpSnapshotPath(const std::string& path) {
+  const std::string ext = LowerExtension(path);
+  return ext == ".ingp" || ext == ".msgpack";
+}
+
+namespace {
+
+std::unique_ptr<RegistrationInput> LoadInFileFrame(const std::string& path, const SplatFieldOptions& splat_options,
+                                                   const torch::Device& device) {
   if (IsSplatPly(path)) {
     const Splats splats = ReadSplatPly(path);
     if (splats.size() < kMinSplats) {
       ThrowInputError(path, "vertex", fmt::format("at least {} splats to register, got {}", kMinSplats, splats.size()));
     }
-    input = std::make_unique<SplatInput>(splats, splat_options);
-    input->SetPath(path);
-    return input;
+    return std::make_unique<SplatInput>(splats, splat_options);
   }
   if (LowerExtension(path) == ".ply") {
     ThrowInputError(path, "",
                     "a NeRF block checkpoint or a 3D Gaussian splat PLY (vertex properties f_dc_0, opacity, "
                     "scale_0, rot_0; this PLY has none)");
   }
-  input = std::make_unique<NerfBlockInput>(LoadNerfBlock(path, nullptr, device));
+  if (IsNgpSnapshotPath(path)) {
+    NerfBlock block = SnapshotToNerfBlock(ReadNgpSnapshot(path), path);
+    block.To(device);
+    return std::make_unique<NerfBlockInput>(std::move(block));
+  }
+  return std::make_unique<NerfBlockInput>(LoadNerfBlock(path, nullptr, device));
+}
+
+}  // namespace
+
+std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
+                                                         const SplatFieldOptions& splat_options,
+                                                         const torch::Device& device,
+                                                         const std::optional<Sim3d>& capture_from_file) {
+  std::unique_ptr<RegistrationInput> input = LoadInFileFrame(path, splat_options, device);
   input->SetPath(path);
+  if (capture_from_file) input->Move(*capture_from_file);
   return input;
 }
 

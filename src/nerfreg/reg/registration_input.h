@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "nerfreg/nerf/nerf_block.h"
@@ -91,11 +92,23 @@ torch::Tensor SplatDensity(const SplatField& field, const torch::Tensor& positio
 // Fewer splats than this in a splat PLY is no capture to register (InputError naming the file).
 inline constexpr int kMinSplats = 100;
 
-// A splat PLY (data/splat_ply.h: IsSplatPly) or else a NeRF block checkpoint, loaded; InputError
-// naming the file when it is neither, or a splat PLY with fewer than kMinSplats splats. The
-// block's field goes to `device`. The input's Path() is `path`.
+// A splat PLY (data/splat_ply.h: IsSplatPly), an instant-ngp snapshot (.ingp, .msgpack: imported
+// as `nerf import` does, in the frame of the transforms.json it was trained on, from the scale and
+// offset it stores), or else a NeRF block checkpoint, loaded; InputError naming the file when it
+// is none of them, or a splat PLY with fewer than kMinSplats splats. The block's field goes to
+// `device`. The input's Path() is `path`.
+//
+// `capture_from_file`: where the file is not in its capture's own frame. nerfstudio trains, and
+// `ns-export gaussian-splat` writes, in its dataparser's frame, p_file = s (R p_capture + t)
+// (dataparser_transforms.json; ReadDataparserTransforms gives file_from_capture). Given its
+// inverse, the input is moved into the capture's frame on load, so that it registers, and its
+// result is written, in the units the capture's cameras are in.
 std::unique_ptr<RegistrationInput> LoadRegistrationInput(const std::string& path,
                                                          const SplatFieldOptions& splat_options,
-                                                         const torch::Device& device = torch::kCPU);
+                                                         const torch::Device& device = torch::kCPU,
+                                                         const std::optional<Sim3d>& capture_from_file = {});
+
+// True for the snapshot files LoadRegistrationInput imports (.ingp, .msgpack).
+bool IsNgpSnapshotPath(const std::string& path);
 
 }  // namespace nerfreg
