@@ -127,12 +127,14 @@ TEST(RegistrationChain, AFarFieldScaleNeedsALowerCostAndASecondRefinementThatSta
   const FieldAlignmentResult far = AlignResult(1.25, 0.2, 0.15);
   EXPECT_TRUE(AcceptFieldScaleChange(1.0, far, AlignResult(1.255, 0.15, 0.149, 0.1)));
   EXPECT_TRUE(AcceptFieldScaleChange(1.0, AlignResult(0.8, 0.2, 0.15), AlignResult(0.801, 0.15, 0.149)));
+  // A first refinement stopped short of the optimum goes on turning a little: still settled.
+  EXPECT_TRUE(AcceptFieldScaleChange(1.0, far, AlignResult(1.255, 0.15, 0.149, 0.8)));
   // The cost did not fall enough: the evidence does not improve.
   EXPECT_FALSE(AcceptFieldScaleChange(1.0, AlignResult(1.25, 0.2, 0.19), AlignResult(1.25, 0.19, 0.19)));
   EXPECT_FALSE(AcceptFieldScaleChange(1.0, AlignResult(1.25, 0.2, 0.25), AlignResult(1.25, 0.25, 0.25)));
   // AlignResult again, the scale or the rotation keeps moving: a slide, not a settled optimum.
   EXPECT_FALSE(AcceptFieldScaleChange(1.0, far, AlignResult(1.35, 0.15, 0.12)));
-  EXPECT_FALSE(AcceptFieldScaleChange(1.0, far, AlignResult(1.25, 0.15, 0.14, 2.0)));
+  EXPECT_FALSE(AcceptFieldScaleChange(1.0, far, AlignResult(1.25, 0.15, 0.14, 3.0)));
   EXPECT_FALSE(AcceptFieldScaleChange(1.0, far, none));
 }
 
