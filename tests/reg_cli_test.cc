@@ -363,6 +363,19 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
     EXPECT_LT(table["summary"][name]["median_rotation_deg"].get<double>(), 0.2) << name;
   }
 
+  // --methods auto is reg register itself on the pair's blocks: the same kept candidate and pose
+  // as a.json's (the same defaults and seed).
+  const CommandResult ev_auto = RunNerfreg("reg eval --pairs " + dir.File("pairs.json") +
+                                           " --methods auto --refine field --out " + dir.File("eval_auto.json"));
+  ASSERT_EQ(ev_auto.exit_code, 0) << ev_auto.output;
+  const Json auto_row = ReadJsonFile(dir.File("eval_auto.json"))["rows"][0];
+  EXPECT_EQ(auto_row["method"], "auto+field") << auto_row.dump();
+  EXPECT_EQ(auto_row["kept"], aj["method"]) << auto_row.dump();
+  EXPECT_EQ(auto_row["status"], aj["status"]) << auto_row.dump();
+  const Sim3d ae = Sim3d::FromMatrix(JsonField(aj, "a.json")["target_from_source"].Matrix(4, 4));
+  EXPECT_NEAR(auto_row["rotation_error_deg"].get<double>(),
+              RotationErrorDeg(ae.rotation, Eigen::Quaterniond::Identity()), 1e-9);
+
   // Bad refinement options are one-line errors before any work.
   const CommandResult bad =
       RunNerfreg("reg register " + block + " " + block + " --field-iterations -1 --out " + dir.File("x.json"));

@@ -62,8 +62,9 @@ int RunRegEval(int argc, char** argv) {
   app.add_option("--target", target, "Target block index (default 1)");
   app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
   app.add_option("--methods", methods,
-                 "With --pairs: dreg, ransac, fgr (comma separated), or truth: each --refine started at the ground "
-                 "truth (where it ends is the floor the blocks' own disagreement sets)")
+                 "With --pairs: dreg, ransac, fgr (comma separated), truth: each --refine started at the ground "
+                 "truth (where it ends is the floor the blocks' own disagreement sets), or auto: reg register itself "
+                 "on a real pair's blocks (normalised with --scale free, every candidate, the choice)")
       ->delimiter(',');
   app.add_option("--refine", refines,
                  "With --pairs: none, icp (on the grids), block-icp (ICP on the grids, then on the blocks' occupied "
@@ -90,9 +91,13 @@ int RunRegEval(int argc, char** argv) {
                "With --refine field: count only samples where the other block's cameras saw the surface (its grid's "
                "mask; an experiment: no gain on the held-out real pairs, "
                "docs/notes/2026-11-24-experiments-not-kept.md)");
-  std::string icp_points = "occupied";
+  std::string icp_points = "occupied", scale = "free";
   bool no_flips = false;
   AddIcpOptions(app, &icp_points, &no_flips, &eo.base.icp_distance);
+  app.add_option("--scale", scale,
+                 "With --methods auto: free (default, as reg register) or fixed; the other methods run rigid on grids "
+                 "that share a unit")
+      ->check(CLI::IsMember({"free", "fixed"}));
   app.add_option("--out", out, "Also write the errors to this JSON file");
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   const torch::Device dev = ParseDevice(device);
@@ -101,6 +106,7 @@ int RunRegEval(int argc, char** argv) {
     eo.base.voxel = voxel;
     eo.base.flips = !no_flips;
     eo.base.icp_points = IcpPointsFromName(icp_points);
+    eo.base.scale = ScaleModeFromName(scale);
     eo.methods.clear(), eo.refines.clear(), eo.dreg_solvers.clear();
     for (const auto& m : methods) eo.methods.push_back(PairMethodFromName(m));
     for (const auto& r : refines) eo.refines.push_back(PairRefinementFromName(r));

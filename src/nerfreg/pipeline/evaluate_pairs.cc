@@ -13,6 +13,7 @@
 #include "nerfreg/reg/registration_input.h"
 #include "nerfreg/reg/registration_success.h"
 #include "nerfreg/registration/grid_registration.h"
+#include "nerfreg/registration/register_blocks.h"
 #include "nerfreg/registration/registration_chain.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -27,7 +28,8 @@ namespace {
 const EnumNames<PairMethod> kPairMethodNames{{{PairMethod::kDreg, "dreg"},
                                               {PairMethod::kRansac, "ransac"},
                                               {PairMethod::kFgr, "fgr"},
-                                              {PairMethod::kTruth, "truth"}}};
+                                              {PairMethod::kTruth, "truth"},
+                                              {PairMethod::kAuto, "auto"}}};
 const EnumNames<PairRefinement> kPairRefinementNames{{{PairRefinement::kNone, "none"},
                                                       {PairRefinement::kIcp, "icp"},
                                                       {PairRefinement::kBlockIcp, "block-icp"},
@@ -103,12 +105,14 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
     // --refine block-icp and field need the blocks themselves: real pairs keep block_K.ckpt beside
     // block_K.grid.
     std::unique_ptr<RegistrationInput> src_block, tgt_block;
+    const bool auto_rows =
+        std::find(options.methods.begin(), options.methods.end(), PairMethod::kAuto) != options.methods.end();
     for (const PairRefinement rf : options.refines) {
-      if (!NeedsBlocks(rf) || src_block) continue;
+      if (!(NeedsBlocks(rf) || auto_rows) || src_block) continue;
       if (p.kind != "nerf") {
         if (!warned_field) {
-          LOG_WARN("--refine {}: skipped on synthesised pairs (no NeRF blocks), e.g. {}", PairRefinementName(rf),
-                   p.name);
+          LOG_WARN("--refine {} / --methods auto: skipped on synthesised pairs (no NeRF blocks), e.g. {}",
+                   PairRefinementName(rf), p.name);
         }
         warned_field = true;
         continue;
@@ -126,14 +130,28 @@ std::vector<PairEvaluation> EvaluatePairs(const std::vector<PairRecord>& pairs, 
       for (const DregSolver solver : dreg ? options.dreg_solvers : std::vector<DregSolver>{DregSolver::kRansac})
         for (const int passes : dreg ? options.dreg_passes : std::vector<int>{1})
           for (const PairRefinement rf : options.refines) {
-            if (NeedsBlocks(rf) && !pair.HasInputs()) continue;
-            // reg register's chain: the method on the grids, then as far as `rf` asks.
-            const BlockRegistrationOptions o = RowOptions(options, solver, passes, rf);
-            RegistrationResult r = m == PairMethod::kTruth
-                                       ? TruthStart(pair, p.target_from_source, o)
-                                       : RegisterCoarse(pair, MethodOf(m), RegistrationCloud::kGridMask, o, net);
-            ContinueChain(pair, o, &r);
+            if ((NeedsBlocks(rf) || m == PairMethod::kAuto) && !pair.HasInputs()) continue;
             PairEvaluation row;
+            RegistrationResult r;
+            if (m == PairMethod::kAuto) {
+              // reg register itself on the blocks: `method` names the row, `kept` the candidate.
+              BlockRegistrationOptions o = RowOptions(options, options.base.dreg_solver, 1, rf);
+              o.method = RegistrationMethod::kAuto;
+              o.scale = options.base.scale;
+              const BlockRegistrationResult b = RegisterBlocks(*src_block, *tgt_block, o, net);
+              r.target_from_source = b.target_from_source;
+              r.method = "auto+" + PairRefinementName(rf);
+              r.seconds = b.seconds;
+              r.method_score = b.confidence;
+              row.kept = b.method;
+              row.status = b.status;
+            } else {
+              // reg register's chain: the method on the grids, then as far as `rf` asks.
+              const BlockRegistrationOptions o = RowOptions(options, solver, passes, rf);
+              r = m == PairMethod::kTruth ? TruthStart(pair, p.target_from_source, o)
+                                          : RegisterCoarse(pair, MethodOf(m), RegistrationCloud::kGridMask, o, net);
+              ContinueChain(pair, o, &r);
+            }
             row.pair = p.name;
             row.method = r.method;
             row.seconds = r.seconds;
@@ -244,7 +262,7 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
   if (pairs.empty()) ThrowInputError(o.pairs_path, "pairs", "at least one pair of split " + o.split);
   std::unique_ptr<DregNet> net;
   for (const auto& m : o.evaluation.methods) {
-    if (m == PairMethod::kDreg && !net) {
+    if ((m == PairMethod::kDreg || m == PairMethod::kAuto) && !net) {
       if (!FileExists(o.weights)) ThrowInputError(o.weights, "", "DReg-NeRF weights (reg train) for --methods dreg");
       DregModelOptions mo;
       net = std::make_unique<DregNet>(LoadDregWeights(o.weights, &mo));
@@ -266,6 +284,7 @@ PairsFileEvaluation EvaluatePairsFile(const PairsFileEvaluationOptions& o, const
                        {"confidence", r.confidence},
                        {"overlap", r.overlap},
                        {"seconds", r.seconds}});
+      if (!r.kept.empty()) table.back()["kept"] = r.kept, table.back()["status"] = r.status;
     }
     WriteJsonFile(
         o.out, {{"pairs_file", o.pairs_path}, {"split", o.split}, {"rows", table}, {"summary", result.summary.json}});

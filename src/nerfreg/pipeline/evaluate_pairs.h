@@ -18,7 +18,9 @@ namespace nerfreg {
 
 // A row's method: a registration method on the grids, or kTruth (each refinement started at the
 // ground truth: where it ends is the floor the two blocks' own disagreement sets).
-enum class PairMethod { kDreg, kRansac, kFgr, kTruth };
+// kAuto: reg register's whole chain (RegisterBlocks: the normalisation with base.scale kFree, every
+// candidate, the choice) on a real pair's blocks, so the row is exactly what reg register gives.
+enum class PairMethod { kDreg, kRansac, kFgr, kTruth, kAuto };
 // How far along the chain a row goes: kNone (the method alone), kIcp (ICP on the grids), kBlockIcp
 // (then on the blocks' occupied points), kField (then the fields aligned).
 enum class PairRefinement { kNone, kIcp, kBlockIcp, kField };
@@ -36,7 +38,8 @@ struct PairEvaluationOptions {
   std::vector<int> dreg_passes = {1};                                // --dreg-passes (dreg rows only)
   // The chain's options every row starts from: the grid ICP's points, distance and half-turns
   // (--icp-points, --icp-distance, --no-flips), --voxel, the field refinement's
-  // (--field-overlap-only); method, refine and the dreg solve are set per row.
+  // (--field-overlap-only); method, refine and the dreg solve are set per row. base.scale
+  // (--scale) is used by the auto rows only: the others run rigid on grids that share a unit.
   BlockRegistrationOptions base;
   torch::Device device = torch::kCPU;  // --device: the blocks' fields (the caller moves the network)
   void Check() const;                  // throws InputError naming the flag
@@ -47,6 +50,7 @@ struct PairEvaluation {
   double rotation_deg = 0;   // geodesic, against the pair's truth
   double translation = 0;    // full norm of the difference, scene units
   double seconds = 0, confidence = 0, overlap = 0;
+  std::string kept, status;  // auto rows: the candidate reg register kept, and its status
 };
 
 // `net`: needed when methods holds dreg. `on_row` (optional) sees each row as it is made.
