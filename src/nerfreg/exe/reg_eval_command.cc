@@ -55,7 +55,7 @@ int RunRegEval(int argc, char** argv) {
   std::vector<std::string> methods = {"ransac"}, refines = {"icp"}, dreg_solvers = {"procrustes"};
   std::vector<int> dreg_passes = {1};
   int source = 0, target = 1, max_pairs = 0;
-  double voxel = 0.05;
+  double voxel = 0.05, overlap_threshold = 0.8;
   app.add_option("--pair", pair, "Registration output (reg register)");
   app.add_option("--ground-truth", gt_path, "ground_truth.json of the rendered dataset");
   app.add_option("--source", source, "Source block index (default 0)");
@@ -80,7 +80,6 @@ int RunRegEval(int argc, char** argv) {
       ->check(CLI::Range(1, 10));
   app.add_option("--split", split, "With --pairs: the pairs of this split (train, val or all; default val)");
   app.add_option("--max-pairs", max_pairs, "With --pairs: at most this many pairs");
-  double overlap_threshold = 0.8;
   app.add_option("--overlap-threshold", overlap_threshold,
                  "With --pairs: success is also counted apart below and above this pair overlap (default 0.8)")
       ->check(CLI::Range(0.0, 1.0));
