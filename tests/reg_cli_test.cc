@@ -295,6 +295,9 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   // With the scale free (the default) the kept pose is also polished with its scale held, and
   // "+polish" says so when the polish lowered the fields' cost.
   EXPECT_EQ(t["method"].get<std::string>().rfind("ransac+icp+field", 0), 0u) << t["method"];
+  // The polish aligns the fields coarse (samples spread wider) to fine.
+  ASSERT_TRUE(t["polish"]["field_coarse"].is_object()) << t.dump();
+  EXPECT_GT(t["polish"]["field_coarse"]["samples"].get<int>(), 100) << t.dump();
   ASSERT_TRUE(t["field"].is_object()) << t.dump();
   EXPECT_LE(t["field"]["final_cost"].get<double>(), t["field"]["initial_cost"].get<double>());
   EXPECT_GT(t["field"]["samples"].get<int>(), 100);

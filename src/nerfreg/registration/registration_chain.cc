@@ -173,12 +173,15 @@ void PolishWithScaleHeld(RegistrationPair& pair, const BlockRegistrationOptions&
   }
   FieldAlignmentOptions field = options.field;
   field.estimate_scale = false;
-  const Sim3d refined = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), pose,
+  const Sim3d coarse = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), pose,
+                                      field, kPolishCoarseSpread * pair.GridCell(), &polish["field_coarse"]);
+  const Sim3d refined = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), coarse,
                                        field, pair.GridCell(), &polish["field"]);
   const Json& f = polish["field"];
   const bool kept = f["iterations"].get<int>() > 0 && f["final_cost"].get<double>() <= f["initial_cost"].get<double>();
   polish["kept"] = kept;
-  r->seconds += polish["block_icp"]["seconds"].get<double>() + f["seconds"].get<double>();
+  r->seconds += polish["block_icp"]["seconds"].get<double>() + polish["field_coarse"]["seconds"].get<double>() +
+                f["seconds"].get<double>();
   if (kept) {
     r->target_from_source = refined;
     r->method += "+polish";

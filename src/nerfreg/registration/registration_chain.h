@@ -98,6 +98,15 @@ void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& opti
 // blocks at scale 1 the free chain ended at 1.47 deg where the rigid one ended at 0.78, with the
 // right scale (docs/registration.md, section 7). Held at its estimate, the scale no longer pulls.
 // The field's result is kept only if it ran (enough samples) and its cost did not rise.
+//
+// The fields are aligned coarse to fine: first with samples spread kPolishCoarseSpread times as
+// wide (a smoother cost, a wider basin; details["polish"]["field_coarse"]), then as usual from
+// there. Block ICP on two trained blocks moves even the true pose by 0.9-1.4 deg, and one pass of
+// the fields recovers only part of that. Chosen on the 10 held-out block pairs of
+// bench/registration_sim3.sh (median rotation error 0.82 -> 0.38 deg; 3x: 0.53); on 12 other
+// held-out pairs (objects 6008-6013, not used to choose) 1.11 -> 0.72 deg, 8 better, 3 worse by
+// 0.10-0.12 deg (docs/registration.md, section 7).
+inline constexpr double kPolishCoarseSpread = 2.0;
 void PolishWithScaleHeld(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* result);
 // Stages 2, 3 and 4 as options ask, after a coarse stage (or a start given by the caller, e.g. the
 // truth in reg eval --pairs).
