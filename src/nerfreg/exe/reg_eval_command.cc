@@ -39,6 +39,11 @@ int EvalPair(const std::string& pair, const std::string& gt_path, int source, in
 
 }  // namespace
 
+constexpr const char* kMethodsHelp =
+    "With --pairs: dreg, ransac, fgr (comma separated), truth: each --refine started at the ground truth (after ICP "
+    "on the grids, without half-turns, unless --refine none: where the chain ends from the truth), or auto: reg "
+    "register itself on a real pair's blocks (normalised with --scale free, every candidate, the choice)";
+
 int RunRegEval(int argc, char** argv) {
   CLI::App app;
   CommonOptions common;
@@ -61,11 +66,7 @@ int RunRegEval(int argc, char** argv) {
   app.add_option("--source", source, "Source block index (default 0)");
   app.add_option("--target", target, "Target block index (default 1)");
   app.add_option("--pairs", pairs_path, "pairs.json of reg make-data: evaluate every method on its pairs");
-  app.add_option("--methods", methods,
-                 "With --pairs: dreg, ransac, fgr (comma separated), truth: each --refine started at the ground "
-                 "truth (where it ends is the floor the blocks' own disagreement sets), or auto: reg register itself "
-                 "on a real pair's blocks (normalised with --scale free, every candidate, the choice)")
-      ->delimiter(',');
+  app.add_option("--methods", methods, kMethodsHelp)->delimiter(',');
   app.add_option("--refine", refines,
                  "With --pairs: none, icp (on the grids), block-icp (ICP on the grids, then on the blocks' occupied "
                  "points, as reg register; real NeRF pairs only), field (block-icp, then the density fields aligned; "
