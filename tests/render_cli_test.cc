@@ -55,9 +55,9 @@ TEST(Binary, OpenBlasIsBoundBeforeAtlas) {
 }
 
 // The threading environment (docs/threads.md) is in place when libgomp reads it: started without
-// the variables, libgomp's own report (OMP_DISPLAY_ENV, printed by its initialiser) comes once, from
-// the second start, and shows passive waiting (no spinning: GOMP_SPINCOUNT 0, where the default
-// is 300000); the first start ran none of the libraries' initialisers. A user's own value is kept.
+// the variables, libgomp's own report (OMP_DISPLAY_ENV, printed by its initialiser) comes once and
+// shows passive waiting (no spinning: GOMP_SPINCOUNT 0, where the default is 300000). A user's own
+// value is kept.
 TEST(Binary, OpenMpWaitsPassivelyAndTheLibrariesInitialiseOnceUnlessTheUserSaysOtherwise) {
   const std::string binary = NERFREG_BINARY;
   const CommandResult unset =

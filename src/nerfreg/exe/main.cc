@@ -46,43 +46,30 @@ void PrintUsage() {
 #endif
 }
 
+}  // namespace
+
 // Threading environment: torch's OpenMP threads spinning after each parallel region while
 // OpenBLAS runs its own threads made a field forward+backward several times slower than passive
 // OpenMP waiting with single-threaded OpenBLAS calls (torch parallelises around them); measured in
-// docs/threads.md. libgomp and OpenBLAS read both variables in their own initialisers, before
-// main, so a process started without them runs itself again with them set. This runs from the
-// executable's .preinit_array: after the libraries are loaded but before any of them is
-// initialised (the ELF rule glibc follows), so the first start costs the loading alone, not
-// the libraries' initialisation (~0.45 s, most of it LibTorch's; done in main(), as until
-// 2026-11-29, it was paid twice). libc's `environ` is not set up yet here, hence envp.
-void EnsureThreadingEnvironment(int /*argc*/, char** argv, char** envp) {
-  if (envp == nullptr || argv == nullptr) return;
-  bool wait = false, blas = false, again = false;
-  int count = 0;
-  for (char** e = envp; *e != nullptr; ++e, ++count) {
-    wait = wait || std::strncmp(*e, "OMP_WAIT_POLICY=", 16) == 0;
-    blas = blas || std::strncmp(*e, "OPENBLAS_NUM_THREADS=", 21) == 0;
-    again = again || std::strncmp(*e, "NERFREG_ENV_SET=", 16) == 0;
+// docs/threads.md. libgomp and OpenBLAS read OMP_WAIT_POLICY and OPENBLAS_NUM_THREADS with getenv
+// in their own initialisers, before main. The executable comes first in the loader's lookup scope,
+// so this definition is the getenv every library calls: it answers from the environment as libc's
+// does, and gives those two defaults where the environment lacks them (a user's own value wins).
+// Until 2026-11-29 the process started itself again with the variables set (execve from
+// .preinit_array), which loaded every library twice: ~0.2 s a start. Children other than nerfreg
+// itself see the environment as it is.
+extern "C" __attribute__((visibility("default"))) char* getenv(const char* name) noexcept {
+  const size_t length = std::strlen(name);
+  if (environ != nullptr) {
+    for (char** e = environ; *e != nullptr; ++e) {
+      if (std::strncmp(*e, name, length) == 0 && (*e)[length] == '=') return *e + length + 1;
+    }
   }
-  // Already set (by the user or a script), or this is the second start: nothing to change.
-  if (again || (wait && blas)) return;
-  static char wait_policy[] = "OMP_WAIT_POLICY=PASSIVE", blas_threads[] = "OPENBLAS_NUM_THREADS=1",
-              marker[] = "NERFREG_ENV_SET=1";
-  char** env = static_cast<char**>(std::malloc((count + 4) * sizeof(char*)));
-  if (env == nullptr) return;
-  int n = 0;
-  for (int k = 0; k < count; ++k) env[n++] = envp[k];
-  if (!wait) env[n++] = wait_policy;
-  if (!blas) env[n++] = blas_threads;
-  env[n++] = marker;
-  env[n] = nullptr;
-  execve("/proc/self/exe", argv, env);  // returns only on failure: then carry on as we are
-  std::free(env);
+  static char passive[] = "PASSIVE", one[] = "1";
+  if (std::strcmp(name, "OMP_WAIT_POLICY") == 0) return passive;
+  if (std::strcmp(name, "OPENBLAS_NUM_THREADS") == 0) return one;
+  return nullptr;
 }
-__attribute__((section(".preinit_array"),
-               used)) void (*ensure_threading_environment)(int, char**, char**) = &EnsureThreadingEnvironment;
-
-}  // namespace
 
 int main(int argc, char** argv) {
   nerfreg::InstallOutputSignalHandlers();
