@@ -497,6 +497,31 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
 
 }  // namespace
 
+void WidenFocalStddevBySpread(int kept, const std::vector<double>& starts, std::vector<SfmResult>* results) {
+  SfmResult& best = (*results)[kept];
+  std::vector<const SfmResult*> comparable;
+  for (const SfmResult& r : *results) {
+    if (r.cameras.size() == best.cameras.size() &&
+        r.num_observations >= kFocalSpreadComparableObservations * best.num_observations)
+      comparable.push_back(&r);
+  }
+  if (comparable.size() < 2 || best.focal_stddev_px.size() != best.cameras.size()) return;
+  double widest = 0;
+  for (size_t k = 0; k < best.cameras.size(); ++k) {
+    double mean = 0, squares = 0;
+    for (const SfmResult* r : comparable) mean += r->cameras[k].fx / comparable.size();
+    for (const SfmResult* r : comparable) squares += (r->cameras[k].fx - mean) * (r->cameras[k].fx - mean);
+    const double spread = std::sqrt(squares / (comparable.size() - 1));
+    if (spread > best.focal_stddev_px[k]) best.focal_stddev_px[k] = spread, widest = std::max(widest, spread);
+  }
+  if (widest > 0) {
+    LOG_INFO(
+        "sfm: {} of {} starts keep as many observations (within {:.0f} %) and their focal lengths differ by a "
+        "standard deviation of {:.1f} px: the focal's standard deviation is at least that",
+        comparable.size(), starts.size(), 100 * (1 - kFocalSpreadComparableObservations), widest);
+  }
+}
+
 SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& cameras, const SfmOptions& options,
                        const std::vector<int>& camera_group) {
   options.Check();
@@ -536,6 +561,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   }
   LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", options.focal_starts[best],
            num_starts, timer.Seconds());
+  WidenFocalStddevBySpread(best, options.focal_starts, &results);
   return std::move(results[best]);
 }
 

@@ -395,6 +395,29 @@ TEST(GlobalSfm, FocalStartsReturnTheStartWhosePointsKeepTheMostObservations) {
   EXPECT_THROW(RunGlobalSfm(graph, prior, starts), std::invalid_argument);
 }
 
+// Two starts kept as many observations (within 2 %) but ended 40 px apart: the photos do not tell
+// the two focal lengths apart, so the kept one's standard deviation is at least their spread (the
+// covariance's 5 px said 0.7 %). A start that kept 5 % fewer (a wrong minimum) does not count, and
+// a covariance wider than the spread stays.
+TEST(GlobalSfm, FocalStartsEndingApartWithAsMuchSupportWidenTheFocalsStandardDeviation) {
+  const auto result = [](double focal, int observations, double stddev) {
+    SfmResult r;
+    r.cameras.assign(2, Camera::Pinhole(640, 480, focal, focal, 320, 240));
+    r.num_observations = observations;
+    r.focal_stddev_px.assign(2, stddev);
+    return r;
+  };
+  std::vector<SfmResult> results = {result(740, 5000, 5), result(780, 4950, 5), result(600, 4750, 5)};
+  WidenFocalStddevBySpread(0, {1.0, 1.4, 0.7}, &results);
+  for (double sd : results[0].focal_stddev_px) EXPECT_NEAR(sd, 40 / std::sqrt(2.0), 1e-9);
+  results = {result(740, 5000, 5), result(600, 4750, 5)};
+  WidenFocalStddevBySpread(0, {1.0, 0.7}, &results);
+  for (double sd : results[0].focal_stddev_px) EXPECT_EQ(sd, 5);
+  results = {result(740, 5000, 50), result(780, 4990, 5)};
+  WidenFocalStddevBySpread(0, {1.0, 1.4}, &results);
+  for (double sd : results[0].focal_stddev_px) EXPECT_EQ(sd, 50);
+}
+
 TEST(GlobalSfm, FewerThanThreeImagesOrASizeUnlikeItsCameraAreInputErrorsNamingTheFile) {
   const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
   try {
