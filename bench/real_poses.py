@@ -407,7 +407,7 @@ def run_nerfreg(info, out, nerfreg, method, calibrated, seed=None):
     t = json.load(open(os.path.join(out, "transforms.json")))
     r["status"] = "ok"
     r["stage_s"] = find_key(t, "timings_s")
-    for k in ("well_constrained", "problems", "auto_check", "not_posed"):
+    for k in ("well_constrained", "problems", "auto_check", "not_posed", "self_calibration"):
         v = find_key(t, k)
         if v is not None:
             r[k] = v
@@ -858,9 +858,14 @@ def write_md(j, path):
                 posed = "%s%s: `%s`" % (label, " (exit %d)" % r["rc"] if r.get("rc") else "",
                                         r.get("error", "").replace("|", "\\|"))
             f = r.get("focal_px")
+            focal = "%.1f, %.1f" % tuple(f) if f else "-"
+            calib = r.get("self_calibration") or []
+            if f and calib and calib[0].get("focal_stddev_px") is not None:
+                # nerfreg's own statement of how well the photos determine the focal
+                focal += " +- %.1f%s" % (calib[0]["focal_stddev_px"], "" if calib[0].get("determined") else " (not determined)")
             L.append("| %s | %s | %s | %s | %s | %s | %s |" % (
                 s["name"], k, posed, fmt(r.get("wall_s"), "%.1f"), stages or "-",
-                "%.1f, %.1f" % tuple(f) if f else "-", fmt(r.get("focal_error_pct"), "%+.2f")))
+                focal, fmt(r.get("focal_error_pct"), "%+.2f")))
     L.append("")
     L.append("## Agreement (a aligned onto b)")
     L.append("")
