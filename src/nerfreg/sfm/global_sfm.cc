@@ -40,7 +40,7 @@ void SfmOptions::Check() const {
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
       !(reverify_matches_px >= 0) ||
       !(max_edge_direction_residual_deg >= 0 && max_edge_direction_residual_deg <= 180) || collapse_retries < 0 ||
-      subset_cells < 0 || subset_per_cell < 1) {
+      !(focal_start_below >= 0 && std::isfinite(focal_start_below)) || subset_cells < 0 || subset_per_cell < 1) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
@@ -497,28 +497,56 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
 
 }  // namespace
 
+namespace {
+
+// The sample standard deviation of image k's focal length over the results whose observations are
+// comparable to results[kept]'s (kFocalSpreadComparableObservations); 0 where fewer than two are.
+double ComparableFocalSpread(const std::vector<SfmResult>& results, int kept, size_t k) {
+  const SfmResult& best = results[kept];
+  std::vector<double> focal;
+  for (const SfmResult& r : results) {
+    if (r.cameras.size() == best.cameras.size() && k < r.cameras.size() &&
+        r.num_observations >= kFocalSpreadComparableObservations * best.num_observations)
+      focal.push_back(r.cameras[k].fx);
+  }
+  if (focal.size() < 2) return 0;
+  double mean = 0, squares = 0;
+  for (double f : focal) mean += f / focal.size();
+  for (double f : focal) squares += (f - mean) * (f - mean);
+  return std::sqrt(squares / (focal.size() - 1));
+}
+
+int MostObservations(const std::vector<SfmResult>& results) {
+  int best = 0;
+  for (int s = 0; s < static_cast<int>(results.size()); ++s)
+    if (results[s].num_observations > results[best].num_observations) best = s;
+  return best;
+}
+
+}  // namespace
+
+bool FocalStartsDisagree(const std::vector<SfmResult>& results) {
+  if (results.empty()) return false;
+  const int best = MostObservations(results);
+  const std::vector<double>& sd = results[best].focal_stddev_px;
+  for (size_t k = 0; k < sd.size(); ++k)
+    if (ComparableFocalSpread(results, best, k) > sd[k]) return true;
+  return false;
+}
+
 void WidenFocalStddevBySpread(int kept, const std::vector<double>& starts, std::vector<SfmResult>* results) {
   SfmResult& best = (*results)[kept];
-  std::vector<const SfmResult*> comparable;
-  for (const SfmResult& r : *results) {
-    if (r.cameras.size() == best.cameras.size() &&
-        r.num_observations >= kFocalSpreadComparableObservations * best.num_observations)
-      comparable.push_back(&r);
-  }
-  if (comparable.size() < 2 || best.focal_stddev_px.size() != best.cameras.size()) return;
+  if (best.focal_stddev_px.size() != best.cameras.size()) return;
   double widest = 0;
   for (size_t k = 0; k < best.cameras.size(); ++k) {
-    double mean = 0, squares = 0;
-    for (const SfmResult* r : comparable) mean += r->cameras[k].fx / comparable.size();
-    for (const SfmResult* r : comparable) squares += (r->cameras[k].fx - mean) * (r->cameras[k].fx - mean);
-    const double spread = std::sqrt(squares / (comparable.size() - 1));
+    const double spread = ComparableFocalSpread(*results, kept, k);
     if (spread > best.focal_stddev_px[k]) best.focal_stddev_px[k] = spread, widest = std::max(widest, spread);
   }
   if (widest > 0) {
     LOG_INFO(
-        "sfm: {} of {} starts keep as many observations (within {:.0f} %) and their focal lengths differ by a "
-        "standard deviation of {:.1f} px: the focal's standard deviation is at least that",
-        comparable.size(), starts.size(), 100 * (1 - kFocalSpreadComparableObservations), widest);
+        "sfm: starts keeping as many observations (within {:.0f} %) end at focal lengths that differ by a "
+        "standard deviation of {:.1f} px ({} starts): the focal's standard deviation is at least that",
+        100 * (1 - kFocalSpreadComparableObservations), widest, starts.size());
   }
 }
 
@@ -528,14 +556,14 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   if (!options.refine_focal || options.focal_starts.size() < 2)
     return SolveFromCameras(graph, cameras, options, camera_group);
   const Timer timer;
-  const int num_starts = static_cast<int>(options.focal_starts.size());
-  std::vector<SfmResult> results(num_starts);
-  std::vector<std::exception_ptr> errors(num_starts);
+  std::vector<double> starts = options.focal_starts;
+  std::vector<SfmResult> results(starts.size());
+  std::vector<std::exception_ptr> errors(starts.size());
   // Each start is single-threaded (Ceres with one thread): two at a time on two threads.
-  const auto solve = [&](int s) {
+  const auto solve = [&](size_t s) {
     try {
       std::vector<Camera> start = cameras;
-      for (Camera& c : start) c.fx *= options.focal_starts[s], c.fy *= options.focal_starts[s];
+      for (Camera& c : start) c.fx *= starts[s], c.fy *= starts[s];
       ViewGraph measured = graph;
       if (measured.cameras.size() == cameras.size()) MeasureEdgesWithIntrinsics(start, &measured);
       results[s] = SolveFromCameras(measured, start, options, camera_group);
@@ -543,25 +571,32 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
       errors[s] = std::current_exception();
     }
   };
-  for (int s = 0; s < num_starts; s += 2) {
+  for (size_t s = 0; s < starts.size(); s += 2) {
     std::thread second;
-    if (s + 1 < num_starts) second = std::thread(solve, s + 1);
+    if (s + 1 < starts.size()) second = std::thread(solve, s + 1);
     solve(s);
     if (second.joinable()) second.join();
   }
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
-  int best = 0;
-  for (int s = 0; s < num_starts; ++s) {
-    if (results[s].num_observations > results[best].num_observations) best = s;
-    LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
-             cameras[0].fx * options.focal_starts[s], options.focal_starts[s],
-             results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx, results[s].num_points,
-             results[s].num_observations);
+  // Where the starts end apart with as much support the photos leave the focal free: one more start,
+  // below the prior, samples the other side of the valley (and a wide-angle lens without EXIF).
+  if (options.focal_start_below > 0 && FocalStartsDisagree(results)) {
+    starts.push_back(options.focal_start_below);
+    results.emplace_back();
+    errors.emplace_back();
+    solve(starts.size() - 1);
+    if (errors.back()) std::rethrow_exception(errors.back());
   }
-  LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", options.focal_starts[best],
-           num_starts, timer.Seconds());
-  WidenFocalStddevBySpread(best, options.focal_starts, &results);
+  const int best = MostObservations(results);
+  for (size_t s = 0; s < starts.size(); ++s) {
+    LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
+             cameras[0].fx * starts[s], starts[s], results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx,
+             results[s].num_points, results[s].num_observations);
+  }
+  LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", starts[best], starts.size(),
+           timer.Seconds());
+  WidenFocalStddevBySpread(best, starts, &results);
   return std::move(results[best]);
 }
 

@@ -398,7 +398,7 @@ TEST(GlobalSfm, FocalStartsReturnTheStartWhosePointsKeepTheMostObservations) {
 // Two starts kept as many observations (within 2 %) but ended 40 px apart: the photos do not tell
 // the two focal lengths apart, so the kept one's standard deviation is at least their spread (the
 // covariance's 5 px said 0.7 %). A start that kept 5 % fewer (a wrong minimum) does not count, and
-// a covariance wider than the spread stays.
+// a covariance wider than the spread stays; only where the starts disagree is a third solved.
 TEST(GlobalSfm, FocalStartsEndingApartWithAsMuchSupportWidenTheFocalsStandardDeviation) {
   const auto result = [](double focal, int observations, double stddev) {
     SfmResult r;
@@ -414,8 +414,14 @@ TEST(GlobalSfm, FocalStartsEndingApartWithAsMuchSupportWidenTheFocalsStandardDev
   WidenFocalStddevBySpread(0, {1.0, 0.7}, &results);
   for (double sd : results[0].focal_stddev_px) EXPECT_EQ(sd, 5);
   results = {result(740, 5000, 50), result(780, 4990, 5)};
+  EXPECT_FALSE(FocalStartsDisagree(results));  // the covariance already says more: no third start
   WidenFocalStddevBySpread(0, {1.0, 1.4}, &results);
   for (double sd : results[0].focal_stddev_px) EXPECT_EQ(sd, 50);
+  // Which starts agree, as RunGlobalSfm asks before solving the start below the prior.
+  EXPECT_TRUE(FocalStartsDisagree({result(740, 5000, 5), result(780, 4950, 5)}));
+  EXPECT_FALSE(FocalStartsDisagree({result(740, 5000, 5), result(745, 4950, 5)}));  // within the covariance
+  EXPECT_FALSE(FocalStartsDisagree({result(740, 5000, 5), result(600, 4750, 5)}));  // a worse minimum
+  EXPECT_FALSE(FocalStartsDisagree({result(740, 5000, 5)}));
 }
 
 TEST(GlobalSfm, FewerThanThreeImagesOrASizeUnlikeItsCameraAreInputErrorsNamingTheFile) {
