@@ -725,12 +725,13 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     }
   }
   if (options.method == "auto" && !run_network_on_all && model != nullptr) {
-    // Only a solution the SfM itself calls not well constrained is put to the test: on
-    // low-texture images the photometric comparison is weak, and a well-constrained SfM there was
-    // right where the network's cameras scored better (docs/poses_and_views.md).
+    // A solution the SfM calls well constrained is put to the test too (until 2026-11-29 it was
+    // not: on low-texture images the photometric comparison is weaker). On 20 validation hard sets
+    // (render --material low-texture / repetitive, seeds 3101-3110, 10 views) the test of
+    // well-constrained solutions put 3 more within 2 deg (repetitive 2.05 -> 0.28 and 2.37 -> 0.19,
+    // low-texture 3.07 -> 0.89 deg) and one of 0.44 deg at 1.62 (docs/poses_and_views.md).
     const double doubted = DoubtedFraction(result, options);
-    if (one_size && doubted >= options.auto_doubt_fraction &&
-        !AssessSfm(result.sfm, result.cameras).WellConstrained()) {
+    if (one_size && doubted >= options.auto_doubt_fraction) {
       LOG_WARN(
           "the SfM doubts {:.0f}% of its images: posing all with the network too, and keeping the cameras "
           "that explain the images better",

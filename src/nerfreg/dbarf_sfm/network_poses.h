@@ -101,9 +101,9 @@ struct ImagePosesOptions {
   // Method auto, where the SfM poses too few images to register against: the weight of the view
   // graph's essential-matrix edges averaged with the network's (NetworkPosesOptions::graph_edge_weight).
   double auto_graph_edge_weight = 10.0;
-  // Method auto, where the SfM posed (nearly) everything but calls its solution not well
-  // constrained (sfm/sfm_quality.h) and at least this share of its images are low-confidence
-  // (their own measurements disagree with their poses; repetition does this): the network poses
+  // Method auto, where the SfM posed (nearly) everything but at least this share of its images are
+  // low-confidence (their own measurements disagree with their poses; repetition does this),
+  // whether or not it calls its solution well constrained (sfm/sfm_quality.h): the network poses
   // all images as well, and the cameras with the lower photometric error over the network's pairs
   // are kept (PhotometricCameraScore). 1 turns the check off.
   double auto_doubt_fraction = 0.25;
