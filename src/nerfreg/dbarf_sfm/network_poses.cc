@@ -793,7 +793,25 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     NetworkPosesOptions network = options.network;
     if (options.method == "auto") network.graph_edge_weight = options.auto_graph_edge_weight;
     const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, network.max_width);
+    const ImagePosesResult before = result;
     PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
+    // The view graph's edges are few where the SfM posed too few images, and one wrong edge at
+    // weight auto_graph_edge_weight can collapse the centres (low-texture 5404 of
+    // bench/dbarf_poses_bench.py: 9 of 10 cameras at one point, the network alone 1.5 deg off).
+    // Then the network poses them alone, and the answer with fewer collapsed centres is kept.
+    const auto collapsed = [](const ImagePosesResult& r) {
+      const std::vector<int> c = CoincidentCentres(r.cam_from_world, r.posed);
+      return static_cast<int>(std::count_if(c.begin(), c.end(), [](int k) { return k >= 0; }));
+    };
+    if (network.graph_edge_weight > 0 && collapsed(result) > 0) {
+      ImagePosesResult alone = before;
+      NetworkPosesOptions without_edges = network;
+      without_edges.graph_edge_weight = 0;
+      PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, without_edges, &alone);
+      LOG_WARN("the network with the view graph's edges put {} camera centres onto others'; without them: {}",
+               collapsed(result), collapsed(alone));
+      if (collapsed(alone) < collapsed(result)) result = std::move(alone);
+    }
   }
 
   result.sfm.cam_from_world = result.cam_from_world;
