@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
@@ -617,6 +618,12 @@ void RegisterUnposedWithNetwork(DbarfModel& model, const torch::Tensor& images, 
   result->seconds_network += timer.Seconds();
 }
 
+// How many posed cameras have their centre on another's (CoincidentCentres): a collapsed answer.
+int NumCoincidentCentres(const ImagePosesResult& result) {
+  const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);
+  return static_cast<int>(std::count_if(coincident.begin(), coincident.end(), [](int c) { return c >= 0; }));
+}
+
 // The share of the posed images whose own measurements disagree with their poses (the
 // low-confidence rule of EstimateImagePoses, the pixels' problems aside).
 double DoubtedFraction(const ImagePosesResult& result, const ImagePosesOptions& options) {
@@ -751,9 +758,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
                                                          net.posed, options.network.photometric_ba);
       // Cameras the network collapsed onto each other are never kept, however they score
       // photometrically: on a photo-like orbit its collapsed cameras scored better than the SfM's.
-      const std::vector<int> coincident = CoincidentCentres(net.cam_from_world, net.posed);
-      const int network_collapsed =
-          static_cast<int>(std::count_if(coincident.begin(), coincident.end(), [](int c) { return c >= 0; }));
+      const int network_collapsed = NumCoincidentCentres(net);
       LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; network cameras collapsed: {}",
                result.auto_sfm_score, result.auto_network_score, network_collapsed);
       if (result.auto_network_score < result.auto_sfm_score && network_collapsed == 0) {
@@ -793,24 +798,22 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
     NetworkPosesOptions network = options.network;
     if (options.method == "auto") network.graph_edge_weight = options.auto_graph_edge_weight;
     const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, network.max_width);
-    const ImagePosesResult before = result;
-    PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
     // The view graph's edges are few where the SfM posed too few images, and one wrong edge at
     // weight auto_graph_edge_weight can collapse the centres (low-texture 5404 of
     // bench/dbarf_poses_bench.py: 9 of 10 cameras at one point, the network alone 1.5 deg off).
     // Then the network poses them alone, and the answer with fewer collapsed centres is kept.
-    const auto collapsed = [](const ImagePosesResult& r) {
-      const std::vector<int> c = CoincidentCentres(r.cam_from_world, r.posed);
-      return static_cast<int>(std::count_if(c.begin(), c.end(), [](int k) { return k >= 0; }));
-    };
-    if (network.graph_edge_weight > 0 && collapsed(result) > 0) {
-      ImagePosesResult alone = before;
+    std::optional<ImagePosesResult> alone;
+    if (network.graph_edge_weight > 0) alone = result;  // the state before posing, for a second try
+    PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, network, &result);
+    const int with_edges = alone ? NumCoincidentCentres(result) : 0;
+    if (with_edges > 0) {
       NetworkPosesOptions without_edges = network;
       without_edges.graph_edge_weight = 0;
-      PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, without_edges, &alone);
+      PoseAllWithNetwork(*model, net_images, net_intrinsics, graph, without_edges, &*alone);
+      const int without = NumCoincidentCentres(*alone);
       LOG_WARN("the network with the view graph's edges put {} camera centres onto others'; without them: {}",
-               collapsed(result), collapsed(alone));
-      if (collapsed(alone) < collapsed(result)) result = std::move(alone);
+               with_edges, without);
+      if (without < with_edges) result = std::move(*alone);
     }
   }
 

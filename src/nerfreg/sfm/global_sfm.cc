@@ -495,10 +495,6 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
   return result;
 }
 
-}  // namespace
-
-namespace {
-
 // The sample standard deviation of image k's focal length over the results whose observations are
 // comparable to results[kept]'s (kFocalSpreadComparableObservations); 0 where fewer than two are.
 double ComparableFocalSpread(const std::vector<SfmResult>& results, int kept, size_t k) {
