@@ -28,8 +28,11 @@ struct GlobalPositioningOptions {
   double huber_scale = 0.1;  // Huber scale of the residual (unit-ray units; GLOMAP's 0.1)
   int max_iterations = 100;  // Ceres iterations
   // Tracks used per image at most (the longest first): the positions need far fewer points than
-  // the bundle adjustment, and the problem's cost grows with the observations.
-  int max_tracks_per_image = 300;
+  // the bundle adjustment, and the problem's cost grows with the observations. Each observation's
+  // scale is its own parameter, so Ceres's Schur complement eliminates the scales and factors
+  // points and cameras together: on 96 forward-facing views (tracks of 16 views) 300 took 1.8 s,
+  // 150 0.7 s, for the same poses after the bundle adjustment.
+  int max_tracks_per_image = 150;
   int min_track_length = 3;  // shorter tracks constrain too little (2-view points add no loop)
   unsigned int seed = 1;     // of the random start
   int num_threads = 1;       // Ceres threads

@@ -21,7 +21,8 @@ namespace nerfreg {
 
 ViewGraphOptions SfmViewGraphDefaults() {
   ViewGraphOptions o;
-  o.contrast_threshold = 0.005;
+  o.contrast_threshold = 0.01;
+  o.sparse_contrast_threshold = 0.005;
   o.min_inliers = 15;
   o.upsample = 2;
   // Enlarging helps the small renders (128x96, 320x240) and costs photos most of the time: at

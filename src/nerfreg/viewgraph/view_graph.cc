@@ -48,6 +48,9 @@ void ViewGraphOptions::Check() const {
   if (min_inliers < 5)
     ThrowInputError("--min-inliers", "", ">= 5 (an essential matrix needs 5), got " + std::to_string(min_inliers));
   if (!(contrast_threshold > 0)) ThrowInputError("--sift-contrast", "", "> 0");
+  if (!(sparse_contrast_threshold >= 0)) ThrowInputError("--sift-contrast-sparse", "", ">= 0 (0: never)");
+  if (sparse_image_keypoints < 0)
+    ThrowInputError("--sift-sparse-keypoints", "", ">= 0, got " + std::to_string(sparse_image_keypoints));
   if (upsample < 1 || upsample > 4) ThrowInputError("--sift-upsample", "", "1..4, got " + std::to_string(upsample));
   if (upsample_max_side < 0)
     ThrowInputError("--sift-upsample-max-side", "", ">= 0, got " + std::to_string(upsample_max_side));
@@ -565,13 +568,22 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
 }
 
 SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options) {
-  const cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
   const int up = EffectiveUpsample(options, std::max(image.width, image.height));
   cv::Mat gray = ToGray8(image);
   if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat desc;
-  sift->detectAndCompute(gray, cv::noArray(), keypoints, desc);
+  const double sparse = options.sparse_contrast_threshold;
+  const bool has_sparse = sparse > 0 && sparse < options.contrast_threshold;
+  // A small image (one enlarged) goes straight to the sparse threshold: it has few pixels to give
+  // keypoints from.
+  cv::SIFT::create(options.max_features, 3, has_sparse && up > 1 ? sparse : options.contrast_threshold)
+      ->detectAndCompute(gray, cv::noArray(), keypoints, desc);
+  if (has_sparse && up == 1 &&
+      static_cast<int>(keypoints.size()) < std::min(options.sparse_image_keypoints, options.max_features)) {
+    keypoints.clear();
+    cv::SIFT::create(options.max_features, 3, sparse)->detectAndCompute(gray, cv::noArray(), keypoints, desc);
+  }
   SiftFeatures out;
   out.descriptors.resize(desc.rows, 128);
   for (int r = 0; r < desc.rows && desc.cols == 128; ++r)

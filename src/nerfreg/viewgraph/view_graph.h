@@ -72,6 +72,13 @@ struct ViewGraphOptions {
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
   double contrast_threshold = 0.04;
+  // An image that gives fewer than sparse_image_keypoints keypoints at contrast_threshold is
+  // searched again at this lower threshold (0: never), and an image enlarged before SIFT (a small
+  // one, see upsample) is searched at it alone. Textured photos keep their stronger keypoints,
+  // which repeat across views and are fewer to match; faint and small images keep all they have.
+  // The second search costs one more scale space on the faint photos only.
+  double sparse_contrast_threshold = 0;
+  int sparse_image_keypoints = 300;
   // Images are enlarged by this factor (bilinear) before SIFT, and keypoints mapped back: more
   // keypoints, better localised, on small images. 1 = as they are.
   int upsample = 1;
@@ -132,7 +139,9 @@ struct SiftFeatures {
 };
 
 // OpenCV SIFT on the image's grey levels (enlarged by EffectiveUpsample first), the
-// options.max_features strongest keypoints at options.contrast_threshold.
+// options.max_features strongest keypoints at options.contrast_threshold, or at
+// options.sparse_contrast_threshold where the image is enlarged or the first gives too few
+// (sparse_image_keypoints).
 SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options);
 
 // How MatchDescriptors multiplies the descriptors. Both give the same integers, so the same matches.

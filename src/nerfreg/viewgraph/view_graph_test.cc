@@ -500,5 +500,39 @@ TEST(ViewGraph, UpsampleOnlyImagesThatStaySmallEnlarged) {
   EXPECT_THROW(o.Check(), InputError);
 }
 
+// A textured image keeps the keypoints of the main contrast threshold; a faint one, with too few
+// there, and a small one (enlarged) get exactly those of the lower threshold.
+TEST(ViewGraph, FaintAndSmallImagesAreSearchedAtTheSparseContrastThreshold) {
+  const Camera cam = Camera::Pinhole(384, 288, 320, 320, 192, 144);
+  const Image textured = RenderPlane(cam, LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()));
+  Image faint = textured;
+  for (float& v : faint.data) v = 0.5f + 0.25f * (v - 0.5f);
+  ViewGraphOptions o;  // not enlarged (upsample 1)
+  const auto count = [&](const Image& im, double contrast, double sparse, int sparse_keypoints) {
+    ViewGraphOptions c = o;
+    c.contrast_threshold = contrast;
+    c.sparse_contrast_threshold = sparse;
+    c.sparse_image_keypoints = sparse_keypoints;
+    return ExtractSiftFeatures(im, c).keypoints.size();
+  };
+  const size_t textured_high = count(textured, 0.01, 0, 0), textured_low = count(textured, 0.005, 0, 0);
+  const size_t faint_high = count(faint, 0.01, 0, 0), faint_low = count(faint, 0.005, 0, 0);
+  ASSERT_LT(faint_high, faint_low);
+  ASSERT_LT(faint_high, textured_high);
+  ASSERT_LT(textured_high, textured_low);
+  // Between the two counts: the faint image falls back, the textured one does not.
+  const int sparse_keypoints = static_cast<int>((faint_high + textured_high) / 2);
+  EXPECT_EQ(count(faint, 0.01, 0.005, sparse_keypoints), faint_low);
+  EXPECT_EQ(count(textured, 0.01, 0.005, sparse_keypoints), textured_high);
+  EXPECT_EQ(count(faint, 0.01, 0, sparse_keypoints), faint_high) << "0: never";
+  EXPECT_EQ(count(faint, 0.01, 0.02, sparse_keypoints), faint_high) << "only a lower threshold is a fallback";
+  o.upsample = 2;  // enlarged: the sparse threshold at once, however many keypoints
+  const size_t enlarged_low = count(textured, 0.005, 0, 0);
+  ASSERT_LT(count(textured, 0.01, 0, 0), enlarged_low);
+  EXPECT_EQ(count(textured, 0.01, 0.005, 0), enlarged_low);
+  o.sparse_contrast_threshold = -1;
+  EXPECT_THROW(o.Check(), InputError);
+}
+
 }  // namespace
 }  // namespace nerfreg
