@@ -175,6 +175,11 @@ const std::vector<BadInputCase>& Cases() {
       {"dbarf_poses_zero_features",
        [](const std::string& d) { return "dbarf poses " + d + " --focal 100 --max-features 0 --out " + d + "/p"; },
        "error: --max-features: expected > 0, got 0", "p"},
+      {"dbarf_poses_negative_sparse_keypoints",
+       [](const std::string& d) {
+         return "dbarf poses " + d + " --focal 100 --sift-sparse-keypoints -1 --out " + d + "/p";
+       },
+       "error: --sift-sparse-keypoints: expected >= 0, got -1", "p"},
       {"dbarf_poses_unknown_pairs",
        [](const std::string& d) { return "dbarf poses " + d + " --pairs nearby --out " + d + "/p"; },
        "error: --pairs: expected exhaustive, sequential, retrieval or auto, got \"nearby\"", "p"},
