@@ -16,8 +16,9 @@ SIZES=${SIZES:-"640x480 1008x756"}
 SEED=${SEED:-5000}
 VIEWS=${VIEWS:-24}
 REPEATS=${REPEATS:-2}
-# colmap-lo: COLMAP with SIFT's peak threshold lowered to nerfreg's contrast threshold (0.005 / 3),
-# as in bench/dbarf_vs_colmap.sh: with its default COLMAP found no initial pair on these renders.
+# colmap-lo: COLMAP with SIFT's peak threshold lowered to nerfreg's sparse contrast threshold
+# (0.005 / 3; nerfreg itself uses 0.01 on these photo-sized images), as in bench/dbarf_vs_colmap.sh:
+# with its default COLMAP found no initial pair on these renders.
 METHODS=${METHODS:-"classical auto colmap colmap-lo"}
 PHOTO="--distortion -0.08,0.02 --noise 0.01 --jpeg 90"
 mkdir -p "$WORK" "$ROOT/results"

@@ -17,6 +17,7 @@ import json
 import math
 import os
 import re
+import subprocess
 import sys
 import time
 
@@ -52,6 +53,12 @@ def run_size(n, args, python, trajectory="orbit"):
     work = os.path.dirname(info["images_dir"])
     gt = rp.gt_poses(info, "cam_from_world")
     runs = {}
+    # Each program is started once, untimed, before the timed runs: after long runs the machine's
+    # page cache is sometimes cold, and a first start then loads nerfreg's ~340 shared libraries
+    # (~0.7 s more at 24 forward views, 2026-11-29) or pycolmap's from disk. Every method alike.
+    warm = {"nerfreg": [args.nerfreg, "--help"], "colmap38": ["colmap", "-h"], "colmap4": [python, "-c", "import pycolmap"]}
+    for m in args.methods.split():
+        subprocess.run(warm[m], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     for m in args.methods.split():
         key = METHODS[m]
         if m == "nerfreg":
@@ -123,11 +130,12 @@ def write_md(j, path):
          ""]
     m = j["machine"]
     L.append("Written by `bench/poses_scale.py` from `%s`: `%s` (%s; %s, %s cores; the whole bench %.0f s; load average "
-             "%s at the start, %s at the end: above 1, other jobs shared the cores and the times are upper bounds)." %
+             "%s at the start, %s at the end: the bench's own work keeps it near the core count; where the start's first "
+             "figure is above 1, other jobs shared the cores and the times are upper bounds)." %
              (os.path.basename(j["json"]), j["command"], j["date"], m["cpu"], m["cores"], j.get("bench_wall_s", 0),
               " ".join(m["loadavg_start"]), " ".join(m.get("loadavg_end", ["?"]))))
     v = j["versions"]
-    L.append("nerfreg: `%s` (%s); COLMAP: %s; pycolmap %s." % (v["nerfreg"], v.get("nerfreg_git", "?"),
+    L.append("nerfreg: `%s` (%s); COLMAP: %s; pycolmap %s." % (v["nerfreg"], rp.nerfreg_version(v),
                                                               v["colmap"][0].strip(), v["pycolmap"]))
     L.append("")
     L.append("Sets: `nerfreg render --mesh spider.obj --trajectory orbit --views N --size 640x480 --distortion -0.05 "
@@ -136,7 +144,8 @@ def write_md(j, path):
              "procedural scene seen by forward-facing look-at views, as bench/dbarf_speed.sh's; `forward`). Every "
              "method gets the render's intrinsics and keeps them (nerfreg `--intrinsics`, COLMAP one `OPENCV` camera, "
              "focal and distortion not refined). Runs one after another, each with the machine's default thread "
-             "count, timed by the wall clock; peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
+             "count, timed by the wall clock, each program started once untimed before a set's runs (a warm page "
+             "cache for all); peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
              "largest of its three commands). Errors against the truth: rotation after the best rotation alignment, "
              "centres after a robust Sim(3) in % of the widest baseline (bench/real_poses.py `compare`). Per-pair "
              "cost: nerfreg's stage time over the pairs it matched; COLMAP's exhaustive matching stage (matching "

@@ -621,6 +621,11 @@ def versions(nerfreg, python):
     return v
 
 
+def nerfreg_version(v):
+    """The nerfreg binary's git description, else (a binary outside the repository) the repository's HEAD."""
+    return v.get("nerfreg_git") or ("built outside the repository; the repository at %s" % v.get("git", "?")[:7])
+
+
 def machine():
     cpu = [l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")]
     mem = [l for l in open("/proc/meminfo") if l.startswith("MemTotal")]
@@ -800,13 +805,13 @@ def write_md(j, path):
     L.append("# Poses of real photos: nerfreg `dbarf poses` against COLMAP 3.8 and COLMAP 4 (global)")
     L.append("")
     L.append("Written by `bench/real_poses.py` from `%s`: `%s` (%s; %s, %s cores; the whole bench %.0f s; load "
-             "average %s at the start, %s at the end: where it is above 1, other jobs shared the cores and the "
-             "times are upper bounds)." %
+             "average %s at the start, %s at the end: the bench's own work keeps it near the core count; where the "
+             "start's first figure is above 1, other jobs shared the cores and the times are upper bounds)." %
              (os.path.basename(j["json"]), j["command"], j["date"], j["machine"]["cpu"], j["machine"]["cores"],
               j.get("bench_wall_s", float("nan")), " ".join(j["machine"]["loadavg_start"]),
               " ".join(j["machine"].get("loadavg_end", ["?"]))))
     L.append("nerfreg: `%s` (%s); COLMAP: %s; pycolmap %s (pip: %s)." %
-             (j["versions"]["nerfreg"], j["versions"].get("nerfreg_git", "?"), j["versions"]["colmap"][0].strip(),
+             (j["versions"]["nerfreg"], nerfreg_version(j["versions"]), j["versions"]["colmap"][0].strip(),
               j["versions"]["pycolmap"], " ".join(j["versions"]["pip_freeze"])))
     L.append("")
     L.append("Every run is timed by the wall clock, one after another, each with the machine's default thread "
