@@ -25,10 +25,12 @@ namespace {
 void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs, std::string* two_view) {
   app.add_option("--max-features", o->max_features, "SIFT keypoints per image (default 4000)");
   app.add_option("--min-inliers", o->min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
-  app.add_option("--sift-contrast", o->contrast_threshold, "SIFT contrast threshold (default 0.01)");
+  app.add_option("--sift-contrast", o->contrast_threshold,
+                 "SIFT contrast threshold of photo-sized images (default 0.01)");
   app.add_option("--sift-contrast-sparse", o->sparse_contrast_threshold,
-                 "... and a lower one for images with fewer than --sift-sparse-keypoints (default 0.005; 0: never)");
-  app.add_option("--sift-sparse-keypoints", o->sparse_image_keypoints, "(default 300)");
+                 "SIFT contrast threshold of enlarged (small) images and of those with fewer than "
+                 "--sift-sparse-keypoints keypoints at --sift-contrast (default 0.005; 0: --sift-contrast everywhere)");
+  app.add_option("--sift-sparse-keypoints", o->sparse_image_keypoints, "See --sift-contrast-sparse (default 300)");
   app.add_option("--sift-upsample", o->upsample, "Enlarge images by this factor before SIFT (default 2)");
   app.add_option("--sift-upsample-max-side", o->upsample_max_side,
                  "... only while the enlarged image's longer side stays within this (default 1000; 0: always)");
