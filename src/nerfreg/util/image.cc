@@ -234,7 +234,20 @@ Image Decode(const std::string& bytes, const std::string& path, int channels, Im
   }
   CheckPixelCount(w, h, path);
   CheckPngChunks(bytes, path);
-  if (IsJpeg(bytes)) CheckJpegStructure(bytes, path);
+  if (IsJpeg(bytes)) {
+    CheckJpegStructure(bytes, path);
+    // Its entropy-coded data spends at least one bit on each 8x8 block of each component (the DC
+    // code), so a JPEG describes at most 512 pixels a byte. A header that claims more is a corrupt
+    // file, which stb would decode into that many pixels of filler (a fuzzer finding: 861 bytes
+    // claiming 65535 x 3839, 3 GB as floats).
+    constexpr std::int64_t kMaxJpegPixelsPerByte = 1024;
+    if (std::int64_t(w) * h > kMaxJpegPixelsPerByte * static_cast<std::int64_t>(bytes.size())) {
+      ThrowInputError(path, "size",
+                      "at most " + std::to_string(kMaxJpegPixelsPerByte) + " pixels per byte of a JPEG, header says " +
+                          std::to_string(w) + "x" + std::to_string(h) + " in " + std::to_string(bytes.size()) +
+                          " bytes");
+    }
+  }
   // Grey+alpha has no Image layout of its own: RGBA.
   const int request = channels == 0 && c == 2 ? 4 : channels;
   const bool sixteen = stbi_is_16_bit_from_memory(data, size) != 0;

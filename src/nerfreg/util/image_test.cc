@@ -275,6 +275,17 @@ TEST(Image, TruncatedAndCorruptJpegsAreInputErrors) {
   WriteFileAtomic(dir.File("undefined.jpg"), undefined);
   const std::string tables = InputErrorOf([&] { ReadImage(dir.File("undefined.jpg")); });
   EXPECT_NE(tables.find("undefined.jpg: JPEG scan at byte"), std::string::npos) << tables;
+  // A frame header claiming 16000 x 16000 pixels (within the pixel limit) in a few kB: refused by
+  // its size before stb decodes it into 256 M pixels of filler (a fuzzer finding).
+  std::string claimed = jpeg;
+  const size_t sof = claimed.find(std::string("\xFF\xC0", 2));
+  ASSERT_NE(sof, std::string::npos);
+  for (size_t off : {sof + 5, sof + 7}) claimed[off] = '\x3E', claimed[off + 1] = '\x80';  // 16000, big-endian
+  WriteFileAtomic(dir.File("claimed.jpg"), claimed);
+  const std::string size = InputErrorOf([&] { ReadImage(dir.File("claimed.jpg")); });
+  EXPECT_NE(size.find("claimed.jpg: size: expected at most 1024 pixels per byte of a JPEG, header says 16000x16000"),
+            std::string::npos)
+      << size;
   // The complete file still reads.
   WriteFileAtomic(dir.File("card.jpg"), jpeg);
   EXPECT_EQ(Corners(ReadImage(dir.File("card.jpg"))), "rbgg");
