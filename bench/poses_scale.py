@@ -53,9 +53,9 @@ def run_size(n, args, python, trajectory="orbit"):
     work = os.path.dirname(info["images_dir"])
     gt = rp.gt_poses(info, "cam_from_world")
     runs = {}
-    # Each program is started once, untimed, before the timed runs: after long runs the machine's
-    # page cache is sometimes cold, and a first start then loads nerfreg's ~340 shared libraries
-    # (~0.7 s more at 24 forward views, 2026-11-29) or pycolmap's from disk. Every method alike.
+    # Each program is started once, untimed, before the timed runs: after long runs a first start
+    # was sometimes slower (nerfreg ~0.7 s more at 24 forward views, 2026-11-29; the cause, likely a
+    # cold page cache for its ~340 shared libraries, is not established). Every method alike.
     warm = {"nerfreg": [args.nerfreg, "--help"], "colmap38": ["colmap", "-h"], "colmap4": [python, "-c", "import pycolmap"]}
     for m in args.methods.split():
         subprocess.run(warm[m], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -144,8 +144,8 @@ def write_md(j, path):
              "procedural scene seen by forward-facing look-at views, as bench/dbarf_speed.sh's; `forward`). Every "
              "method gets the render's intrinsics and keeps them (nerfreg `--intrinsics`, COLMAP one `OPENCV` camera, "
              "focal and distortion not refined). Runs one after another, each with the machine's default thread "
-             "count, timed by the wall clock, each program started once untimed before a set's runs (a warm page "
-             "cache for all); peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
+             "count, timed by the wall clock, each program started once untimed before a set's runs (a warm start "
+             "for all); peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
              "largest of its three commands). Errors against the truth: rotation after the best rotation alignment, "
              "centres after a robust Sim(3) in % of the widest baseline (bench/real_poses.py `compare`). Per-pair "
              "cost: nerfreg's stage time over the pairs it matched; COLMAP's exhaustive matching stage (matching "

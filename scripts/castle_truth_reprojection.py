@@ -23,20 +23,20 @@ import real_poses as rp  # noqa: E402
 
 
 def read_model(folder):
-    cam = [l.split() for l in open(os.path.join(folder, "cameras.txt")) if not l.startswith("#")][0]
-    if cam[1] != "PINHOLE":
-        sys.exit("error: %s/cameras.txt: model: expected PINHOLE, got %s" % (folder, cam[1]))
-    intrinsics = tuple(float(x) for x in cam[4:8])
+    """Pinhole intrinsics, {name: (R, t)} and the tracks [(name, x, y), ...] of a COLMAP text model."""
+    poses, cams, _, _ = rp.read_colmap_text(folder)
+    model, _, _, params = next(iter(cams.values()))
+    if len(cams) != 1 or model != "PINHOLE":
+        sys.exit("error: %s/cameras.txt: cameras: expected one PINHOLE camera" % folder)
+    # read_colmap_text keeps no observations: each image's second line is its POINTS2D[] (x y id).
     lines = [l for l in open(os.path.join(folder, "images.txt")) if not l.startswith("#")]
-    poses, tracks = {}, {}
+    tracks = {}
     for k in range(0, len(lines) - 1, 2):
-        f = lines[k].split()
-        poses[f[9]] = (rp.quat_to_rot(np.array([float(x) for x in f[1:5]])), np.array([float(x) for x in f[5:8]]))
-        p = lines[k + 1].split()
+        name, p = lines[k].split()[9], lines[k + 1].split()
         for i in range(0, len(p), 3):
             if int(p[i + 2]) >= 0:
-                tracks.setdefault(int(p[i + 2]), []).append((f[9], float(p[i]), float(p[i + 1])))
-    return intrinsics, poses, list(tracks.values())
+                tracks.setdefault(int(p[i + 2]), []).append((name, float(p[i]), float(p[i + 1])))
+    return tuple(params[:4]), poses, list(tracks.values())
 
 
 def track_errors(poses, track, intrinsics):
