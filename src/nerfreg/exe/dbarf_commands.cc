@@ -105,6 +105,9 @@ int RunDbarfPoses(int argc, char** argv) {
                  "photometrically better cameras are kept (default 0.25; 1: off)");
   app.add_option("--low-confidence-deg", options.low_confidence_deg,
                  "Warn about images whose pairwise rotations disagree with their pose by more than this (default 5)");
+  app.add_flag("--no-keypoint-refinement{false}", options.sfm.refine_keypoints,
+               "Keep SIFT's keypoint positions (default: each track's keypoints aligned with one another on the "
+               "images by an affine warp of their windows before the solve)");
   std::string pairs = "auto", two_view = TwoViewEstimatorName(options.sfm.view_graph.estimator);
   AddViewGraphOptions(app, &options.sfm.view_graph, &pairs, &two_view);
   unsigned int seed = 0;

@@ -37,6 +37,7 @@ void SfmOptions::Check() const {
   global_positioning.Check();
   translation.Check();
   tracks.Check();
+  keypoint_refinement.Check();
   bundle_adjustment.Check();
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
       !(reverify_matches_px >= 0) ||
@@ -610,7 +611,15 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   }
   const Timer timer;
   StageTimes times;
-  const ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times, camera_group);
+  ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times, camera_group);
+  if (options.refine_keypoints) {
+    const Timer refinement;
+    const KeypointRefinementSummary r = RefineTrackKeypoints(images, graph, BuildTracks(graph, {}, options.tracks),
+                                                             options.keypoint_refinement, &graph.keypoints);
+    times.Record("keypoint refinement", refinement.Seconds());
+    LOG_DEBUG("sfm keypoint refinement: {} tracks, {} observations moved (median {:.2f} px), {} refused", r.num_tracks,
+              r.num_moved, r.median_shift_px, r.num_refused);
+  }
   const double seconds_view_graph = timer.Seconds();
   SfmResult result = RunGlobalSfm(graph, graph.cameras, options, camera_group);
   result.seconds_view_graph = seconds_view_graph;

@@ -32,6 +32,7 @@
 #include "nerfreg/geometry/rigid3.h"
 #include "nerfreg/sfm/bundle_adjustment.h"
 #include "nerfreg/sfm/global_positioning.h"
+#include "nerfreg/sfm/keypoint_refinement.h"
 #include "nerfreg/sfm/rotation_averaging.h"
 #include "nerfreg/sfm/tracks.h"
 #include "nerfreg/sfm/translation_averaging.h"
@@ -109,6 +110,10 @@ struct SfmOptions {
   // (888.9) at 915.8, 905.0 and 892.4; on the real cube the two starts agree (596.4 px) and it is
   // not solved (a third start there took 19.0 s against 6.9). 0: none.
   double focal_start_below = 0.7;
+  // PoseImages: each track's keypoints aligned with one another on the images before the solve
+  // (RefineTrackKeypoints, on the tracks of every edge).
+  bool refine_keypoints = true;
+  KeypointRefinementOptions keypoint_refinement;
   void Check() const;  // throws std::invalid_argument
 };
 
