@@ -346,8 +346,7 @@ TEST(DbarfCli, AutoReplacesADoubtfulSfmOnRepetitiveTextureByTheNetwork) {
 }
 
 // The same repetitive set with and without keypoint refinement: SIFT's own positions give an SfM
-// 2.39 deg off (matches on the wrong copies of the pattern survive as tracks), the keypoints
-// aligned on the images 0.29 deg.
+// 2.39 deg off, the keypoints aligned on the images 0.29 deg (why so much is not established).
 TEST(DbarfCli, KeypointRefinementPosesTheRepetitiveSetTheSfmGotWrong) {
   ScopedTempDir dir;
   const std::string data = RenderHardSet(dir, 5504, "repetitive");

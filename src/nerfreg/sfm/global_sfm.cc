@@ -614,8 +614,8 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times, camera_group);
   if (options.refine_keypoints) {
     const Timer refinement;
-    const KeypointRefinementSummary r = RefineTrackKeypoints(images, graph, BuildTracks(graph, {}, options.tracks),
-                                                             options.keypoint_refinement, &graph.keypoints);
+    [[maybe_unused]] const KeypointRefinementSummary r = RefineTrackKeypoints(
+        images, graph, BuildTracks(graph, {}, options.tracks), options.keypoint_refinement, &graph.keypoints);
     times.Record("keypoint refinement", refinement.Seconds());
     LOG_DEBUG("sfm keypoint refinement: {} tracks, {} observations moved (median {:.2f} px), {} refused", r.num_tracks,
               r.num_moved, r.median_shift_px, r.num_refused);
