@@ -612,6 +612,7 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   const Timer timer;
   StageTimes times;
   ViewGraph graph = BuildViewGraph(images, cameras, names, options.view_graph, &times, camera_group);
+  const double seconds_view_graph = timer.Seconds();  // the refinement has a stage time of its own
   if (options.refine_keypoints) {
     const Timer refinement;
     [[maybe_unused]] const KeypointRefinementSummary r = RefineTrackKeypoints(
@@ -620,7 +621,6 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
     LOG_DEBUG("sfm keypoint refinement: {} tracks, {} observations moved (median {:.2f} px), {} refused", r.num_tracks,
               r.num_moved, r.median_shift_px, r.num_refused);
   }
-  const double seconds_view_graph = timer.Seconds();
   SfmResult result = RunGlobalSfm(graph, graph.cameras, options, camera_group);
   result.seconds_view_graph = seconds_view_graph;
   times.Append(result.times);

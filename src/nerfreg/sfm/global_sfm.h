@@ -47,8 +47,8 @@ namespace nerfreg {
 // does) up to 1000 px; a SIFT contrast threshold of 0.01 (half of COLMAP's, which is 0.02 in
 // OpenCV's units), and 0.005 on enlarged images and those that give fewer than 300 keypoints at
 // 0.01 (DBARF's inputs are often small, dark renders; low-texture photos). On a textured
-// photo-like forward set, 0.005 gave 3x the keypoints of 0.01 and 1.5-1.6x the time for
-// 0.048-0.057 deg instead of 0.075-0.097 (24-96 views).
+// photo-like forward set, before keypoint refinement, 0.005 gave 3x the keypoints of 0.01 and
+// 1.5-1.6x the time for 0.048-0.057 deg instead of 0.075-0.097 (24-96 views).
 ViewGraphOptions SfmViewGraphDefaults();
 
 // How camera centres are found once orientations are known.

@@ -333,7 +333,8 @@ TEST(GlobalSfm, SelfCalibrationRecoversTheFocalLengthAndDistortionOfRenderedView
   // 0.9739 against 0.9742, rotations 0.030 deg; on the sanitized clang build's renders (procedural
   // renders differ between the two compilers) 343.09 px (2.5 %), 0.9698 and 0.103 deg, where
   // without the refinement they give 354.09 px and 0.047 deg. The focal length is weakly determined
-  // by these 12 views (a valley along focal and k2), so the bound is 3 %, as for the subset below.
+  // by these 12 views (k2 ends between -0.033 and 0.072 in these runs, the corner factor within
+  // 0.970-0.974), so the bound is 3 %, as for the subset below.
   EXPECT_NEAR(c.fx, truth.fx, 0.03 * truth.fx);
   EXPECT_NEAR(radial(c), radial(truth), 0.01);
   for (const Camera& other : r.cameras) EXPECT_EQ(other.fx, c.fx);  // one camera group

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -10,6 +9,8 @@
 #include <utility>
 
 #include <Eigen/Dense>
+
+#include "nerfreg/viewgraph/view_graph.h"
 
 namespace nerfreg {
 
@@ -25,17 +26,15 @@ void KeypointRefinementOptions::Check() const {
 
 namespace {
 
-// Grey levels, row-major, with bilinear sampling at coordinates whose integers are pixel centres.
+// The grey levels SIFT saw (FeatureGrey), row-major, with bilinear sampling at coordinates whose
+// integers are pixel centres.
 struct Grey {
   int width = 0, height = 0;
   std::vector<float> v;  // [height * width]
 
   explicit Grey(const Image& im) : width(im.width), height(im.height), v(static_cast<size_t>(im.width) * im.height) {
     for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x)
-        v[static_cast<size_t>(y) * width + x] =
-            im.channels >= 3 ? 0.299f * im.at(x, y, 0) + 0.587f * im.at(x, y, 1) + 0.114f * im.at(x, y, 2)
-                             : im.at(x, y, 0);
+      for (int x = 0; x < width; ++x) v[static_cast<size_t>(y) * width + x] = FeatureGrey(im, x, y);
   }
   bool Inside(double x, double y) const { return x >= 0 && y >= 0 && x <= width - 1.001 && y <= height - 1.001; }
   // Requires Inside(x, y).

@@ -6,8 +6,9 @@
 // pixel apart in each image, and the bundle adjustment reads those tenths as pose.
 // Each observation's window is aligned with the same scene patch in the track's most alike view by
 // an affine warp (inverse-compositional Gauss-Newton on grey levels), so that the observations of
-// a track agree with one another. Measured (docs/poses_and_views.md): forward-facing renders'
-// rotations 2x closer to the truth, the real cube's reprojection error halved.
+// a track agree with one another. Measured (docs/poses_and_views.md): results/poses_scale.md's
+// forward-facing views 0.075-0.097 -> 0.059-0.063 deg from the truth, the real cube's
+// reprojection error 0.177 -> 0.090 px; Castle-simu (untextured) worse, 0.253 -> 0.334 deg.
 #include <vector>
 
 #include <Eigen/Core>

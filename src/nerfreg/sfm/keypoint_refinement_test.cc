@@ -29,8 +29,8 @@ struct Texture {
   }
 };
 
-// image_from_scene maps the texture's coordinates to the image's (keypoint convention: pixel
-// (c, r)'s centre at (c + 0.5, r + 0.5)).
+// The texture seen through p_image = linear p_texture + shift (keypoint convention: pixel (c, r)'s
+// centre at (c + 0.5, r + 0.5)).
 Image Render(const Texture& texture, const Eigen::Matrix2d& linear, const Eigen::Vector2d& shift) {
   Image im(200, 160, 1);
   const Eigen::Matrix2d inverse = linear.inverse();

@@ -153,16 +153,8 @@ int RansacIterationCap(int num_matches, int min_inliers, int sample_size, double
 cv::Mat ToGray8(const Image& im) {
   cv::Mat gray(im.height, im.width, CV_8UC1);
   for (int y = 0; y < im.height; ++y)
-    for (int x = 0; x < im.width; ++x) {
-      float v = 0;
-      if (im.channels >= 3) {
-        v = 0.299f * im.at(x, y, 0) + 0.587f * im.at(x, y, 1) + 0.114f * im.at(x, y, 2);
-        if (im.channels == 4) v = v * im.at(x, y, 3) + (1 - im.at(x, y, 3));  // over white
-      } else {
-        v = im.at(x, y, 0);
-      }
-      gray.at<uint8_t>(y, x) = static_cast<uint8_t>(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f);
-    }
+    for (int x = 0; x < im.width; ++x)
+      gray.at<uint8_t>(y, x) = static_cast<uint8_t>(std::clamp(FeatureGrey(im, x, y), 0.f, 1.f) * 255.f + 0.5f);
   return gray;
 }
 

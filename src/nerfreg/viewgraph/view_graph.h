@@ -131,6 +131,15 @@ struct ViewGraph {
 // The enlargement applied to images whose longer side is max_side pixels (upsample or 1).
 int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 
+// The grey level SIFT sees at pixel (x, y), in [0, 1] before clamping: the luma (0.299, 0.587,
+// 0.114) of RGB, RGBA composited over white, a grey image's own. Code that samples the images
+// again for the keypoints (sfm's keypoint refinement) reads the same levels.
+inline float FeatureGrey(const Image& im, int x, int y) {
+  if (im.channels < 3) return im.at(x, y, 0);
+  const float v = 0.299f * im.at(x, y, 0) + 0.587f * im.at(x, y, 1) + 0.114f * im.at(x, y, 2);
+  return im.channels == 4 ? v * im.at(x, y, 3) + (1 - im.at(x, y, 3)) : v;
+}
+
 // One image's SIFT keypoints and descriptors, row k of each the same keypoint.
 struct SiftFeatures {
   // Image coordinates in pixels (centre of pixel (c, r) at (c + 0.5, r + 0.5)).
