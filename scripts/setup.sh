@@ -15,8 +15,10 @@ PACKAGES=(
   libgloo-dev
   # edges: ray casting, point-cloud baselines, pose graphs, image features
   libembree-dev libopen3d-dev libceres-dev libopencv-dev
-  # oneDNN's headers: the SIFT matcher's integer descriptor products (its library comes with LibTorch)
-  libdnnl-dev
+  # oneDNN's headers: the SIFT matcher's integer descriptor products (its library comes with LibTorch);
+  # its CMake config requires OpenCL's, only a recommendation of libdnnl-dev that
+  # --no-install-recommends skips
+  libdnnl-dev ocl-icd-opencl-dev
   # header-only and small utilities
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libstb-dev zlib1g-dev
   # photos' EXIF (focal length, sensor resolution, orientation; util/exif.cc)
