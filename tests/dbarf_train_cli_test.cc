@@ -80,6 +80,18 @@ TEST(DbarfTrainCli, PretrainThenResume) {
                  s.dir.File("w3.pt") + train);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("--init-noise-deg"), std::string::npos) << r.output;
+  // Self-supervised from the identity with those weights' encoders and fresh heads, the SfM loss
+  // over a 2-level pyramid; fresh heads need weights to keep the encoders of.
+  const std::string w4 = s.dir.File("w4.pt");
+  r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --weights " + w + " --steps 2 --pose-init network " +
+                 "--fresh-pose-heads --sfm-levels 2 --out " + w4 + train);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(CountLines(w4 + ".log.jsonl"), 2);
+  r = RunNerfreg("dbarf pretrain " + s.posed + "/transforms.json --steps 2 --fresh-pose-heads --out " +
+                 s.dir.File("w5.pt") + train);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error: --fresh-pose-heads: expected --weights"), std::string::npos) << r.output;
+  EXPECT_FALSE(FileExists(s.dir.File("w5.pt")));
 }
 
 TEST(DbarfTrainCli, SupervisedPosesFromTheIdentityAndEvalNet) {

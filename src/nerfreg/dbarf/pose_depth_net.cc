@@ -233,6 +233,26 @@ PoseDepthNetImpl::PoseDepthNetImpl(const PoseDepthNetOptions& options) : options
   }
 }
 
+void PoseDepthNetImpl::ReinitialiseHeads() {
+  torch::NoGradGuard no_grad;
+  const std::vector<std::shared_ptr<nn::Module>> parts = {
+      init_depth_head_.ptr(), init_pose_head_.ptr(), init_mask_head_.ptr(), depth_encoder_.ptr(),
+      pose_encoder_.ptr(),    depth_gru_.ptr(),      pose_gru_.ptr(),       depth_delta_head_.ptr(),
+      depth_mask_head_.ptr(), pose_delta_head_.ptr()};
+  // Only convolutions: these parts have no normalisation layers (the encoders' BatchNorm stays).
+  for (const auto& part : parts) {
+    for (const auto& module : part->modules(/*include_self=*/true)) {
+      if (auto* conv = module->as<nn::Conv2dImpl>()) conv->reset_parameters();
+    }
+  }
+  for (auto* head : {&init_pose_head_, &pose_delta_head_}) {
+    auto last = (*head)->ptr(2)->as<nn::Conv2d>();
+    last->weight.zero_();
+    if (last->bias.defined()) last->bias.zero_();
+  }
+  // The rotation scale stays the current one: zero rows are zero at any scale.
+}
+
 void PoseDepthNetImpl::SetDepthRange(double near, double far) {
   TORCH_CHECK(near > 0.0 && far > near, "PoseDepthNet: need 0 < near < far, got ", near, " ", far);
   options_.near = near;

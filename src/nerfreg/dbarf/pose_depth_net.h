@@ -161,6 +161,13 @@ class PoseDepthNetImpl : public torch::nn::Module {
   // training moves rotations changes (Adam steps are about the same size in every parameter, so a
   // smaller scale turns rotations more slowly).
   void SetRotationScale(double scale);
+  // Draws every parameter except the three encoders' (fnet, cnet_depth, cnet_pose) afresh: the
+  // initial heads, the motion encoders, the GRUs and the update heads, the pose heads' last layers
+  // at zero, so the network returns the identity (or the given initial poses) again. The original
+  // starts its encoders from ImageNet's ResNet18 and these parts fresh; with no pretrained weights
+  // downloaded here, a trained network's encoders stand in (`dbarf pretrain --fresh-pose-heads`).
+  // Draws from torch's generator: seed it for a repeatable run.
+  void ReinitialiseHeads();
 
  private:
   torch::Tensor ToInverseDepth(const torch::Tensor& disparity) const;

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+#include <string>
+
 #include "nerfreg/dbarf/inverse_warp.h"
 #include "nerfreg/dbarf/se3.h"
 #include "nerfreg/dbarf/sfm_loss.h"
@@ -211,6 +214,51 @@ TEST_F(PoseDepthNetTest, SetRotationScaleKeepsTheFunction) {
     EXPECT_TRUE(torch::allclose(before.src_from_tgt[i], after.src_from_tgt[i], 1e-4, 1e-5)) << i;
   }
   EXPECT_THROW(net->SetRotationScale(0.0), c10::Error);
+}
+
+TEST_F(PoseDepthNetTest, ReinitialiseHeadsKeepsTheEncodersAndReturnsTheInitialPosesAgain) {
+  PoseDepthNetOptions o = PoseDepthNetOptions::Cpu();
+  PoseDepthNet net(o);
+  // A trained network stands in: every parameter moved off its initial value.
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : net->parameters()) p.add_(torch::randn_like(p) * 0.05);
+  }
+  std::map<std::string, torch::Tensor> before;
+  for (const auto& p : net->named_parameters()) before[p.key()] = p.value().clone();
+  net->eval();
+  const torch::Tensor target = torch::rand({1, 3, 32, 48}), sources = torch::rand({2, 3, 32, 48});
+  const torch::Tensor k = torch::tensor({40.0, 0.0, 24.0, 0.0, 40.0, 16.0, 0.0, 0.0, 1.0}).view({3, 3});
+  torch::NoGradGuard no_grad;
+  // With the perturbed heads the network moves the cameras.
+  EXPECT_GT(Se3Log(net->forward(target, sources, k).src_from_tgt.back()).abs().max().item<double>(), 1e-3);
+
+  net->ReinitialiseHeads();
+  int encoders = 0, redrawn = 0;
+  for (const auto& p : net->named_parameters()) {
+    const bool encoder = p.key().rfind("fnet.", 0) == 0 || p.key().rfind("cnet_", 0) == 0;
+    const bool same = torch::equal(p.value(), before[p.key()]);
+    if (encoder) {
+      EXPECT_TRUE(same) << p.key();
+      ++encoders;
+    } else {
+      EXPECT_FALSE(same) << p.key();
+      ++redrawn;
+    }
+  }
+  EXPECT_GT(encoders, 0);
+  EXPECT_GT(redrawn, 0);
+  // From the identity it returns the identity at every prediction, and given poses unchanged.
+  const PoseDepthPrediction from_identity = net->forward(target, sources, k);
+  for (const auto& poses : from_identity.src_from_tgt) {
+    EXPECT_TRUE(torch::allclose(poses, torch::eye(4).expand({2, 4, 4}), 0.0, 1e-6));
+  }
+  const torch::Tensor given =
+      Se3Exp(torch::tensor({{0.1, 0.0, 0.0, 0.0, 0.02, 0.0}, {0.0, -0.1, 0.0, 0.01, 0.0, 0.0}}).to(torch::kFloat));
+  const PoseDepthPrediction from_given = net->forward(target, sources, k, given);
+  EXPECT_TRUE(torch::allclose(from_given.src_from_tgt.back(), given, 0.0, 1e-6));
+  // The depth heads were redrawn too: the prediction stays in range and finite.
+  EXPECT_TRUE(torch::isfinite(from_identity.inv_depths.back()).all().item<bool>());
 }
 
 TEST_F(PoseDepthNetTest, PaperConfigurationRunsOnASmallImage) {

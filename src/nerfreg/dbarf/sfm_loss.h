@@ -28,6 +28,12 @@ struct SfmLossOptions {
   double prediction_decay = 0.85;
   // Smoothness weight for prediction k: smoothness_weight / 2^k.
   double smoothness_weight = 0.01;
+  // Levels of an image pyramid the photometric term is summed over (1: the full resolution alone,
+  // the original). Level l averages 2^l x 2^l pixels of the images and of the inverse depth, with
+  // the intrinsics scaled by 2^-l (exact, pixel centres being at +0.5). From the identity the
+  // coarser levels' descent direction lies closer to the true poses
+  // (docs/notes/2026-11-30-dbarf-fresh-heads-pyramid.md).
+  int pyramid_levels = 1;
 
   // Returns false (and logs why) when a field is out of range.
   bool Check() const;
@@ -75,8 +81,8 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
                                       const torch::Tensor& src_intrinsics = {});
 
 struct SfmLossResult {
-  torch::Tensor total;        // scalar: sum_k w_k photometric_k + s_k smoothness_k
-  torch::Tensor photometric;  // [K] unweighted photometric term per prediction
+  torch::Tensor total;        // scalar: sum_k w_k (sum over pyramid levels of photometric) + s_k smoothness_k
+  torch::Tensor photometric;  // [K] unweighted photometric term per prediction, full resolution
   torch::Tensor smoothness;   // [K] unweighted smoothness term per prediction
 };
 

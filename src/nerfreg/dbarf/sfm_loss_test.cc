@@ -102,6 +102,39 @@ TEST_F(SfmLossTest, LowerAtTheTruePoseAndDepthThanAtPerturbedOnes) {
   EXPECT_GT(full.photometric[0].item<double>(), full.photometric[1].item<double>());
 }
 
+TEST_F(SfmLossTest, PyramidLevelsAddThePhotometricTermOfTheAveragedImages) {
+  namespace F = torch::nn::functional;
+  SfmLossOptions options;
+  options.pyramid_levels = 3;
+  const torch::Tensor rot =
+      torch::tensor({{0.0, 0.0, 0.0, 0.0, 0.03, 0.0}, {0.0, 0.0, 0.0, 0.02, 0.0, 0.01}}, torch::kFloat);
+  const torch::Tensor poses = Se3Update(rot, src_from_tgt_);
+  const auto full = SfmLoss(target_, sources_, {inv_depth_}, {poses}, scene_.intrinsics, options);
+  double expected = 0.01 * full.smoothness[0].item<double>();
+  for (int64_t f : {1, 2, 4}) {
+    const auto pool = [&](const torch::Tensor& x) {
+      return f == 1 ? x : F::avg_pool2d(x, F::AvgPool2dFuncOptions(f).stride(f));
+    };
+    // Intrinsics for the pooled images: pixel centres at +0.5 make a plain scale exact.
+    const torch::Tensor k = scene_.intrinsics * torch::tensor({1.0 / f, 1.0 / f, 1.0}, torch::kFloat).view({3, 1});
+    const double level =
+        PhotometricLoss(pool(target_), pool(sources_), pool(inv_depth_), poses, k, options).loss.item<double>();
+    if (f == 1) EXPECT_NEAR(full.photometric[0].item<double>(), level, 1e-6);  // the record stays full-size
+    expected += level;
+  }
+  EXPECT_NEAR(full.total.item<double>(), expected, 1e-6);
+  // At the truth every level is small: the pooled warp is consistent.
+  const auto truth = SfmLoss(target_, sources_, {inv_depth_}, {src_from_tgt_}, scene_.intrinsics, options);
+  EXPECT_LT(truth.total.item<double>(), 0.25 * full.total.item<double>());
+
+  options.pyramid_levels = 0;
+  EXPECT_FALSE(options.Check());
+  options.pyramid_levels = 7;
+  EXPECT_FALSE(options.Check());
+  options.pyramid_levels = 5;  // 48 px high: the coarsest level (1/16) would be 3 px
+  EXPECT_THROW(SfmLoss(target_, sources_, {inv_depth_}, {poses}, scene_.intrinsics, options), c10::Error);
+}
+
 TEST_F(SfmLossTest, PhotometricLossGradientsMatchFiniteDifferences) {
   SfmLossOptions options;
   options.auto_mask = false;       // the per-pixel minimum and

@@ -64,6 +64,10 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
     model.pose_net->SetRotationScale(c.rotation_scale);
     model.options.pose.rotation_scale = c.rotation_scale;
   }
+  if (c.fresh_pose_heads && !c.run.resume) {
+    if (c.weights.empty()) throw InputError("--fresh-pose-heads: expected --weights whose encoders to keep");
+    model.pose_net->ReinitialiseHeads();
+  }
   const std::vector<LoadedDbarfScene> loaded = LoadScenes(c.scenes, c.scene);
   if (!c.cameras_out.empty() && loaded[0].estimated_here) {
     ThrowInputError(c.scenes[0], "dbarf_poses",
@@ -78,6 +82,7 @@ DbarfTrainingResult TrainDbarf(DbarfTrainingJob c) {
     model.training["supervise_depth"] = c.train.supervise_depth;
     if (c.train.blur_probability > 0) model.training["augment_blur"] = c.train.blur_probability;
     if (!c.weights.empty()) model.training["initial_weights"] = c.weights;
+    if (c.fresh_pose_heads) model.training["fresh_pose_heads"] = true;
   }
   model.training["data"] = c.scenes;
   DbarfTrainingResult out;

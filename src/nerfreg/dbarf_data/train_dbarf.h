@@ -23,7 +23,10 @@ struct DbarfTrainingJob {
   // renderer's depths (dbarf_data/rendered_depth_refinement.h; rounds 0: the RGB loss's alone).
   RenderedDepthRefinementOptions depth_refinement;
   double rotation_scale = 0;  // the pose heads' rotation scale (0: the config's or the weights')
-  bool force = false;         // replace existing outputs
+  // Keep only the encoders of `weights` and draw the pose network's heads and update blocks afresh
+  // (PoseDepthNetImpl::ReinitialiseHeads): the original's start, trained encoders and fresh heads.
+  bool fresh_pose_heads = false;
+  bool force = false;  // replace existing outputs
   DbarfTrainOptions train;
   DbarfRunOptions run;
   DbarfSceneOptions scene;

@@ -58,6 +58,10 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, SceneCameraFlags* estim
   app.add_option(
       "--init-noise-translation", c->train.init_noise_translation,
       "Pose stages: perturb each camera initialisation's translation (per-axis std, fraction of its baseline)");
+  app.add_flag(
+      "--fresh-pose-heads", c->fresh_pose_heads,
+      "Keep only the encoders of --weights and start the pose network's heads and update blocks afresh "
+      "(the original starts from ImageNet encoders and fresh heads; with --pose-init network, self-supervised)");
   app.add_option("--lr-feature", c->train.lr_feature, "Feature-net learning rate");
   app.add_option("--lr-mlp", c->train.lr_mlp, "IBRNet learning rate");
   app.add_option("--lr-pose", c->train.lr_pose, "Pose-network learning rate");
@@ -67,6 +71,9 @@ void AddTrainOptions(CLI::App& app, DbarfTrainingJob* c, SceneCameraFlags* estim
   app.add_option("--auto-mask", c->train.sfm.auto_mask, "SfM loss: auto-masking, true or false (original true)");
   app.add_option("--sfm-clip", c->train.sfm.clip_std_factor,
                  "SfM loss: clip each error map at mean + this many standard deviations (original 0.5; < 0: no clip)");
+  app.add_option("--sfm-levels", c->train.sfm.pyramid_levels,
+                 "SfM loss: sum its photometric term over this many levels of an image pyramid (original 1)")
+      ->check(CLI::Range(1, 6));
   app.add_option("--max-width", c->scene.max_width, "Downsample wider images to this width (0: as they are)");
   estimation->AddOptions(app);
   app.add_option("--scene-cameras", c->scene.cameras,
