@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -157,6 +158,48 @@ TEST(DbarfTrainCli, ShippedPoseWeightsPoseFromTheIdentity) {
   EXPECT_LT(trained["translation_direction_deg"].get<double>(), kPoseDirectionBelow);
   EXPECT_GT(untrained["rotation_deg"].get<double>(), kPoseRotationKept * start);
   EXPECT_GT(untrained["translation_direction_deg"].get<double>(), kPoseDirectionBelow);
+}
+
+// The paper's per-scene finetune, self-supervised (the SfM loss alone, from the identity), on a
+// small render with hand-held LLFF-like motion: the shipped pose weights, trained on look-at scenes,
+// start worse than the identity there (4.74 deg against 2.91 when written); 300 steps take them
+// below both (2.24) and lower the loss. The translations do not learn (results/dbarf_self_supervised.md).
+TEST(DbarfTrainCli, PerSceneSelfSupervisedFinetuneLowersTheRotationErrorAndTheLoss) {
+  ScopedTempDir dir;
+  const std::string data = dir.File("llff"), w = dir.File("scene.pt");
+  CommandResult r = RunNerfreg(
+      "render --procedural 77 --trajectory llff --views 10 --size 64x48 --material textured --spread 0 --quiet --out " +
+      data);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string start = std::string(NERFREG_SOURCE_DIR) + "/models/dbarf_pose_cpu.pt";
+  const auto eval = [&](const std::string& weights) {
+    const CommandResult e = RunNerfreg("dbarf eval-net " + data +
+                                       "/transforms.json --json --scene-cameras ground-truth --weights " + weights);
+    EXPECT_EQ(e.exit_code, 0) << e.output;
+    return Json::parse(e.output.substr(e.output.rfind("{\"datasets\"")));
+  };
+  r = RunNerfreg("dbarf pretrain " + data + "/transforms.json --config cpu --pose-init network --weights " + start +
+                 " --stage-steps 1000000000 --steps 300 --supervise-poses 0 --supervise-depth 0 --augment-blur 0 "
+                 "--rotation-scale 1 --lr-pose 2e-4 --sfm-levels 2 --checkpoint-every 1000 "
+                 "--scene-cameras ground-truth --quiet --out " +
+                 w);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json before = eval(start), after = eval(w);
+  const double identity = before["start_rotation_deg"].get<double>();
+  EXPECT_GT(before["rotation_deg"].get<double>(), identity);
+  EXPECT_LT(after["rotation_deg"].get<double>(), 0.7 * before["rotation_deg"].get<double>());
+  EXPECT_LT(after["rotation_deg"].get<double>(), 0.9 * identity);
+  // The SfM loss over the last 50 steps against the first 50.
+  std::vector<double> loss;
+  std::istringstream log(ReadFileToString(w + ".log.jsonl"));
+  for (std::string line; std::getline(log, line);) loss.push_back(Json::parse(line)["sfm_loss"].get<double>());
+  ASSERT_EQ(loss.size(), 300u);
+  const auto mean = [&](size_t from) {
+    double sum = 0;
+    for (size_t i = from; i < from + 50; ++i) sum += loss[i];
+    return sum / 50;
+  };
+  EXPECT_LT(mean(250), 0.9 * mean(0));
 }
 
 TEST(DbarfTrainCli, FinetuneRenderAndEval) {
