@@ -21,11 +21,20 @@ void CheckIntrinsics(const torch::Tensor& k, const char* name) {
 }  // namespace
 
 torch::Tensor ScaleIntrinsics(const torch::Tensor& intrinsics, double scale) {
-  CheckIntrinsics(intrinsics, "ScaleIntrinsics");
+  return ResizeIntrinsics(intrinsics, scale, scale);
+}
+
+torch::Tensor ResizeIntrinsics(const torch::Tensor& intrinsics, double sx, double sy) {
+  CheckIntrinsics(intrinsics, "ResizeIntrinsics");
   torch::Tensor s = torch::ones({3, 1}, intrinsics.options());
-  s[0] = scale;
-  s[1] = scale;
+  s[0] = sx;
+  s[1] = sy;
   return intrinsics * s;  // a new tensor; rows 0, 1 scaled
+}
+
+torch::Tensor AreaDownsample(const torch::Tensor& x, int64_t h, int64_t w) {
+  if (x.size(2) == h && x.size(3) == w) return x;
+  return F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea));
 }
 
 torch::Tensor PixelCentres(int64_t height, int64_t width, const torch::TensorOptions& options) {

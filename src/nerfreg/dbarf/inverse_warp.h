@@ -19,6 +19,14 @@ namespace nerfreg {
 // scale. The input is never modified.
 torch::Tensor ScaleIntrinsics(const torch::Tensor& intrinsics, double scale);
 
+// The same per axis, for an image resized to sx W x sy H: fx, cx times sx; fy, cy times sy.
+torch::Tensor ResizeIntrinsics(const torch::Tensor& intrinsics, double sx, double sy);
+
+// Maps [B, C, H, W] area-downsampled to h x w (each output pixel the mean over its footprint; for
+// H = f h, W = f w the mean of f x f blocks). With ResizeIntrinsics(K, w / W, h / H) the pixel
+// centres (+0.5) stay consistent: the levels of an image pyramid.
+torch::Tensor AreaDownsample(const torch::Tensor& x, int64_t h, int64_t w);
+
 // Homogeneous pixel centres of an H x W image, row-major: [H * W, 3] = (col + 0.5, row + 0.5, 1).
 torch::Tensor PixelCentres(int64_t height, int64_t width, const torch::TensorOptions& options);
 

@@ -29,6 +29,22 @@ TEST_F(InverseWarpTest, ScaleIntrinsicsScalesFocalAndPrincipalPointOnACopy) {
   EXPECT_FLOAT_EQ(k[0][0].item<float>(), 100.0f);  // input untouched
 }
 
+TEST_F(InverseWarpTest, ResizeIntrinsicsPerAxisAndAreaDownsampleAveragesBlocks) {
+  const torch::Tensor k = torch::tensor({{100.0f, 0.0f, 64.0f}, {0.0f, 90.0f, 48.0f}, {0.0f, 0.0f, 1.0f}});
+  for (const torch::Tensor& ks : {k, k.expand({2, 3, 3})}) {  // one camera or a batch
+    const torch::Tensor r = ResizeIntrinsics(ks, 0.5, 0.25).view({-1, 3, 3})[0];
+    EXPECT_FLOAT_EQ(r[0][0].item<float>(), 50.0f);
+    EXPECT_FLOAT_EQ(r[0][2].item<float>(), 32.0f);
+    EXPECT_FLOAT_EQ(r[1][1].item<float>(), 22.5f);
+    EXPECT_FLOAT_EQ(r[1][2].item<float>(), 12.0f);
+    EXPECT_FLOAT_EQ(r[2][2].item<float>(), 1.0f);
+  }
+  const torch::Tensor x = torch::arange(16, torch::kFloat).view({1, 1, 4, 4});
+  const torch::Tensor d = AreaDownsample(x, 2, 2);
+  EXPECT_TRUE(torch::allclose(d, torch::tensor({{2.5f, 4.5f}, {10.5f, 12.5f}}).view({1, 1, 2, 2})));
+  EXPECT_TRUE(AreaDownsample(x, 4, 4).is_same(x));
+}
+
 TEST_F(InverseWarpTest, IdentityPoseReproducesTheSourceExactly) {
   const torch::Tensor source = torch::rand({2, 3, 12, 16});
   const torch::Tensor k = torch::tensor({{14.0f, 0.0f, 8.0f}, {0.0f, 14.0f, 6.0f}, {0.0f, 0.0f, 1.0f}});

@@ -25,20 +25,6 @@ namespace {
 
 namespace F = torch::nn::functional;
 
-// Area-downsampled to h x w (a map's mean over each output pixel's footprint).
-torch::Tensor Downsample(const torch::Tensor& x, int64_t h, int64_t w) {
-  if (x.size(2) == h && x.size(3) == w) return x;
-  return F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kArea));
-}
-
-// Intrinsics [V, 3, 3] of H x W images for the h x w resize of them (fx, cx by w / W; fy, cy by h / H).
-torch::Tensor ResizeIntrinsics(const torch::Tensor& k, double sx, double sy) {
-  torch::Tensor out = k.clone();
-  out.select(1, 0).mul_(sx);
-  out.select(1, 1).mul_(sy);
-  return out;
-}
-
 struct Problem {
   torch::Tensor images;      // [V, 3, h, w]
   torch::Tensor intrinsics;  // [V, 3, 3]
@@ -134,9 +120,9 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
   const auto make_problem = [&](int level) {
     Problem p;
     const int64_t h = std::max<int64_t>(1, height >> level), w = std::max<int64_t>(1, width >> level);
-    p.images = Downsample(images32, h, w);
+    p.images = AreaDownsample(images32, h, w);
     p.intrinsics = ResizeIntrinsics(k32, static_cast<double>(w) / width, static_cast<double>(h) / height);
-    p.inv_depths = Downsample(inv32, h, w);
+    p.inv_depths = AreaDownsample(inv32, h, w);
     p.tgt = tgt_index, p.src = src_index;
     p.clip_std_factor = options.clip_std_factor;
     p.ssim_weight = options.ssim_weight;

@@ -109,16 +109,6 @@ PhotometricLossResult PhotometricLoss(const torch::Tensor& target, const torch::
   return result;
 }
 
-namespace {
-
-// Averages factor x factor blocks of x [B, C, H, W] (a trailing partial block is dropped).
-torch::Tensor AveragePool(const torch::Tensor& x, int64_t factor) {
-  namespace F = torch::nn::functional;
-  return F::avg_pool2d(x, F::AvgPool2dFuncOptions(factor).stride(factor));
-}
-
-}  // namespace
-
 SfmLossResult SfmLoss(const torch::Tensor& target, const torch::Tensor& sources,
                       const std::vector<torch::Tensor>& inv_depths, const std::vector<torch::Tensor>& src_from_tgts,
                       const torch::Tensor& intrinsics, const SfmLossOptions& options) {
@@ -132,21 +122,22 @@ SfmLossResult SfmLoss(const torch::Tensor& target, const torch::Tensor& sources,
   const int64_t coarsest = int64_t{1} << (options.pyramid_levels - 1);
   TORCH_CHECK(target.size(2) >= 4 * coarsest && target.size(3) >= 4 * coarsest, "SfmLoss: ", options.pyramid_levels,
               " pyramid levels need images of at least ", 4 * coarsest, " px a side, got ", target.sizes());
-  // The pyramid's images, built once: level l at index l - 1.
-  std::vector<torch::Tensor> pooled_targets, pooled_sources;
-  std::vector<torch::Tensor> pooled_intrinsics;
+  // The pyramid's images, built once: level l (H >> l by W >> l) at index l - 1.
+  const int64_t height = target.size(2), width = target.size(3);
+  std::vector<torch::Tensor> pooled_targets, pooled_sources, pooled_intrinsics;
   for (int l = 1; l < options.pyramid_levels; ++l) {
-    const int64_t f = int64_t{1} << l;
-    pooled_targets.push_back(AveragePool(target, f));
-    pooled_sources.push_back(AveragePool(sources, f));
-    pooled_intrinsics.push_back(ScaleIntrinsics(intrinsics, 1.0 / static_cast<double>(f)));
+    const int64_t h = height >> l, w = width >> l;
+    pooled_targets.push_back(AreaDownsample(target, h, w));
+    pooled_sources.push_back(AreaDownsample(sources, h, w));
+    pooled_intrinsics.push_back(ResizeIntrinsics(intrinsics, static_cast<double>(w) / static_cast<double>(width),
+                                                 static_cast<double>(h) / static_cast<double>(height)));
   }
   for (int64_t k = 0; k < k_count; ++k) {
     photometric.push_back(PhotometricLoss(target, sources, inv_depths[k], src_from_tgts[k], intrinsics, options).loss);
     smoothness.push_back(EdgeAwareSmoothness(inv_depths[k], target));
     torch::Tensor pyramid = photometric.back();
     for (int l = 1; l < options.pyramid_levels; ++l) {
-      const torch::Tensor inv = AveragePool(inv_depths[k], int64_t{1} << l);
+      const torch::Tensor inv = AreaDownsample(inv_depths[k], height >> l, width >> l);
       pyramid = pyramid + PhotometricLoss(pooled_targets[l - 1], pooled_sources[l - 1], inv, src_from_tgts[k],
                                           pooled_intrinsics[l - 1], options)
                               .loss;

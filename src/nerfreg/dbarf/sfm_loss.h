@@ -29,8 +29,8 @@ struct SfmLossOptions {
   // Smoothness weight for prediction k: smoothness_weight / 2^k.
   double smoothness_weight = 0.01;
   // Levels of an image pyramid the photometric term is summed over (1: the full resolution alone,
-  // the original). Level l averages 2^l x 2^l pixels of the images and of the inverse depth, with
-  // the intrinsics scaled by 2^-l (exact, pixel centres being at +0.5). From the identity the
+  // the original). Level l area-downsamples the images and the inverse depth to (H >> l) x (W >> l),
+  // intrinsics to match (inverse_warp.h's AreaDownsample, ResizeIntrinsics). From the identity the
   // coarser levels' descent direction lies closer to the true poses
   // (docs/notes/2026-11-30-dbarf-fresh-heads-pyramid.md).
   int pyramid_levels = 1;
