@@ -681,6 +681,25 @@ def bench_set(info, args, python):
         add("COLMAP 3.8 uncal", run_colmap38(info, os.path.join(work, "colmap38_uncal"), False)[0][1])
     if ("colmap4" in methods and not calibrated) or "colmap4uncal" in methods:
         add("COLMAP 4 global uncal", run_colmap4(info, os.path.join(work, "colmap4_uncal"), False, python)[0][1])
+    # A set without a calibration file: nerfreg given COLMAP 4's self-calibration of the same images
+    # as one (a user's second run with the intrinsics of a first), every seed. On the cube this is
+    # where planar pairs' essential matrices once put all cameras 7 deg off for some seeds.
+    c4_cam = (runs.get("COLMAP 4 global uncal") or {}).get("cameras")
+    if not calibrated and "nerfreg" in methods and c4_cam:
+        cam = next(iter(c4_cam.values()))
+        if cam["model"] == "SIMPLE_RADIAL":
+            prm = cam["params"]
+            intr = {"fl_x": prm[0], "fl_y": prm[0], "cx": prm[1], "cy": prm[2], "w": cam["w"], "h": cam["h"], "k1": prm[3],
+                    "camera_model": "OPENCV", "source": "COLMAP 4 global uncal's camera"}
+            path = os.path.join(work, "intrinsics_colmap4.json")
+            json.dump(intr, open(path, "w"), indent=1)
+            given = dict(info, intrinsics_json=path)
+            for seed in [0] + [x for x in seed_list if x != 0]:
+                r, p, _ = run_nerfreg(given, os.path.join(work, "nerfreg_c4cal_seed%d" % seed), args.nerfreg, "classical",
+                                      True, seed)
+                seed_runs.setdefault("nerfreg classical, COLMAP 4's calibration", {})[seed] = (r, p)
+                log("%s nerfreg classical with COLMAP 4's calibration --seed %d: %s, %.1f s" % (name, seed, r["status"],
+                                                                                               r.get("wall_s", 0)))
 
     res = {k: v for k, v in info.items() if k not in ("gt_matrices",)}
     res["runs"] = runs

@@ -107,8 +107,11 @@ struct ViewGraphEdge {
   // The inlier correspondences (keypoint index in image i, keypoint index in image j), indices
   // into ViewGraph::keypoints[i] and [j]: what tracks are built from (sfm/tracks.h).
   std::vector<std::pair<int, int>> inlier_matches;
-  int num_homography_inliers = 0;  // 0 also where none was estimated (the pair cannot be panoramic)
-  bool panoramic = false;          // a pure rotation: the rotation from the homography, no translation
+  // 0 also where none was estimated; where fitted only for the planar check, counted among the
+  // essential matrix's inliers.
+  int num_homography_inliers = 0;
+  bool panoramic = false;  // a pure rotation: the rotation from the homography, no translation
+  bool planar = false;     // a planar scene: the pose from the homography's decomposition
 };
 
 struct ViewGraph {

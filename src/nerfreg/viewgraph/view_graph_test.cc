@@ -103,8 +103,8 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
 
 // A planar scene (the textured ground plane): both estimators recover the relative pose. USAC's
 // own final fit is an eight-point least-squares fit, undetermined on a plane (2.3 deg and 9.2 deg
-// off here before its pose was refined on the Sampson distances; measured now: 0.40 and 1.5 deg,
-// RANSAC's 0.38 and 1.3).
+// off here before its pose was refined on the Sampson distances; 0.40 and 1.5 deg after, RANSAC's
+// 0.38 and 1.3); the pair is planar and its pose now the homography's: 0.12 and 0.48 deg for both.
 TEST(ViewGraph, BothEstimatorsRecoverTheRelativePoseOfAPlanarScene) {
   const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
   const std::vector<Rigid3d> poses = {
@@ -121,6 +121,7 @@ TEST(ViewGraph, BothEstimatorsRecoverTheRelativePoseOfAPlanarScene) {
     const ViewGraphEdge* ab = g.FindEdge(0, 1);
     ASSERT_NE(ab, nullptr) << TwoViewEstimatorName(estimator);
     EXPECT_FALSE(ab->panoramic);
+    EXPECT_TRUE(ab->planar);
     EXPECT_GE(ab->num_inliers, ab->num_matches * 9 / 10) << TwoViewEstimatorName(estimator);
     EXPECT_LT(RotationErrorDeg(ab->j_from_i.rotation, truth.rotation), 1.0) << TwoViewEstimatorName(estimator);
     EXPECT_GT(ab->j_from_i.translation.dot(truth.translation.normalized()), std::cos(3.0 * M_PI / 180))
@@ -155,7 +156,7 @@ TEST(ViewGraph, PhotosFromOneSpotArePanoramicWithTheirRotation) {
   EXPECT_GT(ab->num_homography_inliers, 0);
   EXPECT_FALSE(ac->panoramic);
   EXPECT_NEAR(ac->j_from_i.translation.norm(), 1.0, 1e-9);
-  EXPECT_EQ(ac->num_homography_inliers, 0);
+  EXPECT_TRUE(ac->planar);  // a plane seen from two places: its homography fitted for that check
 }
 
 TEST(ViewGraph, ImagesOfDifferentSizesAreTakenAndOneUnlikeItsCameraIsNamed) {
@@ -322,6 +323,46 @@ TEST(ViewGraph, UsacFindsTheReferenceRansacGeometryOnAFixedPair) {
   EXPECT_EQ(ParseTwoViewEstimator("usac"), TwoViewEstimator::kUsac);
   EXPECT_EQ(ParseTwoViewEstimator("ransac"), TwoViewEstimator::kRansac);
   EXPECT_THROW(ParseTwoViewEstimator("magsac"), InputError);
+}
+
+// A planar scene seen from two sides 27 deg apart (a poster on a desk, as ViSP's cube): every match
+// fits a one-parameter family of essential matrices, and USAC returned members of it several
+// degrees off for some seeds (on the cube, 35-45 % of the edges). The pose comes from the
+// homography's decomposition: the truth, for every seed, with the edge marked planar.
+TEST(ViewGraph, PlanarScenePairTakesItsPoseFromTheHomography) {
+  constexpr double kFocal = 500;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::normal_distribution<double> noise(0, 0.25 / kFocal);
+  const Eigen::Vector3d centre_j(1.8, 0.1, 0.5);  // in image i's frame
+  const Eigen::Matrix3d world_from_j(Eigen::AngleAxisd(-std::atan2(1.8, 3.5), Eigen::Vector3d::UnitY()));
+  const Rigid3d j_from_i(Eigen::Quaterniond(world_from_j.transpose()), -(world_from_j.transpose() * centre_j));
+  SyntheticPair pair;
+  pair.j_from_i = j_from_i;
+  while (pair.matches.size() < 300) {
+    const double x = 1.5 * unit(rng), y = 1.2 * unit(rng);
+    const Eigen::Vector3d x_in_i(x, y, 4 + 0.3 * x);  // a tilted plane
+    const Eigen::Vector3d x_in_j = j_from_i * x_in_i;
+    if (x_in_j.z() <= 0 || x_in_j.hnormalized().cwiseAbs().maxCoeff() > 0.7) continue;
+    const int k = static_cast<int>(pair.keypoints_i.size());
+    pair.keypoints_i.push_back(x_in_i.hnormalized() + Eigen::Vector2d(noise(rng), noise(rng)));
+    pair.keypoints_j.push_back(x_in_j.hnormalized() + Eigen::Vector2d(noise(rng), noise(rng)));
+    pair.matches.push_back({k, k});
+  }
+  ViewGraphOptions o;
+  o.min_inliers = 15;
+  for (unsigned seed = 0; seed < 8; ++seed) {
+    o.seed = seed;
+    const std::optional<ViewGraphEdge> e =
+        EstimateTwoViewGeometry(pair.keypoints_i, pair.keypoints_j, pair.matches, kFocal, o);
+    ASSERT_TRUE(e) << "seed " << seed;
+    EXPECT_TRUE(e->planar) << "seed " << seed;
+    EXPECT_FALSE(e->panoramic) << "seed " << seed;
+    EXPECT_LT(RotationErrorDeg(e->j_from_i.rotation, j_from_i.rotation), 0.5) << "seed " << seed;
+    EXPECT_GT(e->j_from_i.translation.dot(j_from_i.translation.normalized()), std::cos(3 * M_PI / 180))
+        << "seed " << seed;
+    EXPECT_GE(e->num_inliers, 270) << "seed " << seed;
+  }
 }
 
 // ViewGraphOptions::seed: one seed gives one edge, bit for bit; other seeds draw other hypotheses,
