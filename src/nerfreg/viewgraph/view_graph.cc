@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <cmath>
+#include <cstdlib>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
@@ -306,6 +307,13 @@ NERFREG_SCAN_CLONES ColumnBest<int32_t> ScanColumn(const int32_t* __restrict col
 // on a product that saturates there, so a CPU without VNNI takes the float product and gets the
 // same matches.
 }  // namespace
+
+bool CapOneDnnBelowAmx() {
+  if (std::getenv("ONEDNN_MAX_CPU_ISA") != nullptr || std::getenv("DNNL_MAX_CPU_ISA") != nullptr) return false;
+  // A cap above what the CPU has changes nothing, so it needs no test of the CPU (and asking oneDNN
+  // for the effective ISA first would fix it: the cap can only be set before any read).
+  return dnnl_set_max_cpu_isa(dnnl_cpu_isa_avx512_core_vnni) == dnnl_success;
+}
 
 bool Int8DescriptorProductIsExact() {
   static const bool exact = [] {

@@ -168,6 +168,14 @@ enum class DescriptorProduct {
 // without VNNI).
 bool Int8DescriptorProductIsExact();
 
+// Caps oneDNN's instruction set at AVX-512 VNNI unless ONEDNN_MAX_CPU_ISA or DNNL_MAX_CPU_ISA is
+// set. On CPUs with AMX (Xeon Sapphire Rapids and later) its u8 x s8 GEMM otherwise dispatches the
+// matcher's products (blocks of 256 columns, a few thousand rows, depth 128) to AMX kernels, which
+// were 3x slower there than its VNNI ones. Call once at start-up, before any oneDNN work: the cap
+// cannot be set after oneDNN has read it (LibTorch shares the library; its float kernels do not
+// use AMX). Returns whether the cap was set.
+bool CapOneDnnBelowAmx();
+
 // Mutual nearest neighbours (Euclidean) passing Lowe's ratio test in both directions: pairs
 // (row of a, row of b). One GEMM of the descriptor dot products per pair.
 std::vector<std::pair<int, int>> MatchDescriptors(const SiftDescriptors& a, const SiftDescriptors& b, double ratio,
