@@ -18,7 +18,6 @@
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/logging.h"
-#include "nerfreg/viewgraph/view_graph.h"
 
 namespace {
 
@@ -75,7 +74,6 @@ extern "C" __attribute__((visibility("default"))) char* getenv(const char* name)
 int main(int argc, char** argv) {
   nerfreg::InstallOutputSignalHandlers();
   nerfreg::InitLogging(nerfreg::LogOptions{});
-  nerfreg::CapOneDnnBelowAmx();
   nerfreg::InitThreads();
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
     PrintUsage();

@@ -301,6 +301,19 @@ NERFREG_SCAN_CLONES ColumnBest<int32_t> ScanColumn(const int32_t* __restrict col
 }
 #undef NERFREG_SCAN_CLONES
 
+// Caps oneDNN's instruction set at AVX-512 VNNI unless ONEDNN_MAX_CPU_ISA or DNNL_MAX_CPU_ISA is
+// set. On CPUs with AMX (Xeon Sapphire Rapids and later) its u8 x s8 GEMM otherwise dispatches the
+// matcher's products (blocks of 256 columns, a few thousand rows, depth 128) to AMX kernels, 3.3x
+// slower there than its VNNI ones (matching of ViSP's cube: 9.9-10.4 -> 3.0-3.1 s). The cap holds
+// only if set before oneDNN's first read of it (asking for the effective ISA is one): the matcher
+// sets it before its first product, which in `dbarf poses` comes before any LibTorch kernel
+// (LibTorch shares the library; its float kernels do not use AMX). A cap above what the CPU has
+// changes nothing, so it needs no test of the CPU.
+void CapOneDnnBelowAmx() {
+  if (std::getenv("ONEDNN_MAX_CPU_ISA") != nullptr || std::getenv("DNNL_MAX_CPU_ISA") != nullptr) return;
+  dnnl_set_max_cpu_isa(dnnl_cpu_isa_avx512_core_vnni);  // fails, harmlessly, once oneDNN has read it
+}
+
 // Whether oneDNN's u8 x s8 product gives exact 32-bit sums on this CPU. With VNNI (vpdpbusd) it
 // does; without, oneDNN's int8 kernels add pairs of products in saturating 16-bit sums (vpmaddubsw;
 // its "int8 computations" guide), which SIFT's bytes overflow (255 x 127 x 2 > 32767). Checked once
@@ -308,15 +321,9 @@ NERFREG_SCAN_CLONES ColumnBest<int32_t> ScanColumn(const int32_t* __restrict col
 // same matches.
 }  // namespace
 
-bool CapOneDnnBelowAmx() {
-  if (std::getenv("ONEDNN_MAX_CPU_ISA") != nullptr || std::getenv("DNNL_MAX_CPU_ISA") != nullptr) return false;
-  // A cap above what the CPU has changes nothing, so it needs no test of the CPU (and asking oneDNN
-  // for the effective ISA first would fix it: the cap can only be set before any read).
-  return dnnl_set_max_cpu_isa(dnnl_cpu_isa_avx512_core_vnni) == dnnl_success;
-}
-
 bool Int8DescriptorProductIsExact() {
   static const bool exact = [] {
+    CapOneDnnBelowAmx();
     const unsigned isa = static_cast<unsigned>(dnnl_get_effective_cpu_isa());
     const unsigned vnni = static_cast<unsigned>(dnnl_cpu_isa_avx512_core_vnni);
     if ((isa & vnni) != vnni) return false;

@@ -165,16 +165,9 @@ enum class DescriptorProduct {
 };
 
 // Whether DescriptorProduct::kInt8 is exact on this CPU (checked once, on a product that saturates
-// without VNNI).
+// without VNNI). Its first call also caps oneDNN at AVX-512 VNNI (below AMX, 3.3x slower on the
+// matcher's products) unless ONEDNN_MAX_CPU_ISA is set: a process-wide setting.
 bool Int8DescriptorProductIsExact();
-
-// Caps oneDNN's instruction set at AVX-512 VNNI unless ONEDNN_MAX_CPU_ISA or DNNL_MAX_CPU_ISA is
-// set. On CPUs with AMX (Xeon Sapphire Rapids and later) its u8 x s8 GEMM otherwise dispatches the
-// matcher's products (blocks of 256 columns, a few thousand rows, depth 128) to AMX kernels, which
-// were 3x slower there than its VNNI ones. Call once at start-up, before any oneDNN work: the cap
-// cannot be set after oneDNN has read it (LibTorch shares the library; its float kernels do not
-// use AMX). Returns whether the cap was set.
-bool CapOneDnnBelowAmx();
 
 // Mutual nearest neighbours (Euclidean) passing Lowe's ratio test in both directions: pairs
 // (row of a, row of b). One GEMM of the descriptor dot products per pair.
