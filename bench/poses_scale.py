@@ -48,7 +48,7 @@ TRAJECTORIES = {
 
 def run_size(n, args, python, trajectory="orbit"):
     name, scene, what = TRAJECTORIES[trajectory]
-    info = rp.prepare_spider(name, rp.SETS["spider"], args.work, args.nerfreg, n, scene)
+    info = rp.prepare_spider(name, rp.SETS["spider"], args.work, args.nerfreg, n, scene, args.image_size)
     info["what"] = what
     work = os.path.dirname(info["images_dir"])
     gt = rp.gt_poses(info, "cam_from_world")
@@ -138,7 +138,7 @@ def write_md(j, path):
     L.append("nerfreg: `%s` (%s); COLMAP: %s; pycolmap %s." % (v["nerfreg"], rp.nerfreg_version(v),
                                                               v["colmap"][0].strip(), v["pycolmap"]))
     L.append("")
-    L.append("Sets: `nerfreg render --mesh spider.obj --trajectory orbit --views N --size 640x480 --distortion -0.05 "
+    L.append("Sets: `nerfreg render --mesh spider.obj --trajectory orbit --views N --size %s --distortion -0.05 "
              "--noise 0.01 --jpeg 90 --seed 1` (bench/real_poses.py's photo-like `spider` set at N views; `orbit`) "
              "and the same with `--procedural 5000 --trajectory forward` in place of the mesh and orbit (a held-out "
              "procedural scene seen by forward-facing look-at views, as bench/dbarf_speed.sh's; `forward`). Every "
@@ -147,9 +147,9 @@ def write_md(j, path):
              "count, timed by the wall clock, each program started once untimed before a set's runs (a warm start "
              "for all); peak memory is GNU time's maximum resident set size (COLMAP 3.8: the "
              "largest of its three commands). Errors against the truth: rotation after the best rotation alignment, "
-             "centres after a robust Sim(3) in % of the widest baseline (bench/real_poses.py `compare`). Per-pair "
+             "centres after a robust Sim(3) in %% of the widest baseline (bench/real_poses.py `compare`). Per-pair "
              "cost: nerfreg's stage time over the pairs it matched; COLMAP's exhaustive matching stage (matching "
-             "and geometric verification) over all N (N - 1) / 2 pairs.")
+             "and geometric verification) over all N (N - 1) / 2 pairs." % j.get("image_size", "640x480"))
     L.append("")
     L.append("| set | N | method | posed | wall s | peak MB | stages (s) | pairs | per pair ms | rot median deg "
              "| rot max deg | centre median % | centre max % |")
@@ -211,6 +211,7 @@ def main():
     r.add_argument("--out-prefix", required=True)
     r.add_argument("--command", default="")
     r.add_argument("--two-view-bench", default="", help="nerfreg_two_view_bench: run on the smallest size")
+    r.add_argument("--image-size", default="640x480", help="the renders' WxH (IMAGE_SIZE)")
     rep = sub.add_parser("report")
     rep.add_argument("json")
     rep.add_argument("md")
@@ -224,7 +225,7 @@ def main():
     python = sys.executable
     j = {"command": args.command or " ".join(sys.argv), "date": datetime.datetime.now().isoformat(timespec="seconds"),
          "machine": rp.machine(), "versions": rp.versions(args.nerfreg, python), "work": args.work,
-         "json": args.out_prefix + ".json", "sizes": []}
+         "json": args.out_prefix + ".json", "image_size": args.image_size, "sizes": []}
     t0 = time.time()
     sizes = [int(x) for x in args.sizes.split()]
     trajectories = args.trajectories.split()
@@ -232,7 +233,8 @@ def main():
         rp.log("%s, N = %d" % (traj, n))
         j["sizes"].append(run_size(n, args, python, traj))
         j["growth"] = growth(j["sizes"])
-        if traj == "orbit" and n == min(sizes) and args.two_view_bench and os.path.exists(args.two_view_bench):
+        if (traj == "orbit" and n == min(sizes) and args.image_size == "640x480" and args.two_view_bench and
+                os.path.exists(args.two_view_bench)):
             rp.log("two-view bench, N = %d" % n)
             j["two_view"] = two_view(n, args)
         j["machine"]["loadavg_end"] = open("/proc/loadavg").read().split()[:3]

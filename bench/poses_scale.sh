@@ -15,7 +15,7 @@
 #   OUT (default results/poses_scale), VENV (default .bench-venv, made as bench/real_poses.sh does),
 #   TWO_VIEW_BENCH (default build/bench/nerfreg_two_view_bench: the two-view estimators pair by pair
 #   at the smallest size, when built), TWO_VIEW (ransac|usac: nerfreg's `--two-view`; default the
-#   binary's own).
+#   binary's own), IMAGE_SIZE (default 640x480: the renders' WxH; e.g. 1008x756 for issue 44's memory check).
 # Run it with nice on a shared machine: the times are wall-clock.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -26,6 +26,9 @@ OUT=${OUT:-$ROOT/results/poses_scale}
 SIZES=${SIZES:-"24 48 96"}
 TRAJECTORIES=${TRAJECTORIES:-"orbit forward"}
 METHODS=${METHODS:-"nerfreg colmap38 colmap4"}
+IMAGE_SIZE=${IMAGE_SIZE:-640x480}
+SIZE_ARG=""
+[ "$IMAGE_SIZE" = 640x480 ] || SIZE_ARG="IMAGE_SIZE=$IMAGE_SIZE "
 TWO_VIEW_BENCH=${TWO_VIEW_BENCH:-$ROOT/build/bench/nerfreg_two_view_bench}
 [ $# -eq 0 ] || { echo "usage: $0 (set SIZES, METHODS, NERFREG, WORK, OUT, VENV in the environment)" >&2; exit 2; }
 command -v colmap >/dev/null || { echo "error: colmap (3.8) not on PATH" >&2; exit 2; }
@@ -42,4 +45,4 @@ fi
 
 exec "$VENV/bin/python" "$ROOT/bench/poses_scale.py" run --work "$WORK" --sizes "$SIZES" --trajectories "$TRAJECTORIES" --methods "$METHODS" \
   --nerfreg "$NERFREG" --out-prefix "$OUT" --two-view-bench "$TWO_VIEW_BENCH" \
-  --command "SIZES=\"$SIZES\" TRAJECTORIES=\"$TRAJECTORIES\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"
+  --image-size "$IMAGE_SIZE" --command "${SIZE_ARG}SIZES=\"$SIZES\" TRAJECTORIES=\"$TRAJECTORIES\" METHODS=\"$METHODS\"${TWO_VIEW:+ TWO_VIEW=$TWO_VIEW} NERFREG=$NERFREG OUT=$OUT bench/poses_scale.sh"

@@ -307,11 +307,13 @@ def prepare_visp(name, spec, work, nerfreg):
     return info
 
 
-def prepare_spider(name, spec, work, nerfreg, views, scene=None):
-    """scene: the render's scene and path arguments (default: spider.obj on an orbit)."""
+def prepare_spider(name, spec, work, nerfreg, views, scene=None, size="640x480"):
+    """scene: the render's scene and path arguments (default: spider.obj on an orbit); size: WxH
+    (another size than 640x480 gets its own folder, NAME<views>_<size>)."""
     scene = scene or ["--mesh", SPIDER, "--trajectory", "orbit"]
-    d = os.path.join(work, "%s%d" % (name, views))
-    cmd = [nerfreg, "render"] + scene + ["--views", str(views), "--size", "640x480",
+    label = "%s%d" % (name, views) + ("" if size == "640x480" else "_" + size)
+    d = os.path.join(work, label)
+    cmd = [nerfreg, "render"] + scene + ["--views", str(views), "--size", size,
            "--distortion", str(SPIDER_DISTORTION), "--noise", str(SPIDER_NOISE), "--jpeg", "90", "--seed", "1",
            "--out", d, "--force", "--quiet"]
     if not os.path.exists(os.path.join(d, "transforms.json")):
@@ -334,7 +336,7 @@ def prepare_spider(name, spec, work, nerfreg, views, scene=None):
     names = sorted(os.listdir(images))
     # The frames' file_path may lack the extension the image has.
     gt = {n: gt.get(n, gt.get(os.path.splitext(n)[0] + ".png")) for n in names}
-    info = {"name": "%s%d" % (name, views), "what": spec["what"], "source": " ".join(cmd), "frames": "all",
+    info = {"name": label, "what": spec["what"], "source": " ".join(cmd), "frames": "all",
             "frames_in_source": len(names), "images": len(names), "size": [w, h], "images_dir": images,
             "format": "JPEG 90", "intrinsics": intr, "intrinsics_source": "the render's transforms.json",
             "intrinsics_json": os.path.join(d, "transforms.json"), "gt_matrices": gt,
