@@ -70,7 +70,7 @@ std::optional<Sim3d> CaptureFromFile(const std::string& dataparser) {
 struct RegisterFlags {
   std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes",
                                    icp_points = "occupied", scale = "free";
-  bool no_flips = false, no_block_icp = false;
+  bool no_flips = false, no_block_icp = false, no_turn_check = false;
   std::string device = "cpu";
   std::string source_dataparser, target_dataparser;
   BlockRegistrationOptions options;
@@ -140,6 +140,9 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
   app.add_flag("--no-block-icp", f->no_block_icp,
                "Grids (dreg, auto): ICP on the grids only, not again on the blocks' occupied points (by default it "
                "runs after ICP on the grids, before --refine field)");
+  app.add_flag("--no-turn-check", f->no_turn_check,
+               "--refine field: do not try the kept pose turned about the source's axes (by default a turn that "
+               "agrees better replaces it, and one that agrees nearly as well makes the result untrusted)");
 }
 
 }  // namespace
@@ -170,6 +173,7 @@ int RunRegRegister(int argc, char** argv) {
   o.scale = ScaleModeFromName(f.scale);
   o.flips = !f.no_flips;
   o.block_icp = !f.no_block_icp;
+  o.check_turns = !f.no_turn_check;
   o.Check();
   Timer timer;
   const std::optional<Sim3d> source_from_file = CaptureFromFile(f.source_dataparser),

@@ -2,11 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/registration/point_registration.h"
 #include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
@@ -192,10 +195,55 @@ class BlockRegistration {
     c.confidence = c.agreement.confidence;
   }
 
+  // The turn check (register_blocks.h, kTurnSwitchMargin): the kept candidate's pose turned about
+  // the source's principal axes, each turn refined by block ICP (rigid, the scale held) and scored
+  // on Score's samples. A turn clearly better replaces the pose (polished again); the margin left
+  // between the kept pose and the best other is what JudgeRegistration reads.
+  void CheckTurns() {
+    RegistrationResult& c = result_.candidates[result_.chosen];
+    const DensityField src = pair_.SourceField(), tgt = pair_.TargetField();
+    const std::vector<TurnedPose> turned = TurnedPoses(src, tgt, pair_.SourcePoints(), pair_.TargetPoints(), samples_,
+                                                       c.target_from_source, o_.voxel, o_.field.occupancy_scale);
+    std::vector<Sim3d> poses;
+    std::vector<double> scores;
+    Json tried = Json::array();
+    for (const TurnedPose& t : turned) {
+      poses.push_back(t.target_from_source);
+      scores.push_back(t.confidence);
+      tried.push_back({{"axis", t.axis}, {"angle_deg", t.angle_deg}, {"confidence", t.confidence}});
+    }
+    Json record = {{"confidence", c.confidence}, {"turns", tried}, {"switched", false}};
+    const size_t best = std::max_element(scores.begin(), scores.end()) - scores.begin();
+    if (scores[best] > c.confidence + kTurnSwitchMargin) {
+      // The turn becomes the kept pose, polished as the kept pose was; the pose it replaces is
+      // now one of its turns.
+      record["switched"] = true;
+      record["switched_from"] = MatrixToJson(c.target_from_source.ToMatrix());
+      record["switched_to_turn"] = best;
+      std::swap(c.target_from_source, poses[best]);
+      std::swap(c.confidence, scores[best]);
+      c.agreement = ScoreFieldAgreement(src, tgt, samples_, c.target_from_source, o_.field.occupancy_scale);
+      c.confidence = c.agreement.confidence;
+      c.method += "+turn";
+      const RegistrationResult switched = c;
+      PolishChosen();
+      if (c.confidence < switched.confidence) c = switched;  // the polish lost agreement: the turn's ICP pose stands
+    }
+    // The best other pose: a turn (or the pose a turn replaced) that did not come back to the
+    // kept one.
+    double other = -1;
+    for (size_t k = 0; k < poses.size(); ++k)
+      if (!SamePose(poses[k], c.target_from_source, pair_.GridCell())) other = std::max(other, scores[k]);
+    if (other >= 0) result_.turn_margin = c.confidence - other;
+    record["margin"] = other >= 0 ? Json(result_.turn_margin) : Json();
+    result_.turns = record;
+  }
+
   void Choose() {
     auto& cs = result_.candidates;
     Score();
     PolishChosen();
+    if (o_.refine == RegistrationRefinement::kField && o_.check_turns) CheckTurns();
     const size_t best = result_.chosen;
     const RegistrationResult& c = cs[best];
     static_cast<RegistrationResult&>(result_) = c;
@@ -240,6 +288,15 @@ void JudgeRegistration(BlockRegistrationResult* r) {
   const double needed = agreeing > 0 ? (same_kind ? kConfirmedConfidenceFloor : kConfirmedConfidenceFloorMixed)
                                      : (same_kind ? kUntrustedConfidence : kUntrustedConfidenceMixed);
   if (r->confidence >= needed) {
+    if (r->turn_margin < kTurnAmbiguityMargin) {  // false for NaN: not checked
+      r->status = "untrusted";
+      r->status_reason = fmt::format(
+          "the inputs agree nearly as well with the source turned about one of its axes (confidence {:.2f}, the "
+          "turn's {:.2f}; margin {:.2f} < {:.2f}): the object may look alike turned, and the pose may be a turn "
+          "away from the right one",
+          r->confidence, r->confidence - r->turn_margin, r->turn_margin, kTurnAmbiguityMargin);
+      return;
+    }
     r->status = "registered";
     r->status_reason.clear();
     return;
@@ -255,6 +312,31 @@ void JudgeRegistration(BlockRegistrationResult* r) {
         "confidence {:.2f} < {:.2f} and {}: the inputs may not overlap, or show different things", r->confidence,
         needed, agreeing == 0 ? "no other candidate ended at the kept pose" : "no other candidate to confirm it");
   }
+}
+
+std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityField& target,
+                                    const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
+                                    const FieldAgreementSamples& samples, const Sim3d& kept, double voxel,
+                                    double occupancy_scale) {
+  const Eigen::Vector3d centroid = source_points.rowwise().mean();
+  const Eigen::Matrix3Xd centred = source_points.colwise() - centroid;  // [3, N]
+  const Eigen::Matrix3d axes =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+  std::vector<TurnedPose> turned;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const double angle : {180.0, 90.0, -90.0}) {
+      const Eigen::Matrix3d turn = Eigen::AngleAxisd(angle * M_PI / 180, axes.col(axis)).toRotationMatrix();
+      const Sim3d start = kept * Sim3d(1.0, Eigen::Quaterniond(turn), centroid - turn * centroid);
+      Json icp;
+      TurnedPose t;
+      t.target_from_source = RefineOnBlockPoints(source_points, target_points, start, voxel, &icp, false);
+      t.confidence = ScoreFieldAgreement(source, target, samples, t.target_from_source, occupancy_scale).confidence;
+      t.axis = axis;
+      t.angle_deg = angle;
+      turned.push_back(t);
+    }
+  }
+  return turned;
 }
 
 void CheckOccupied(Eigen::Index points, const std::string& name, double min_density) {
@@ -313,6 +395,7 @@ Json BlockRegistrationResult::ToJson() const {
             {"fallback_from", fallback.is_null() ? Json() : fallback},
             {"not_chosen", others},
             {"agreeing_candidates", agreeing_candidates >= 0 ? Json(agreeing_candidates) : Json()},
+            {"turn_check", turns},
             {"warnings", warnings},
             {"source_kind", source_kind},
             {"target_kind", target_kind},

@@ -9,6 +9,7 @@
 // asks. Then one candidate is kept (ChooseCandidate, on common samples) and the result says how far
 // to trust it.
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,10 @@ struct BlockRegistrationResult : RegistrationResult {
   // the kept pose; -1 when not checked.
   int agreeing_candidates = -1;
   Json fallback;  // auto without kField: the dreg answer dropped for ransac (null: none)
+  // With kField: the kept pose's confidence minus the best of its turns' (CheckTurns; negative
+  // never: a turn that agrees better is kept instead); NaN when not checked.
+  double turn_margin = std::numeric_limits<double>::quiet_NaN();
+  Json turns;  // CheckTurns' record (null: not checked)
   // "registered", or "untrusted": the job does not believe its own answer (JudgeRegistration);
   // `reg register` then exits with kExitUntrusted. status_reason says why ("" when registered).
   std::string status = "registered";
@@ -78,11 +83,42 @@ inline constexpr double kUntrustedConfidenceMixed = 0.32;
 inline constexpr double kConfirmedConfidenceFloor = 0.5;
 inline constexpr double kConfirmedConfidenceFloorMixed = 0.27;
 
+// The turn check (with the field refinement): the kept pose is tried again turned about the
+// source's principal axes through its centroid (half and quarter turns, 9 poses), each refined by
+// block ICP (rigid, the scale held) and scored on the candidates' samples. Objects built of boxes,
+// cylinders and plates agree with themselves turned, and the fields' agreement barely sees the
+// small parts that tell the turns apart: on trained blocks of held-out objects
+// (bench/registration_sim3.sh's block pairs, 12 registrations, blocks trained 2026-11-30;
+// docs/registration.md section 7) two poses 90 deg off were kept at confidence 0.65-0.66 and registered, and one
+// 178 deg off at 0.60. Their turns scored 0.04-0.05 below them (the right pose among them) or
+// 0.04 above; on the eight right registrations the best turn scored 0.11-0.19 below (on 8
+// registrations of 4 other held-out objects, not used to choose: 0.11-0.24 below).
+// - a turn that scores more than kTurnSwitchMargin above the kept pose replaces it (polished
+//   again as the kept pose was; the grid stage's half-turn check uses the same margin);
+// - a turn within kTurnAmbiguityMargin of the kept pose makes it untrusted: the inputs cannot
+//   tell the two apart.
+inline constexpr double kTurnSwitchMargin = 0.03;
+inline constexpr double kTurnAmbiguityMargin = 0.08;
+
+// The turn check's poses: `kept` turned about each principal axis of `source_points` ([3, N],
+// the source's occupied points) through their centroid by 180, 90 and -90 deg, each refined by
+// block ICP (RefineOnBlockPoints at `voxel`, rigid, the scale held) and scored on `samples`.
+struct TurnedPose {
+  Sim3d target_from_source;
+  double confidence = 0;
+  int axis = 0;  // 0-2: the principal axes by increasing spread
+  double angle_deg = 0;
+};
+std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityField& target,
+                                    const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
+                                    const FieldAgreementSamples& samples, const Sim3d& kept, double voxel,
+                                    double occupancy_scale);
+
 // `reg register`'s exit code for an untrusted result (T.json and the pictures are written): no
 // other code means this (2 bad input, 3 internal error, 4 a lost distributed process; docs/cli.md).
 inline constexpr int kExitUntrusted = 5;
 
-// Sets result->status and status_reason by the rule above.
+// Sets result->status and status_reason by the rules above (the confidence, then the turn margin).
 void JudgeRegistration(BlockRegistrationResult* result);
 
 // Fewer occupied points than this (cells with density > --min-density) in an input is no capture

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -107,6 +109,78 @@ TEST(RegisterBlocks, ConfidenceIsHighForOneObjectAndLowForTwo) {
   }
 }
 
+// A box, symmetric under a half-turn about each of its axes.
+double BoxDistance(const Eigen::Vector3d& x) {
+  const Eigen::Vector3d q = x.cwiseAbs() - Eigen::Vector3d(0.6, 0.35, 0.2);
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+
+// The source's occupied points turned by `deg` about their principal axis `axis` through their
+// centroid, as TurnedPoses turns them: x -> R (x - c) + c.
+Sim3d TurnAboutAxis(const Eigen::Matrix3Xd& points, int axis, double deg) {
+  const Eigen::Vector3d c = points.rowwise().mean();
+  const Eigen::Matrix3Xd centred = points.colwise() - c;
+  const Eigen::Matrix3d axes =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(deg * M_PI / 180, axes.col(axis)).toRotationMatrix();
+  return Sim3d(1.0, Eigen::Quaterniond(r), c - r * c);
+}
+
+// The turn check on an asymmetric object: from a pose a half-turn off, one turn comes back to the
+// truth and scores clearly higher (it would replace the pose); from the truth, every turn that
+// does not come back scores well below it. On a box, which looks the same turned, a turn scores
+// as well as the truth: the margin JudgeRegistration reads is below kTurnAmbiguityMargin.
+TEST(RegisterBlocks, TurnedPosesFindTheTruthFromAHalfTurnAndSeeASymmetry) {
+  const Sim3d source_from_shape = Pose(40, {1, 2, 0.5}, {0.2, -0.1, 0.3});
+  const Sim3d target_from_shape = Pose(-70, {0.3, -1, 1}, {-0.1, 0.2, 0.05});
+  const Sim3d truth = target_from_shape * source_from_shape.Inverse();
+  for (auto* distance : {ShapeDistance, BoxDistance}) {
+    const bool box = distance == BoxDistance;
+    const DensityField source = Field(distance, source_from_shape), target = Field(distance, target_from_shape);
+    const Eigen::Matrix3Xd source_points = SurfacePoints(distance, source_from_shape, 0.06);
+    const Eigen::Matrix3Xd target_points = SurfacePoints(distance, target_from_shape, 0.06);
+    const FieldAgreementSamples samples = DrawFieldAgreementSamples(source_points, target_points, 0.11, 3000, 0);
+    const double at_truth = ScoreFieldAgreement(source, target, samples, truth, 0.05).confidence;
+    EXPECT_GT(at_truth, 0.95);
+    double other = -1;
+    for (const TurnedPose& t : TurnedPoses(source, target, source_points, target_points, samples, truth, 0.05, 0.05)) {
+      if (RotationErrorDeg(t.target_from_source.rotation, truth.rotation) > 2) other = std::max(other, t.confidence);
+    }
+    if (box) {
+      EXPECT_GT(other, at_truth - kTurnAmbiguityMargin) << "a box turned by half agrees with itself";
+      continue;
+    }
+    EXPECT_LT(other, at_truth - kTurnAmbiguityMargin) << at_truth;
+    const Sim3d wrong = truth * TurnAboutAxis(source_points, 1, 180);
+    const double at_wrong = ScoreFieldAgreement(source, target, samples, wrong, 0.05).confidence;
+    const std::vector<TurnedPose> turned =
+        TurnedPoses(source, target, source_points, target_points, samples, wrong, 0.05, 0.05);
+    ASSERT_EQ(turned.size(), 9u);
+    const TurnedPose& best = *std::max_element(
+        turned.begin(), turned.end(), [](const auto& a, const auto& b) { return a.confidence < b.confidence; });
+    EXPECT_LT(RotationErrorDeg(best.target_from_source.rotation, truth.rotation), 1.0);
+    EXPECT_GT(best.confidence, at_wrong + kTurnSwitchMargin) << at_wrong;
+  }
+}
+
+// A confident pose that a turn matches nearly as well is untrusted, with the reason; a clear
+// margin, or no check (NaN), leaves it registered.
+TEST(RegisterBlocks, APoseATurnMatchesNearlyAsWellIsUntrusted) {
+  BlockRegistrationResult r;
+  r.agreeing_candidates = 2;
+  r.confidence = 0.66;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  r.turn_margin = kTurnAmbiguityMargin - 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_NE(r.status_reason.find("turned about one of its axes"), std::string::npos) << r.status_reason;
+  r.turn_margin = kTurnAmbiguityMargin + 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  EXPECT_TRUE(r.status_reason.empty());
+}
+
 TEST(RegisterBlocks, NamesRoundTripAndBadNamesAreInputErrors) {
   for (auto m :
        {RegistrationMethod::kAuto, RegistrationMethod::kDreg, RegistrationMethod::kRansac, RegistrationMethod::kFgr})
@@ -172,6 +246,7 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   o.dreg_solver = DregSolver::kRansac;
   o.dreg_passes = 3;
   o.block_icp = false;
+  o.check_turns = false;
   const Json j = Json::parse(o.ToJson().dump());  // through text, as T.json is read
   const BlockRegistrationOptions r = BlockRegistrationOptions::FromJson(j, "T.json");
   EXPECT_EQ(r.ToJson(), o.ToJson());
@@ -183,6 +258,11 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   EXPECT_EQ(r.dreg_solver, DregSolver::kRansac);
   EXPECT_FALSE(r.flips);
   EXPECT_FALSE(r.block_icp);
+  EXPECT_FALSE(r.check_turns);
+  Json older = j;  // a T.json written before the turn check: it did not run
+  older.erase("check_turns");
+  o.check_turns = true;
+  EXPECT_FALSE(BlockRegistrationOptions::FromJson(older, "T.json").check_turns);
   Json bad = j;
   bad["refine"] = "sometimes";
   EXPECT_THROW(BlockRegistrationOptions::FromJson(bad, "T.json"), InputError);

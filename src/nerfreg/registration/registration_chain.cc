@@ -152,9 +152,19 @@ void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& opti
   }
   FieldAlignmentOptions field = options.field;
   field.estimate_scale = options.scale == ScaleMode::kFree;
-  r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud),
-                                         r->target_from_source, field, pair.GridCell(), &r->field);
+  Sim3d start = r->target_from_source;
+  Json coarse;
+  if (field.estimate_scale) {
+    start = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), start, field,
+                           kFieldCoarseSpread * pair.GridCell(), &coarse);
+  }
+  r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), start,
+                                         field, pair.GridCell(), &r->field);
   r->seconds += r->field["seconds"].get<double>();
+  if (!coarse.is_null()) {
+    r->field["coarse"] = coarse;
+    r->seconds += coarse["seconds"].get<double>();
+  }
   r->method += "+field";
 }
 
@@ -174,7 +184,7 @@ void PolishWithScaleHeld(RegistrationPair& pair, const BlockRegistrationOptions&
   FieldAlignmentOptions field = options.field;
   field.estimate_scale = false;
   const Sim3d coarse = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), pose,
-                                      field, kPolishCoarseSpread * pair.GridCell(), &polish["field_coarse"]);
+                                      field, kFieldCoarseSpread * pair.GridCell(), &polish["field_coarse"]);
   const Sim3d refined = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), coarse,
                                        field, pair.GridCell(), &polish["field"]);
   const Json& f = polish["field"];

@@ -79,6 +79,7 @@ Json BlockRegistrationOptions::ToJson() const {
           {"dreg_solver", DregSolverName(dreg_solver)},
           {"dreg_passes", dreg_passes},
           {"block_icp", block_icp},
+          {"check_turns", check_turns},
           {"splat_density_scale", splats.density_scale},
           {"splat_blur", splats.blur}};
 }
@@ -109,6 +110,8 @@ BlockRegistrationOptions BlockRegistrationOptions::FromJson(const Json& json, co
   o.dreg_solver = DregSolverFromName(j["dreg_solver"].String(), file + ": dreg_solver");
   o.dreg_passes = j["dreg_passes"].Int();
   o.block_icp = j["block_icp"].Bool();
+  // Absent in T.json files written before the turn check.
+  o.check_turns = j.BoolOr("check_turns", false);
   // Absent in T.json files written before splat inputs.
   o.splats.density_scale = j.DoubleOr("splat_density_scale", o.splats.density_scale);
   o.splats.blur = j.DoubleOr("splat_blur", o.splats.blur);

@@ -123,6 +123,10 @@ std::string JsonField::StringOr(const std::string& key, const std::string& fallb
   return Has(key) && !(*json_)[key].is_null() ? (*this)[key].String() : fallback;
 }
 
+bool JsonField::BoolOr(const std::string& key, bool fallback) const {
+  return Has(key) && !(*json_)[key].is_null() ? (*this)[key].Bool() : fallback;
+}
+
 Json MatrixToJson(const Eigen::MatrixXd& m) {
   Json rows = Json::array();
   for (int r = 0; r < m.rows(); ++r) {

@@ -55,6 +55,7 @@ class JsonField {
   double DoubleOr(const std::string& key, double fallback) const;
   int IntOr(const std::string& key, int fallback) const;
   std::string StringOr(const std::string& key, const std::string& fallback) const;
+  bool BoolOr(const std::string& key, bool fallback) const;
 
   [[noreturn]] void Fail(const std::string& expected) const;
 
