@@ -122,10 +122,8 @@ Sim3d RefineGridPose(const RegGrid& source, const RegGrid& target, const Sim3d& 
     // diagonals between each two of them (start = estimate * half-turn): an object's symmetry need
     // not follow one principal axis where two spreads are alike (the milk truck's height and
     // width: its front-to-back turn was found about a diagonal).
-    const Eigen::Vector3d centroid = scaled.rowwise().mean();
-    const Eigen::Matrix3Xd centred = scaled.colwise() - centroid;
-    const Eigen::Matrix3d e =
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+    Eigen::Vector3d centroid;
+    const Eigen::Matrix3d e = PrincipalAxes(scaled, &centroid);
     std::vector<Eigen::Vector3d> axes = {e.col(0), e.col(1), e.col(2)};
     for (int i = 0; i < 3; ++i)
       for (int j = i + 1; j < 3; ++j) {

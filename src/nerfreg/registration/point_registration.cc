@@ -1,5 +1,7 @@
 #include "nerfreg/registration/point_registration.h"
 
+#include <Eigen/Eigenvalues>
+
 #include "nerfreg/util/logging.h"
 
 namespace nerfreg {
@@ -40,6 +42,12 @@ RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::M
 // occupied points it lands closer (docs/notes/2026-11-24-block-icp-and-agreement.md). It only
 // polishes a pose already in its basin. The recorded fitness is no overlap check (blocks of
 // different objects reach high fitness too).
+Eigen::Matrix3d PrincipalAxes(const Eigen::Matrix3Xd& points, Eigen::Vector3d* centroid) {
+  *centroid = points.rowwise().mean();
+  const Eigen::Matrix3Xd centred = points.colwise() - *centroid;  // [3, N]
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+}
+
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
                           Json* json, bool with_scaling) {
   if (src.cols() < 3 || tgt.cols() < 3) {

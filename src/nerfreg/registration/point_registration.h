@@ -25,6 +25,10 @@ ClassicalRegistrationOptions FpfhOptions(double voxel);
 RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                   RegistrationMethod method, const BlockRegistrationOptions& options);
 
+// The principal axes of `points` ([3, N]): columns by increasing spread; `centroid` gets their
+// mean. The half-turn check of grid ICP and the turn check turn poses about them.
+Eigen::Matrix3d PrincipalAxes(const Eigen::Matrix3Xd& points, Eigen::Vector3d* centroid);
+
 // ICP on the blocks' occupied points (`src`, `tgt`: [3, N]) from `start`, after ICP on the grids:
 // point-to-plane at `voxel`, correspondences within 2 voxels; the start's scale is kept unless
 // `with_scaling` (then point-to-point ICP with scaling first). `json` records it (fitness,

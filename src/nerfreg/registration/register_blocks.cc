@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -209,8 +208,8 @@ class BlockRegistration {
     Json tried = Json::array();
     for (const TurnedPose& t : turned) {
       poses.push_back(t.target_from_source);
-      scores.push_back(t.confidence);
-      tried.push_back({{"axis", t.axis}, {"angle_deg", t.angle_deg}, {"confidence", t.confidence}});
+      scores.push_back(t.agreement.confidence);
+      tried.push_back({{"axis", t.axis}, {"angle_deg", t.angle_deg}, {"confidence", t.agreement.confidence}});
     }
     Json record = {{"confidence", c.confidence}, {"turns", tried}, {"switched", false}};
     const size_t best = std::max_element(scores.begin(), scores.end()) - scores.begin();
@@ -221,8 +220,8 @@ class BlockRegistration {
       record["switched_from"] = MatrixToJson(c.target_from_source.ToMatrix());
       record["switched_to_turn"] = best;
       std::swap(c.target_from_source, poses[best]);
-      std::swap(c.confidence, scores[best]);
-      c.agreement = ScoreFieldAgreement(src, tgt, samples_, c.target_from_source, o_.field.occupancy_scale);
+      scores[best] = c.confidence;
+      c.agreement = turned[best].agreement;
       c.confidence = c.agreement.confidence;
       c.method += "+turn";
       const RegistrationResult switched = c;
@@ -318,10 +317,8 @@ std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityFie
                                     const Eigen::Matrix3Xd& source_points, const Eigen::Matrix3Xd& target_points,
                                     const FieldAgreementSamples& samples, const Sim3d& kept, double voxel,
                                     double occupancy_scale) {
-  const Eigen::Vector3d centroid = source_points.rowwise().mean();
-  const Eigen::Matrix3Xd centred = source_points.colwise() - centroid;  // [3, N]
-  const Eigen::Matrix3d axes =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+  Eigen::Vector3d centroid;
+  const Eigen::Matrix3d axes = PrincipalAxes(source_points, &centroid);
   std::vector<TurnedPose> turned;
   for (int axis = 0; axis < 3; ++axis) {
     for (const double angle : {180.0, 90.0, -90.0}) {
@@ -330,7 +327,7 @@ std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityFie
       Json icp;
       TurnedPose t;
       t.target_from_source = RefineOnBlockPoints(source_points, target_points, start, voxel, &icp, false);
-      t.confidence = ScoreFieldAgreement(source, target, samples, t.target_from_source, occupancy_scale).confidence;
+      t.agreement = ScoreFieldAgreement(source, target, samples, t.target_from_source, occupancy_scale);
       t.axis = axis;
       t.angle_deg = angle;
       turned.push_back(t);

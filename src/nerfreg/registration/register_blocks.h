@@ -90,10 +90,10 @@ inline constexpr double kConfirmedConfidenceFloorMixed = 0.27;
 // small parts that tell the turns apart: on trained blocks of held-out objects
 // (bench/registration_sim3.sh's block pairs, 12 registrations, blocks trained 2026-11-30;
 // docs/registration.md section 7) two poses 90 deg off were kept at confidence 0.65-0.66 and registered, and one
-// 178 deg off at 0.60. Their turns scored 0.04-0.05 below them (the right pose among them) or
-// 0.04 above; on the eight right registrations the best turn scored 0.11-0.19 below (on the
-// bench's other right block registrations and 8 of 4 other held-out objects, not used to choose:
-// 0.085-0.24 below; splat captures 0.25-0.67).
+// 178 deg off at 0.60 (with stage 3 coarse to fine; before it, 0.64-0.65 and 0.52). Their turns scored 0.04-0.05 below
+// them (the right pose among them) or 0.04 above; on the eight right registrations the best turn scored 0.11-0.19 below
+// (on the bench's other right block registrations and 8 of 4 other held-out objects, not used to choose: 0.085-0.24
+// below; splat captures 0.25-0.67).
 // - a turn that scores more than kTurnSwitchMargin above the kept pose replaces it (polished
 //   again as the kept pose was; the grid stage's half-turn check uses the same margin);
 // - a turn within kTurnAmbiguityMargin of the kept pose makes it untrusted: the inputs cannot
@@ -106,8 +106,8 @@ inline constexpr double kTurnAmbiguityMargin = 0.08;
 // block ICP (RefineOnBlockPoints at `voxel`, rigid, the scale held) and scored on `samples`.
 struct TurnedPose {
   Sim3d target_from_source;
-  double confidence = 0;
-  int axis = 0;  // 0-2: the principal axes by increasing spread
+  FieldAgreement agreement;  // on `samples`
+  int axis = 0;              // 0-2: the principal axes by increasing spread
   double angle_deg = 0;
 };
 std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityField& target,

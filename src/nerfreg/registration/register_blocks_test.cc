@@ -2,14 +2,13 @@
 
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include "nerfreg/data/splat_test_util.h"
 #include "nerfreg/geometry/alignment.h"
+#include "nerfreg/registration/point_registration.h"
 #include "nerfreg/util/error.h"
 
 namespace nerfreg {
@@ -118,10 +117,8 @@ double BoxDistance(const Eigen::Vector3d& x) {
 // The source's occupied points turned by `deg` about their principal axis `axis` through their
 // centroid, as TurnedPoses turns them: x -> R (x - c) + c.
 Sim3d TurnAboutAxis(const Eigen::Matrix3Xd& points, int axis, double deg) {
-  const Eigen::Vector3d c = points.rowwise().mean();
-  const Eigen::Matrix3Xd centred = points.colwise() - c;
-  const Eigen::Matrix3d axes =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
+  Eigen::Vector3d c;
+  const Eigen::Matrix3d axes = PrincipalAxes(points, &c);
   const Eigen::Matrix3d r = Eigen::AngleAxisd(deg * M_PI / 180, axes.col(axis)).toRotationMatrix();
   return Sim3d(1.0, Eigen::Quaterniond(r), c - r * c);
 }
@@ -144,7 +141,8 @@ TEST(RegisterBlocks, TurnedPosesFindTheTruthFromAHalfTurnAndSeeASymmetry) {
     EXPECT_GT(at_truth, 0.95);
     double other = -1;
     for (const TurnedPose& t : TurnedPoses(source, target, source_points, target_points, samples, truth, 0.05, 0.05)) {
-      if (RotationErrorDeg(t.target_from_source.rotation, truth.rotation) > 2) other = std::max(other, t.confidence);
+      if (RotationErrorDeg(t.target_from_source.rotation, truth.rotation) > 2)
+        other = std::max(other, t.agreement.confidence);
     }
     if (box) {
       EXPECT_GT(other, at_truth - kTurnAmbiguityMargin) << "a box turned by half agrees with itself";
@@ -156,10 +154,11 @@ TEST(RegisterBlocks, TurnedPosesFindTheTruthFromAHalfTurnAndSeeASymmetry) {
     const std::vector<TurnedPose> turned =
         TurnedPoses(source, target, source_points, target_points, samples, wrong, 0.05, 0.05);
     ASSERT_EQ(turned.size(), 9u);
-    const TurnedPose& best = *std::max_element(
-        turned.begin(), turned.end(), [](const auto& a, const auto& b) { return a.confidence < b.confidence; });
+    const TurnedPose& best = *std::max_element(turned.begin(), turned.end(), [](const auto& a, const auto& b) {
+      return a.agreement.confidence < b.agreement.confidence;
+    });
     EXPECT_LT(RotationErrorDeg(best.target_from_source.rotation, truth.rotation), 1.0);
-    EXPECT_GT(best.confidence, at_wrong + kTurnSwitchMargin) << at_wrong;
+    EXPECT_GT(best.agreement.confidence, at_wrong + kTurnSwitchMargin) << at_wrong;
   }
 }
 

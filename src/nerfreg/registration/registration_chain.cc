@@ -144,49 +144,64 @@ void RefineOnBlockPoints(RegistrationPair& pair, const BlockRegistrationOptions&
   r->method += "+block";
 }
 
-void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
-  DensityField source = pair.SourceField(), target = pair.TargetField();
+namespace {
+
+// The pair's two fields; with options.field.overlap_only and the pair's grids, each field's `seen`
+// is its grid's mask.
+void PairFields(RegistrationPair& pair, const BlockRegistrationOptions& options, DensityField* source,
+                DensityField* target) {
+  *source = pair.SourceField();
+  *target = pair.TargetField();
   if (options.field.overlap_only && pair.HasGrids()) {
-    source.seen = SeenFromGrid(pair.SourceGrid());
-    target.seen = SeenFromGrid(pair.TargetGrid());
+    source->seen = SeenFromGrid(pair.SourceGrid());
+    target->seen = SeenFromGrid(pair.TargetGrid());
   }
+}
+
+// The fields aligned coarse to fine from `start`: samples spread kFieldCoarseSpread cells wide
+// (`coarse` records it), then one cell (`fine`), around the result's cloud.
+Sim3d RefineOnFieldsCoarseToFine(RegistrationPair& pair, const DensityField& source, const DensityField& target,
+                                 RegistrationCloud cloud, const Sim3d& start, const FieldAlignmentOptions& field,
+                                 Json* coarse, Json* fine) {
+  const Eigen::Matrix3Xd &src = pair.SourceCloud(cloud), &tgt = pair.TargetCloud(cloud);
+  const Sim3d c = RefineOnFields(source, target, src, tgt, start, field, kFieldCoarseSpread * pair.GridCell(), coarse);
+  return RefineOnFields(source, target, src, tgt, c, field, pair.GridCell(), fine);
+}
+
+}  // namespace
+
+void RefineOnFields(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
+  DensityField source, target;
+  PairFields(pair, options, &source, &target);
   FieldAlignmentOptions field = options.field;
   field.estimate_scale = options.scale == ScaleMode::kFree;
-  Sim3d start = r->target_from_source;
-  Json coarse;
   if (field.estimate_scale) {
-    start = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), start, field,
-                           kFieldCoarseSpread * pair.GridCell(), &coarse);
-  }
-  r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), start,
-                                         field, pair.GridCell(), &r->field);
-  r->seconds += r->field["seconds"].get<double>();
-  if (!coarse.is_null()) {
+    Json coarse;
+    r->target_from_source =
+        RefineOnFieldsCoarseToFine(pair, source, target, r->cloud, r->target_from_source, field, &coarse, &r->field);
     r->field["coarse"] = coarse;
     r->seconds += coarse["seconds"].get<double>();
+  } else {
+    r->target_from_source = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud),
+                                           r->target_from_source, field, pair.GridCell(), &r->field);
   }
+  r->seconds += r->field["seconds"].get<double>();
   r->method += "+field";
 }
 
 void PolishWithScaleHeld(RegistrationPair& pair, const BlockRegistrationOptions& options, RegistrationResult* r) {
   if (options.scale != ScaleMode::kFree || options.refine != RegistrationRefinement::kField) return;
   if (pair.SourceCloud(r->cloud).cols() < 3 || pair.TargetCloud(r->cloud).cols() < 3) return;
-  BlockRegistrationOptions held = options;
-  held.scale = ScaleMode::kFixed;  // the rigid stages, on the source scaled by the result's scale
   Json polish = {{"before", MatrixToJson(r->target_from_source.ToMatrix())}};
-  Sim3d pose = RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel,
-                                   &polish["block_icp"], false);
-  DensityField source = pair.SourceField(), target = pair.TargetField();
-  if (options.field.overlap_only && pair.HasGrids()) {
-    source.seen = SeenFromGrid(pair.SourceGrid());
-    target.seen = SeenFromGrid(pair.TargetGrid());
-  }
+  // Block ICP rigid, on the source scaled by the result's scale.
+  const Sim3d pose = RefineOnBlockPoints(pair.SourcePoints(), pair.TargetPoints(), r->target_from_source, options.voxel,
+                                         &polish["block_icp"], false);
+  DensityField source, target;
+  PairFields(pair, options, &source, &target);
   FieldAlignmentOptions field = options.field;
   field.estimate_scale = false;
-  const Sim3d coarse = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), pose,
-                                      field, kFieldCoarseSpread * pair.GridCell(), &polish["field_coarse"]);
-  const Sim3d refined = RefineOnFields(source, target, pair.SourceCloud(r->cloud), pair.TargetCloud(r->cloud), coarse,
-                                       field, pair.GridCell(), &polish["field"]);
+  const Sim3d refined = RefineOnFieldsCoarseToFine(pair, source, target, r->cloud, pose, field, &polish["field_coarse"],
+                                                   &polish["field"]);
   const Json& f = polish["field"];
   const bool kept = f["iterations"].get<int>() > 0 && f["final_cost"].get<double>() <= f["initial_cost"].get<double>();
   polish["kept"] = kept;
