@@ -305,8 +305,10 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
   EXPECT_LT(RotationErrorDeg(est.rotation, Eigen::Quaterniond::Identity()), 0.2);
   EXPECT_LT(est.translation.norm(), 0.005);
 
-  const CommandResult many = RunNerfreg("reg register-many " + block + " " + block + " " + block + " --quiet --out " +
-                                        dir.File("many.json") + " --merged-cameras " + dir.File("cams.json"));
+  // register-many registers each pair as reg register does, with its flags.
+  const CommandResult many =
+      RunNerfreg("reg register-many " + block + " " + block + " " + block + " --method ransac --quiet --out " +
+                 dir.File("many.json") + " --merged-cameras " + dir.File("cams.json"));
   ASSERT_EQ(many.exit_code, 0) << many.output;
   // One block three times: each image once in the merged cameras, seen by all three, the three
   // cameras together (the registration's identity).
@@ -324,7 +326,12 @@ TEST(RegCli, RegisterAndRegisterManyRefineOnTheFields) {
     const Sim3d w = Sim3d::FromMatrix(JsonField(m, "many.json")["world_from_block"][k].Matrix(4, 4));
     EXPECT_LT(RotationErrorDeg(w.rotation, Eigen::Quaterniond::Identity()), 0.2) << k;
   }
-  for (const auto& e : m["edges"]) EXPECT_TRUE(e["field"].is_object()) << e.dump();
+  EXPECT_EQ(m["status"], "registered");
+  for (const auto& e : m["edges"]) {
+    EXPECT_TRUE(e["field"].is_object()) << e.dump();
+    EXPECT_EQ(e["method"].get<std::string>().rfind("ransac+icp+field", 0), 0u) << e.dump();
+    EXPECT_EQ(e["status"], "registered") << e.dump();
+  }
 
   // dreg + ICP: on the grids, then on the blocks' occupied points (recorded, with the pose it
   // started from). The network's answer here is whatever it is; the ICPs must end at the identity.

@@ -102,7 +102,8 @@ TEST(SplatsCli, TwoSplatCapturesRegisterAndApplyMovesFilesAcrossFrames) {
 
 // Captures of two different objects: reg register does not pass its answer off as a success. It
 // writes T.json with "status": "untrusted" and the reason, says so in one line on stderr and
-// exits with 5 (docs/cli.md); the same object's captures in different units register.
+// exits with 5 (docs/cli.md); so does register-many, which leaves the capture out; the same
+// object's captures in different units register.
 TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister) {
   ScopedTempDir dir;
   for (const char* object : {"7", "3"}) {
@@ -121,6 +122,21 @@ TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister)
   EXPECT_FALSE(t["status_reason"].get<std::string>().empty());
   std::printf("different objects: confidence %.3f, %d agreeing\n", t["confidence"].get<double>(),
               t["agreeing_candidates"].get<int>());
+
+  // register-many registers the pair as reg register does: no edge, so the second capture is not
+  // registered, the output says so, it stays out of the merged splats, and the command exits with 5.
+  const CommandResult many =
+      RunNerfreg("reg register-many " + dir.File("o7/block_0/splats.ply") + " " + dir.File("o3/block_1/splats.ply") +
+                 " --seed 0 --quiet --out " + dir.File("many.json") + " --merged-splats " + dir.File("merged.ply"));
+  EXPECT_EQ(many.exit_code, 5) << many.output;
+  EXPECT_NE(many.output.find("untrusted: 1 of the 2 inputs"), std::string::npos) << many.output;
+  const Json m = ReadJsonFile(dir.File("many.json"));
+  EXPECT_EQ(m["status"], "untrusted") << m.dump();
+  EXPECT_EQ(m["connected"], Json::array({true, false})) << m.dump();
+  ASSERT_EQ(m["edges"].size(), 1u);
+  EXPECT_EQ(m["edges"][0]["status"], "untrusted") << m.dump();
+  EXPECT_FALSE(m["edges"][0]["used"].get<bool>());
+  EXPECT_EQ(ReadSplatPly(dir.File("merged.ply")).size(), ReadSplatPly(dir.File("o7/block_0/splats.ply")).size());
 
   // Object 7's first capture scaled by 2.5 (reg apply), then registered to its second capture.
   const double s = 2.5;

@@ -5,6 +5,7 @@
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/exe/reg_flags.h"
 #include "nerfreg/pipeline/register_blocks.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
 #include "nerfreg/reg/field_alignment.h"
@@ -66,19 +67,14 @@ std::optional<Sim3d> CaptureFromFile(const std::string& dataparser) {
   return file_from_capture.Inverse();
 }
 
-// reg register's flags, as typed: the enums are parsed after CLI11 has checked the names.
+// reg register's own flags: the inputs, the output, and the pair's options.
 struct RegisterFlags {
-  std::string source, target, out, method = DefaultRegistrationMethod(), refine = "field", dreg_solver = "procrustes",
-                                   icp_points = "occupied", scale = "free";
-  bool no_flips = false, no_block_icp = false, no_turn_check = false;
-  std::string device = "cpu";
+  std::string source, target, out;
   std::string source_dataparser, target_dataparser;
-  BlockRegistrationOptions options;
+  PairRegistrationFlags pair;
 };
 
 void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
-  BlockRegistrationOptions& o = f->options;
-  o.weights = DefaultDregWeights();
   app.add_option(
          "source", f->source,
          "Source: a NeRF block checkpoint, an instant-ngp snapshot (.ingp, .msgpack) or a 3D Gaussian splat PLY")
@@ -92,8 +88,17 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                  "dataparser_transforms.json, so that it registers, and T is written, in the units of its capture's "
                  "cameras");
   app.add_option("--target-dataparser", f->target_dataparser, "The same for the target");
-  AddDeviceOption(app, &f->device);
   app.add_option("--out", f->out, "Output JSON")->required();
+  AddPairRegistrationFlags(app, &f->pair);
+}
+
+}  // namespace
+
+void nerfreg::AddPairRegistrationFlags(CLI::App& app, PairRegistrationFlags* f) {
+  BlockRegistrationOptions& o = f->options;
+  o.weights = DefaultDregWeights();
+  f->method = DefaultRegistrationMethod();
+  AddDeviceOption(app, &f->device);
   app.add_option("--method", f->method,
                  "auto (default with weights: dreg and ransac, each refined, the one whose fields agree best on common "
                  "samples kept; without --refine field: dreg, then ransac when dreg's confidence < --min-confidence), "
@@ -145,7 +150,20 @@ void AddRegisterFlags(CLI::App& app, RegisterFlags* f) {
                "agrees better replaces it, and one that agrees nearly as well makes the result untrusted)");
 }
 
-}  // namespace
+BlockRegistrationOptions nerfreg::ParsePairRegistrationFlags(const PairRegistrationFlags& f) {
+  BlockRegistrationOptions o = f.options;
+  o.device = ParseDevice(f.device);
+  o.method = RegistrationMethodFromName(f.method);
+  o.refine = RegistrationRefinementFromName(f.refine);
+  o.dreg_solver = DregSolverFromName(f.dreg_solver);
+  o.icp_points = IcpPointsFromName(f.icp_points);
+  o.scale = ScaleModeFromName(f.scale);
+  o.flips = !f.no_flips;
+  o.block_icp = !f.no_block_icp;
+  o.check_turns = !f.no_turn_check;
+  o.Check();
+  return o;
+}
 
 int RunRegRegister(int argc, char** argv) {
   CLI::App app;
@@ -163,18 +181,9 @@ int RunRegRegister(int argc, char** argv) {
   RegisterFlags f;
   AddRegisterFlags(app, &f);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  BlockRegistrationOptions& o = f.options;
-  o.device = ParseDevice(f.device);
-  CheckCanWriteOutput(f.out, common.force, {f.source, f.target, o.weights, f.source_dataparser, f.target_dataparser});
-  o.method = RegistrationMethodFromName(f.method);
-  o.refine = RegistrationRefinementFromName(f.refine);
-  o.dreg_solver = DregSolverFromName(f.dreg_solver);
-  o.icp_points = IcpPointsFromName(f.icp_points);
-  o.scale = ScaleModeFromName(f.scale);
-  o.flips = !f.no_flips;
-  o.block_icp = !f.no_block_icp;
-  o.check_turns = !f.no_turn_check;
-  o.Check();
+  CheckCanWriteOutput(f.out, common.force,
+                      {f.source, f.target, f.pair.options.weights, f.source_dataparser, f.target_dataparser});
+  const BlockRegistrationOptions o = ParsePairRegistrationFlags(f.pair);
   Timer timer;
   const std::optional<Sim3d> source_from_file = CaptureFromFile(f.source_dataparser),
                              target_from_file = CaptureFromFile(f.target_dataparser);

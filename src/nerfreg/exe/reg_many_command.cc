@@ -1,10 +1,14 @@
 // reg register-many: many blocks (or splat captures) into one frame, and what it can write there.
+#include <cstdio>
 #include <map>
+#include <memory>
 
 #include "nerfreg/data/transforms_json.h"
 #include "nerfreg/exe/command.h"
 #include "nerfreg/exe/commands.h"
+#include "nerfreg/exe/reg_flags.h"
 #include "nerfreg/pipeline/register_many_blocks.h"
+#include "nerfreg/registration/register_blocks.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
@@ -41,15 +45,16 @@ int RunRegRegisterMany(int argc, char** argv) {
   AddCommonOptions(app, &common);
   DescribeCommand(
       app,
-      "Register many NeRF blocks into one frame (block 0's): every pair is registered (FPFH + RANSAC + "
-      "ICP, then by default refined on the two fields), pairs that agree "
-      "(fitness above --min-confidence) become edges of a pose graph, which is solved with a robust loss "
-      "from a cycle-consistent spanning tree; with --scale free (default) every block's scale too (a Sim(3) "
-      "graph). Writes {world_from_block: [4x4...], scale: [...], edges: [...]}.",
+      "Register many NeRF blocks (or splat captures) into one frame (block 0's): every pair is registered as "
+      "reg register registers it (the same flags), the pairs it trusts become edges of a pose graph, which is "
+      "solved with a robust loss from a cycle-consistent spanning tree; with --scale free (default) every "
+      "block's scale too (a Sim(3) graph). Writes {status, world_from_block: [4x4...], scale: [...], edges: "
+      "[...]}; exits with 5 when an input is linked to block 0 by no trusted registration (it is left out of "
+      "the merged outputs).",
       "nerfreg reg register-many runs/b0.ckpt runs/b1.ckpt runs/b2.ckpt --out runs/poses.json");
   std::vector<std::string> paths;
-  std::string out, refine = "field";
-  ManyBlockRegistrationOptions o;
+  std::string out;
+  PairRegistrationFlags pair;
   app.add_option("blocks", paths,
                  "Block checkpoints, instant-ngp snapshots or splat PLYs (the first defines the world frame)")
       ->required()
@@ -68,36 +73,34 @@ int RunRegRegisterMany(int argc, char** argv) {
   app.add_option("--cameras", cameras,
                  "K=FILE: the cameras of splat input K for --merged-cameras, a transforms.json, COLMAP model or LLFF "
                  "scene in its capture's frame (repeatable)");
-  app.add_option("--min-density", o.min_density, "Density above which a cell's point is used (default 5)");
-  app.add_option("--voxel", o.voxel, "Downsampling voxel, scene units (default 0.05)");
-  AddMaxPointsOption(app, &o.max_points);
-  app.add_option("--min-confidence", o.min_confidence, "Pairs below this fitness are not used (default 0.3)");
-  app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--refine", refine, "Each pair: icp, or field (ICP, then the density fields aligned; default)")
-      ->check(CLI::IsMember({"icp", "field"}));
-  std::string scale = "free";
-  app.add_option("--scale", scale,
-                 "free (default: the blocks may be in different units; each is normalised by its own occupied extent "
-                 "and the pose graph estimates every block's scale) or fixed (a rigid graph: the blocks share a unit)")
-      ->check(CLI::IsMember({"free", "fixed"}));
+  AddPairRegistrationFlags(app, &pair);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
   const std::map<int, std::string> dataparser_of = IndexedPaths(dataparsers, "--dataparser"),
                                    cameras_of = IndexedPaths(cameras, "--cameras");
   std::vector<std::string> inputs = paths;
+  inputs.push_back(pair.options.weights);
   for (const auto& m : {dataparser_of, cameras_of})
     for (const auto& [k, p] : m) inputs.push_back(p);
   CheckCanWriteOutput(out, common.force, inputs);
   if (!merged.empty()) CheckCanWriteOutput(merged, common.force, inputs);
   if (!merged_cameras.empty()) CheckCanWriteOutput(merged_cameras, common.force, inputs);
+  ManyBlockRegistrationOptions o;
+  o.pair = ParsePairRegistrationFlags(pair);
   for (const auto& [k, p] : dataparser_of) o.capture_from_file[k] = ReadDataparserTransforms(p).Inverse();
-  o.refine = RegistrationRefinementFromName(refine);
-  o.scale = ScaleModeFromName(scale);
-  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  o.Check();
+  std::unique_ptr<DregNet> net;
+  if (o.pair.UsesNetwork()) net = std::make_unique<DregNet>(LoadCheckedDregNet(o.pair));
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o, net.get());
   WriteJsonFile(out, r.json);
   if (!merged.empty()) WriteSplatPly(MergeSplatsInWorld(paths, r), merged);
   if (!merged_cameras.empty())
     LOG_INFO("{} cameras -> {}", WriteMergedCameras(paths, r, merged_cameras, cameras_of), merged_cameras);
   LOG_INFO("{} blocks, {} of {} pairs used, {:.1f} s", paths.size(), r.used_edges, r.pairs,
            r.json["seconds"].get<double>());
+  if (r.unconnected > 0) {
+    std::fprintf(stderr, "untrusted: %s (%s written with \"status\": \"untrusted\")\n",
+                 r.json["status_reason"].get<std::string>().c_str(), out.c_str());
+    return kExitUntrusted;
+  }
   return 0;
 }

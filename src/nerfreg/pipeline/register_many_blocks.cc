@@ -17,7 +17,7 @@
 #include "nerfreg/nerf/ngp_import.h"
 #include "nerfreg/posegraph/pose_graph.h"
 #include "nerfreg/reg/registration_input.h"
-#include "nerfreg/registration/registration_chain.h"
+#include "nerfreg/registration/register_blocks.h"
 #include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
@@ -26,13 +26,7 @@
 namespace nerfreg {
 
 void ManyBlockRegistrationOptions::Check() const {
-  if (!(min_density >= 0)) ThrowInputError("--min-density", "", ">= 0");
-  if (!(voxel > 0)) ThrowInputError("--voxel", "", "> 0");
-  if (max_points < 0) ThrowInputError("--max-points", "", ">= 0");
-  if (refine != RegistrationRefinement::kIcp && refine != RegistrationRefinement::kField) {
-    ThrowInputError("--refine", "", "icp or field");
-  }
-  splats.Check();
+  pair.Check();
   for (const auto& [k, capture_from_file] : this->capture_from_file) {
     if (k < 0) ThrowInputError("--dataparser", "", "K=FILE with K an input's index from 0, got " + std::to_string(k));
     CheckScaleInRange(capture_from_file.scale, "--dataparser", "the dataparser's scale");
@@ -43,21 +37,15 @@ Json ManyBlockRegistrationOptions::ToJson() const {
   Json frames = Json::object();  // --dataparser: input index -> capture_from_file
   for (const auto& [k, capture_from_file] : this->capture_from_file)
     frames[std::to_string(k)] = MatrixToJson(capture_from_file.ToMatrix());
-  return {{"capture_from_file", frames},
-          {"min_density", min_density},
-          {"voxel", voxel},
-          {"max_points", max_points},
-          {"min_confidence", min_confidence},
-          {"seed", seed},
-          {"refine", RegistrationRefinementName(refine)},
-          {"scale", ScaleModeName(scale)},
-          {"splat_density_scale", splats.density_scale},
-          {"splat_blur", splats.blur}};
+  Json j = pair.ToJson();
+  j["capture_from_file"] = frames;
+  return j;
 }
 
 ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& paths,
-                                               const ManyBlockRegistrationOptions& options) {
+                                               const ManyBlockRegistrationOptions& options, DregNet* net) {
   options.Check();
+  const BlockRegistrationOptions& o = options.pair;
   Timer timer;
   ManyBlockRegistrationResult result;
   // Each warning is logged and kept in the result.
@@ -67,11 +55,11 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     result.warnings.push_back(std::move(message));
   };
   const int n = static_cast<int>(paths.size());
-  const bool free_scale = options.scale == ScaleMode::kFree;
-  std::vector<Eigen::Matrix3Xd> clouds;
-  std::vector<std::unique_ptr<RegistrationInput>> blocks;  // kept for --refine field only
-  // normalized_from_block per input (identity with kFixed): every pair, and the graph, work in the
-  // normalised frames.
+  const bool free_scale = o.scale == ScaleMode::kFree;
+  std::vector<std::unique_ptr<RegistrationInput>> inputs;
+  std::vector<bool> occupied;  // enough occupied points to register
+  // normalized_from_block per input (identity with kFixed): the graph works in the normalised
+  // frames; each pair's job normalises on its own and returns poses in the inputs' units.
   std::vector<Sim3d> normalized_from;
   Json normalization = Json::array();
   if (!options.capture_from_file.empty() && options.capture_from_file.rbegin()->first >= n) {
@@ -83,64 +71,58 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
     const std::string& p = paths[k];
     const auto frame = options.capture_from_file.find(k);
     result.capture_from_file.push_back(frame == options.capture_from_file.end() ? Sim3d() : frame->second);
-    std::unique_ptr<RegistrationInput> b = LoadRegistrationInput(
-        p, options.splats, torch::kCPU,
-        frame == options.capture_from_file.end() ? std::nullopt : std::optional<Sim3d>(frame->second));
-    Eigen::Matrix3Xd cloud = b->OccupiedPoints(options.min_density, options.seed);
-    if (cloud.cols() < 100) warn("{}: only {} occupied points", p, cloud.cols());
+    inputs.push_back(LoadRegistrationInput(
+        p, o.splats, o.device,
+        frame == options.capture_from_file.end() ? std::nullopt : std::optional<Sim3d>(frame->second)));
+    const Eigen::Matrix3Xd cloud = inputs.back()->OccupiedPoints(o.min_density, o.seed);
+    occupied.push_back(cloud.cols() >= kMinOccupiedPoints);
+    if (!occupied.back()) {
+      warn("{}: only {} occupied points (density > {}): not registered", p, cloud.cols(), o.min_density);
+    } else if (cloud.cols() < 100) {
+      warn("{}: only {} occupied points", p, cloud.cols());
+    }
     Sim3d nk;
-    if (free_scale && cloud.cols() >= 3) {
+    if (free_scale && occupied.back()) {
       nk = NormalizationFor(cloud, p);
       normalization.push_back(NormalizationJson(nk, OccupiedRadius(cloud)));
-      cloud = nk.TransformPoints(cloud);
-      if (options.refine == RegistrationRefinement::kField) b->Move(nk);
     } else {
       normalization.push_back(nullptr);
     }
     normalized_from.push_back(nk);
-    clouds.push_back(std::move(cloud));
-    if (options.refine == RegistrationRefinement::kField) blocks.push_back(std::move(b));
   }
-  // Each pair through reg register's chain: FPFH + RANSAC + ICP on the occupied points, then, for
-  // the pairs confident enough to be edges, the fields aligned.
-  BlockRegistrationOptions chain;
-  chain.method = RegistrationMethod::kRansac;
-  chain.refine = RegistrationRefinement::kIcp;
-  chain.scale = options.scale;
-  chain.min_density = options.min_density;
-  chain.voxel = options.voxel;
-  chain.max_points = options.max_points;
-  chain.seed = options.seed;
-  chain.splats = options.splats;
-  const bool field = options.refine == RegistrationRefinement::kField;
+  // Each pair registered as reg register registers it; the pairs it trusts become edges.
   std::vector<PoseGraphEdge> edges;
   Json edges_json = Json::array();
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
-      if (clouds[i].cols() < 3 || clouds[j].cols() < 3) continue;
-      RegistrationPair pair(clouds[i], clouds[j], field ? blocks[i].get() : nullptr, field ? blocks[j].get() : nullptr,
-                            chain);
-      RegistrationResult r = RunChain(pair, RegistrationMethod::kRansac, RegistrationCloud::kOccupied, chain, nullptr);
-      const bool used = r.method_score >= options.min_confidence;
-      if (used && field) {
-        RefineOnFields(pair, chain, &r);
-        PolishWithScaleHeld(pair, chain, &r);
-      }
-      // In the inputs' own units: target_from_normalized * T * normalized_from_source.
-      const Sim3d in_units = normalized_from[j].Inverse() * r.target_from_source * normalized_from[i];
+      if (!occupied[i] || !occupied[j]) continue;
+      LOG_INFO("pair {} -> {} ({} of {})", i, j, edges_json.size() + 1, n * (n - 1) / 2);
+      const BlockRegistrationResult r = RegisterBlocks(*inputs[i], *inputs[j], o, net);
+      const bool used = r.status == "registered";
       edges_json.push_back({{"source", i},
                             {"target", j},
-                            {"target_from_source", MatrixToJson(in_units.ToMatrix())},
-                            {"scale", in_units.scale},
-                            {"confidence", r.method_score},
+                            {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+                            {"scale", r.target_from_source.scale},
+                            {"confidence", r.confidence},
+                            {"method", r.method},
+                            {"status", r.status},
+                            {"status_reason", r.status_reason},
+                            {"turn_margin", std::isnan(r.turn_margin) ? Json() : Json(r.turn_margin)},
+                            {"agreeing_candidates", r.agreeing_candidates},
+                            {"seconds", r.seconds},
                             {"used", used},
                             {"field", r.field}});
-      if (!used) continue;
+      if (!used) {
+        ++result.untrusted;
+        warn("{} -> {}: untrusted, not used: {}", paths[i], paths[j], r.status_reason);
+        continue;
+      }
       PoseGraphEdge e;
       e.i = i;
       e.j = j;
-      e.j_from_i = r.target_from_source;
-      e.weight = r.method_score;
+      // Between the normalised frames: normalized_from_j * T * normalized_from_i^-1.
+      e.j_from_i = normalized_from[j] * r.target_from_source * normalized_from[i].Inverse();
+      e.weight = r.confidence;
       edges.push_back(e);
     }
   }
@@ -153,12 +135,18 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   Json world_from_block = Json::array(), scales = Json::array(), connected = Json::array();
   for (int k = 0; k < n; ++k) {
     // The graph's world is block 0's normalised frame: x_in_block_0 = normalized_from[0]^-1 *
-    // world_from_node * normalized_from[k] * x_in_block_k.
-    result.world_from_block.push_back(normalized_from[0].Inverse() * g.world_from_node[k] * normalized_from[k]);
+    // world_from_node * normalized_from[k] * x_in_block_k. An input no edge links is left where it
+    // is (the identity) and not merged.
+    result.world_from_block.push_back(
+        g.connected[k] ? normalized_from[0].Inverse() * g.world_from_node[k] * normalized_from[k] : Sim3d());
     world_from_block.push_back(MatrixToJson(result.world_from_block.back().ToMatrix()));
     scales.push_back(result.world_from_block.back().scale);
     connected.push_back(static_cast<bool>(g.connected[k]));
-    if (!g.connected[k]) warn("{}: no confident registration links it to block 0; left at identity", paths[k]);
+    result.connected.push_back(g.connected[k]);
+    if (!g.connected[k]) {
+      ++result.unconnected;
+      warn("{}: no trusted registration links it to block 0; not registered (left at the identity)", paths[k]);
+    }
   }
   size_t used = 0;
   std::vector<int> dropped_edges_of(n, 0), kept_edges_of(n, 0);
@@ -191,7 +179,16 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
            dropped_edges_of[b], dropped_edges_of[b] + kept_edges_of[b]);
     }
   }
-  result.json = {{"world_from_block", world_from_block},
+  const std::string status = result.unconnected == 0 ? "registered" : "untrusted";
+  const std::string status_reason =
+      result.unconnected == 0
+          ? ""
+          : fmt::format("{} of the {} inputs are linked to input 0 by no trusted registration and were not registered",
+                        result.unconnected, n);
+  result.json = {{"status", status},
+                 {"status_reason", status_reason},
+                 {"untrusted_pairs", result.untrusted},
+                 {"world_from_block", world_from_block},
                  {"scale", scales},
                  {"connected", connected},
                  {"normalization", free_scale ? normalization : Json()},
@@ -204,10 +201,19 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
   return result;
 }
 
+namespace {
+
+// Input k is in the world frame (a result without `connected`, built by hand, has every input there).
+bool Registered(const ManyBlockRegistrationResult& result, size_t k) {
+  return k >= result.connected.size() || result.connected[k];
+}
+
+}  // namespace
+
 Splats MergeSplatsInWorld(const std::vector<std::string>& paths, const ManyBlockRegistrationResult& result) {
   std::vector<Splats> moved;
   for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
-    if (!IsSplatPly(paths[k])) continue;
+    if (!IsSplatPly(paths[k]) || !Registered(result, k)) continue;
     const Sim3d file_from = k < result.capture_from_file.size() ? result.capture_from_file[k] : Sim3d();
     moved.push_back(TransformSplats(ReadSplatPly(paths[k]), result.world_from_block[k] * file_from));
   }
@@ -264,6 +270,7 @@ int WriteMergedCameras(const std::vector<std::string>& paths, const ManyBlockReg
   std::vector<double> centre_spread, rotation_spread_deg;
   std::map<std::string, size_t> kept;  // absolute image path -> frame index
   for (size_t k = 0; k < paths.size() && k < result.world_from_block.size(); ++k) {
+    if (!Registered(result, k)) continue;
     // Input k's cameras in its capture's frame: a block's own, or those given for a splat capture.
     Dataset cameras;
     const auto given = splat_cameras.find(static_cast<int>(k));

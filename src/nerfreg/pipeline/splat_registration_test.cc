@@ -99,7 +99,8 @@ TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScal
 // register-many on three captures in three units: object 7's two captures (block 1's scaled by
 // 0.4) and block 0's again, scaled by 2.5, turned and shifted (a loop of one real registration
 // and two of one capture's copies). The Sim(3) pose graph brings each into block 0's frame, its
-// scale within 1 %; the rigid graph (--scale fixed) places neither.
+// scale within 1 %; the rigid graph (--scale fixed) places neither, and says so (each pair
+// untrusted, the inputs not connected).
 TEST(SplatRegistration, RegisterManyBringsCapturesAtThreeScalesIntoOneFrame) {
   ScopedTempDir dir;
   const Sim3d block0_from_block1 = RenderTwoSplatCaptures(dir).Inverse();
@@ -120,11 +121,15 @@ TEST(SplatRegistration, RegisterManyBringsCapturesAtThreeScalesIntoOneFrame) {
     want.push_back((capture[k] == 0 ? Sim3d() : block0_from_block1) * scaled_from_block.Inverse());
   }
   ManyBlockRegistrationOptions o;
-  o.refine = RegistrationRefinement::kIcp;
-  o.max_points = 1000;  // FPFH + RANSAC's cost, 6 pairs in all
-  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o);
+  o.pair.refine = RegistrationRefinement::kIcp;
+  o.pair.max_points = 1000;  // FPFH + RANSAC's cost, 6 pairs in all
+  const ManyBlockRegistrationResult r = RegisterManyBlocks(paths, o, nullptr);
   ASSERT_EQ(r.world_from_block.size(), 3u);
-  EXPECT_EQ(r.used_edges, 3) << r.json.dump();
+  // Without the field refinement, the pair of the two scaled copies of different captures agrees too
+  // little to be trusted (0.13); two edges still link every input.
+  EXPECT_GE(r.used_edges, 2) << r.json.dump();
+  EXPECT_EQ(r.unconnected, 0) << r.json.dump();
+  EXPECT_EQ(r.json["status"], "registered");
   for (int k = 1; k < 3; ++k) {
     const Sim3d& est = r.world_from_block[k];
     const double rot = RotationErrorDeg(est.rotation, want[k].rotation);
@@ -138,8 +143,8 @@ TEST(SplatRegistration, RegisterManyBringsCapturesAtThreeScalesIntoOneFrame) {
                 scales[k], rot, trans / kObjectExtent, 100 * scale_error);
   }
   std::printf("register-many: %.1f s\n", r.json["seconds"].get<double>());
-  o.scale = ScaleMode::kFixed;
-  const ManyBlockRegistrationResult rigid = RegisterManyBlocks(paths, o);
+  o.pair.scale = ScaleMode::kFixed;
+  const ManyBlockRegistrationResult rigid = RegisterManyBlocks(paths, o, nullptr);
   int placed = 0;
   for (int k = 1; k < 3; ++k) {
     const Sim3d& est = rigid.world_from_block[k];
@@ -148,6 +153,8 @@ TEST(SplatRegistration, RegisterManyBringsCapturesAtThreeScalesIntoOneFrame) {
                                     (est * centroid[k] - want[k] * centroid[k]).norm());
   }
   EXPECT_EQ(placed, 0) << rigid.json.dump();
+  EXPECT_EQ(rigid.unconnected, 2) << rigid.json.dump();
+  EXPECT_EQ(rigid.json["status"], "untrusted");
 }
 
 }  // namespace

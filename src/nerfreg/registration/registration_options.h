@@ -73,13 +73,12 @@ struct EnumNames {
 // (docs/notes/2026-11-23-grids-icp-half-turn.md, "ICP correspondence distance").
 inline constexpr double kDefaultIcpDistance = 2.0;
 
-// Everything `reg register`'s options set; the other jobs (reg eval --pairs, register-many) fill
-// the fields they use and leave the rest at these defaults. Each field names its flag.
+// Everything `reg register`'s options set (and `reg register-many`'s for each pair); reg eval
+// --pairs fills the fields it uses and leaves the rest at these defaults. Each field names its flag.
 struct BlockRegistrationOptions {
   RegistrationMethod method = RegistrationMethod::kRansac;         // --method
   RegistrationRefinement refine = RegistrationRefinement::kField;  // --refine
-  // --scale. The jobs without inputs to normalise (reg eval --pairs on grids, register-many) set
-  // kFixed.
+  // --scale. The job without inputs to normalise (reg eval --pairs on grids) sets kFixed.
   ScaleMode scale = ScaleMode::kFree;
   // --min-confidence: auto without kField falls back to ransac when the network's own score is
   // below this.
