@@ -8,6 +8,8 @@
 #include <open3d/utility/Logging.h>
 #include <open3d/utility/Random.h>
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -167,13 +169,17 @@ std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& s
   const auto src = Prepare(source, o), tgt = Prepare(target, o);  // once for every start
   const double prepare_seconds = prepare.Seconds();
   const double d = o.icp_distance > 0 ? o.icp_distance : 2 * o.voxel_size;
-  std::vector<ClassicalRegistrationResult> out;
-  const ScopedOmpThreads one_thread(1);  // repeatable ICP (see above)
-  for (const Rigid3d& start : starts) {
+  std::vector<ClassicalRegistrationResult> out(starts.size());
+  // The starts spread over the threads, each start's ICP on one (repeatable ICP, see above): the
+  // same results at any thread count.
+  const int n = static_cast<int>(starts.size());
+  const int threads = std::max(1, std::min(omp_get_max_threads(), n));
+#pragma omp parallel for num_threads(threads) schedule(dynamic)
+  for (int k = 0; k < n; ++k) {
+    omp_set_num_threads(1);  // Open3D's own parallel loops inside, on this thread alone
     Timer one;
-    const auto r = Icp(*src, *tgt, d, start.ToMatrix(), o);
-    out.push_back(
-        ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (out.empty() ? prepare_seconds : 0)));
+    const auto r = Icp(*src, *tgt, d, starts[k].ToMatrix(), o);
+    out[k] = ToResult(r, src->points_.size(), tgt->points_.size(), one.Seconds() + (k == 0 ? prepare_seconds : 0));
   }
   return out;
 }

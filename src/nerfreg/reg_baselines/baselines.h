@@ -61,7 +61,8 @@ ClassicalRegistrationResult RefineWithIcp(const Eigen::Matrix3Xd& source, const 
                                           const Rigid3d& initial_target_from_source,
                                           const ClassicalRegistrationOptions& options);
 // The same from several starts, the clouds and normals prepared once: one result per start (its
-// seconds: that start's ICP, the first's with the preparation).
+// seconds: that start's ICP, the first's with the preparation). The starts run in parallel over
+// OpenMP's threads, each on one thread: the results do not depend on the thread count.
 std::vector<ClassicalRegistrationResult> RefineWithIcp(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
                                                        const std::vector<Rigid3d>& starts,
                                                        const ClassicalRegistrationOptions& options);

@@ -128,5 +128,38 @@ TEST(ClassicalRegistration, OneSeedGivesTheSamePoseEveryRun) {
   omp_set_num_threads(threads);
 }
 
+// ICP from several starts at once (the starts spread over the threads) gives each start's pose to
+// the bit as ICP from it alone, at 1 and at 4 threads, and leaves the caller's thread count as it was.
+TEST(ClassicalRegistration, IcpFromManyStartsInParallelMatchesEachStartAlone) {
+  const Eigen::Matrix3Xd src = SyntheticSurface(4000, 1);
+  const Rigid3d gt(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized())),
+                   Eigen::Vector3d(0.2, 0, -0.1));
+  Eigen::Matrix3Xd tgt = SyntheticSurface(4000, 2);
+  for (Eigen::Index i = 0; i < tgt.cols(); ++i) tgt.col(i) = gt * Eigen::Vector3d(tgt.col(i));
+  std::vector<Rigid3d> starts;
+  for (int k = 0; k < 6; ++k) {
+    starts.push_back(Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.03 * k, Eigen::Vector3d(1, k, 2).normalized())),
+                             Eigen::Vector3d(0.01 * k, 0, 0)) *
+                     gt);
+  }
+  ClassicalRegistrationOptions o;
+  o.voxel_size = 0.05;
+  const int threads = omp_get_max_threads();
+  for (const int t : {1, 4}) {
+    omp_set_num_threads(t);
+    const std::vector<ClassicalRegistrationResult> all = RefineWithIcp(src, tgt, starts, o);
+    ASSERT_EQ(all.size(), starts.size());
+    EXPECT_EQ(omp_get_max_threads(), t);
+    for (size_t k = 0; k < starts.size(); ++k) {
+      const ClassicalRegistrationResult one = RefineWithIcp(src, tgt, starts[k], o);
+      EXPECT_EQ((all[k].TargetFromSource().ToMatrix() - one.TargetFromSource().ToMatrix()).cwiseAbs().maxCoeff(), 0.0)
+          << "start " << k << ", " << t << " threads";
+      EXPECT_EQ(all[k].fitness, one.fitness);
+      EXPECT_LT(RotationErrorDeg(all[k].target_from_source.rotation, gt.rotation), 1.0) << k;
+    }
+  }
+  omp_set_num_threads(threads);
+}
+
 }  // namespace
 }  // namespace nerfreg

@@ -1,6 +1,7 @@
 #include "nerfreg/registration/point_registration.h"
 
 #include <Eigen/Eigenvalues>
+#include <stdexcept>
 
 #include "nerfreg/util/logging.h"
 
@@ -64,6 +65,26 @@ Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& t
            {"seconds", r.seconds},
            {"before", MatrixToJson(start.ToMatrix())}};
   return Sim3d(start.scale * r.scale, r.target_from_source.rotation, r.target_from_source.translation);
+}
+
+std::vector<Sim3d> RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
+                                       const std::vector<Sim3d>& starts, double voxel) {
+  if (starts.empty()) return {};
+  if (src.cols() < 3 || tgt.cols() < 3) {
+    LOG_WARN("block ICP: fewer than 3 occupied points in a block; poses left as they were");
+    return starts;
+  }
+  const double scale = starts.front().scale;
+  std::vector<Rigid3d> rigid;
+  for (const Sim3d& s : starts) {
+    if (s.scale != scale) throw std::invalid_argument("RefineOnBlockPoints: the starts' scales differ");
+    rigid.push_back(s.ToRigid());
+  }
+  const std::vector<ClassicalRegistrationResult> r = RefineWithIcp(scale * src, tgt, rigid, FpfhOptions(voxel));
+  std::vector<Sim3d> out;
+  for (const ClassicalRegistrationResult& k : r)
+    out.emplace_back(scale, k.target_from_source.rotation, k.target_from_source.translation);
+  return out;
 }
 
 }  // namespace nerfreg

@@ -4,6 +4,7 @@
 // only place the rule is written), the coarse stage on the inputs' occupied points, and ICP on
 // those points after a grid method ("block ICP").
 #include <Eigen/Core>
+#include <vector>
 
 #include "nerfreg/reg_baselines/baselines.h"
 #include "nerfreg/registration/registration_options.h"
@@ -35,5 +36,10 @@ Eigen::Matrix3d PrincipalAxes(const Eigen::Matrix3Xd& points, Eigen::Vector3d* c
 // inlier_rmse, seconds, before).
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
                           Json* json, bool with_scaling = false);
+// The same, rigid, from several starts that share a scale (the turn check's; std::invalid_argument
+// otherwise), the clouds prepared once and the starts run in parallel (RefineWithIcp): one pose
+// per start, as RefineOnBlockPoints(src, tgt, start, voxel, ..., false) gives it.
+std::vector<Sim3d> RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt,
+                                       const std::vector<Sim3d>& starts, double voxel);
 
 }  // namespace nerfreg

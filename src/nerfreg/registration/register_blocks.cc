@@ -320,18 +320,21 @@ std::vector<TurnedPose> TurnedPoses(const DensityField& source, const DensityFie
   Eigen::Vector3d centroid;
   const Eigen::Matrix3d axes = PrincipalAxes(source_points, &centroid);
   std::vector<TurnedPose> turned;
+  std::vector<Sim3d> starts;
   for (int axis = 0; axis < 3; ++axis) {
     for (const double angle : {180.0, 90.0, -90.0}) {
       const Eigen::Matrix3d turn = Eigen::AngleAxisd(angle * M_PI / 180, axes.col(axis)).toRotationMatrix();
-      const Sim3d start = kept * Sim3d(1.0, Eigen::Quaterniond(turn), centroid - turn * centroid);
-      Json icp;
+      starts.push_back(kept * Sim3d(1.0, Eigen::Quaterniond(turn), centroid - turn * centroid));
       TurnedPose t;
-      t.target_from_source = RefineOnBlockPoints(source_points, target_points, start, voxel, &icp, false);
-      t.agreement = ScoreFieldAgreement(source, target, samples, t.target_from_source, occupancy_scale);
       t.axis = axis;
       t.angle_deg = angle;
       turned.push_back(t);
     }
+  }
+  const std::vector<Sim3d> refined = RefineOnBlockPoints(source_points, target_points, starts, voxel);
+  for (size_t k = 0; k < turned.size(); ++k) {
+    turned[k].target_from_source = refined[k];
+    turned[k].agreement = ScoreFieldAgreement(source, target, samples, refined[k], occupancy_scale);
   }
   return turned;
 }
