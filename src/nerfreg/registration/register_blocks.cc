@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "nerfreg/geometry/alignment.h"
 #include "nerfreg/nerf/nerf_block.h"
+#include "nerfreg/registration/grid_registration.h"
 #include "nerfreg/registration/point_registration.h"
 #include "nerfreg/registration/scale_normalization.h"
 #include "nerfreg/util/error.h"
@@ -204,10 +206,12 @@ class BlockRegistration {
     const std::vector<TurnedPose> turned = TurnedPoses(src, tgt, pair_.SourcePoints(), pair_.TargetPoints(), samples_,
                                                        c.target_from_source, o_.voxel, o_.field.occupancy_scale);
     std::vector<Sim3d> poses;
+    std::vector<FieldAgreement> agreements;
     std::vector<double> scores;
     Json tried = Json::array();
     for (const TurnedPose& t : turned) {
       poses.push_back(t.target_from_source);
+      agreements.push_back(t.agreement);
       scores.push_back(t.agreement.confidence);
       tried.push_back({{"axis", t.axis}, {"angle_deg", t.angle_deg}, {"confidence", t.agreement.confidence}});
     }
@@ -219,23 +223,85 @@ class BlockRegistration {
       record["switched"] = true;
       record["switched_from"] = MatrixToJson(c.target_from_source.ToMatrix());
       record["switched_to_turn"] = best;
-      std::swap(c.target_from_source, poses[best]);
-      scores[best] = c.confidence;
-      c.agreement = turned[best].agreement;
-      c.confidence = c.agreement.confidence;
-      c.method += "+turn";
-      const RegistrationResult switched = c;
-      PolishChosen();
-      if (c.confidence < switched.confidence) c = switched;  // the polish lost agreement: the turn's ICP pose stands
+      SwitchToTurn(best, "+turn", &poses, &agreements, &scores);
     }
-    // The best other pose: a turn (or the pose a turn replaced) that did not come back to the
-    // kept one.
+    SetTurnMargin(poses, scores, &record);
+    if (result_.turn_margin < kTurnAmbiguityMargin) {
+      record["colour"] = TurnsByColour(&poses, &agreements, &scores);
+      if (record["colour"]["switched"].get<bool>()) SetTurnMargin(poses, scores, &record);
+    }
+    result_.turns = record;
+  }
+
+  // The kept candidate becomes turn k (polished as the kept pose was); the pose it replaces takes
+  // turn k's place among the turns.
+  void SwitchToTurn(size_t k, const char* method, std::vector<Sim3d>* poses, std::vector<FieldAgreement>* agreements,
+                    std::vector<double>* scores) {
+    RegistrationResult& c = result_.candidates[result_.chosen];
+    std::swap(c.target_from_source, (*poses)[k]);
+    std::swap(c.agreement, (*agreements)[k]);
+    c.confidence = c.agreement.confidence;
+    (*scores)[k] = (*agreements)[k].confidence;
+    c.method += method;
+    const RegistrationResult switched = c;
+    PolishChosen();
+    if (c.confidence < switched.confidence) c = switched;  // the polish lost agreement: the turn's ICP pose stands
+  }
+
+  // The best other pose: a turn (or the pose a turn replaced) that did not come back to the kept
+  // one; turn_margin is the kept pose's confidence minus its.
+  void SetTurnMargin(const std::vector<Sim3d>& poses, const std::vector<double>& scores, Json* record) {
+    const RegistrationResult& c = result_.candidates[result_.chosen];
     double other = -1;
     for (size_t k = 0; k < poses.size(); ++k)
       if (!SamePose(poses[k], c.target_from_source, pair_.GridCell())) other = std::max(other, scores[k]);
-    if (other >= 0) result_.turn_margin = c.confidence - other;
-    record["margin"] = other >= 0 ? Json(result_.turn_margin) : Json();
-    result_.turns = record;
+    result_.turn_margin = other >= 0 ? c.confidence - other : std::numeric_limits<double>::quiet_NaN();
+    (*record)["margin"] = other >= 0 ? Json(result_.turn_margin) : Json();
+  }
+
+  // The fields' agreement is density alone; where turns agree nearly as well as the kept pose,
+  // colour tells them apart (register_blocks.h, kTurnColourMargin): each of those poses'
+  // GridAgreement on the pair's registration grids. The one whose colours agree best by the margin
+  // is kept (switched to if a turn) and turn_colour_margin set; otherwise it stays unset.
+  Json TurnsByColour(std::vector<Sim3d>* poses, std::vector<FieldAgreement>* agreements, std::vector<double>* scores) {
+    const RegistrationResult& c = result_.candidates[result_.chosen];
+    const RegGrid& source = pair_.SourceGrid();
+    const RegGrid& target = pair_.TargetGrid();
+    const double kept = GridAgreement(source, target, c.target_from_source);
+    // The poses the fields cannot tell from the kept one: (turn index, its colour agreement).
+    std::vector<std::pair<size_t, double>> alike;
+    Json tried = Json::array();
+    for (size_t k = 0; k < poses->size(); ++k) {
+      if (SamePose((*poses)[k], c.target_from_source, pair_.GridCell()) ||
+          (*scores)[k] < c.confidence - kTurnAmbiguityMargin)
+        continue;
+      alike.emplace_back(k, GridAgreement(source, target, (*poses)[k]));
+      tried.push_back({{"turn", k}, {"confidence", (*scores)[k]}, {"colour", alike.back().second}});
+    }
+    Json record = {{"kept", kept}, {"turns", tried}, {"switched", false}};
+    // The best of the kept pose and those turns, and the best of the rest.
+    double best = kept, second = -1;
+    size_t best_turn = poses->size();  // none: the kept pose
+    for (const auto& [k, colour] : alike) {
+      if (colour > best) {
+        second = best;
+        best = colour;
+        best_turn = k;
+      } else {
+        second = std::max(second, colour);
+      }
+    }
+    const double margin = best - second;
+    record["margin"] = margin;
+    if (alike.empty() || margin < kTurnColourMargin) return record;
+    if (best_turn < poses->size()) {
+      record["switched"] = true;
+      record["switched_from"] = MatrixToJson(c.target_from_source.ToMatrix());
+      record["switched_to_turn"] = best_turn;
+      SwitchToTurn(best_turn, "+colour-turn", poses, agreements, scores);
+    }
+    result_.turn_colour_margin = margin;
+    return record;
   }
 
   void Choose() {
@@ -287,12 +353,13 @@ void JudgeRegistration(BlockRegistrationResult* r) {
   const double needed = agreeing > 0 ? (same_kind ? kConfirmedConfidenceFloor : kConfirmedConfidenceFloorMixed)
                                      : (same_kind ? kUntrustedConfidence : kUntrustedConfidenceMixed);
   if (r->confidence >= needed) {
-    if (r->turn_margin < kTurnAmbiguityMargin) {  // false for NaN: not checked
+    // Both false for NaN: not checked, or colour not needed.
+    if (r->turn_margin < kTurnAmbiguityMargin && !(r->turn_colour_margin >= kTurnColourMargin)) {
       r->status = "untrusted";
       r->status_reason = fmt::format(
           "the inputs agree nearly as well with the source turned about one of its axes (confidence {:.2f}, the "
-          "turn's {:.2f}; margin {:.2f} < {:.2f}): the object may look alike turned, and the pose may be a turn "
-          "away from the right one",
+          "turn's {:.2f}; margin {:.2f} < {:.2f}), and their colours do not tell the turns apart: the object may "
+          "look alike turned, and the pose may be a turn away from the right one",
           r->confidence, r->confidence - r->turn_margin, r->turn_margin, kTurnAmbiguityMargin);
       return;
     }

@@ -35,8 +35,11 @@ struct BlockRegistrationResult : RegistrationResult {
   int agreeing_candidates = -1;
   Json fallback;  // auto without kField: the dreg answer dropped for ransac (null: none)
   // With kField: the kept pose's confidence minus the best of its turns' (CheckTurns; negative
-  // never: a turn that agrees better is kept instead); NaN when not checked.
+  // only where colour chose a turn the fields rate a little lower); NaN when not checked.
   double turn_margin = std::numeric_limits<double>::quiet_NaN();
+  // Where turns agree within kTurnAmbiguityMargin: the kept pose's colour agreement minus the best
+  // of theirs, when at least kTurnColourMargin (colour tells them apart); NaN otherwise.
+  double turn_colour_margin = std::numeric_limits<double>::quiet_NaN();
   Json turns;  // CheckTurns' record (null: not checked)
   // "registered", or "untrusted": the job does not believe its own answer (JudgeRegistration);
   // `reg register` then exits with kExitUntrusted. status_reason says why ("" when registered).
@@ -96,10 +99,19 @@ inline constexpr double kConfirmedConfidenceFloorMixed = 0.27;
 // below; splat captures 0.25-0.67).
 // - a turn that scores more than kTurnSwitchMargin above the kept pose replaces it (polished
 //   again as the kept pose was; the grid stage's half-turn check uses the same margin);
-// - a turn within kTurnAmbiguityMargin of the kept pose makes it untrusted: the inputs cannot
-//   tell the two apart.
+// - turns within kTurnAmbiguityMargin of the kept pose are told apart by colour, which the
+//   fields' agreement does not see: each of them and the kept pose scored by GridAgreement on the
+//   pair's registration grids (voxels on target voxels of the same colour). The one that agrees
+//   best by more than kTurnColourMargin is kept (a turn replaces the pose, polished again:
+//   "+colour-turn"); if none does, the result is untrusted: the inputs cannot tell them apart.
+//   On the bench's trained blocks above, colour told the three ambiguous registrations (6009
+//   0 -> 1, 6010 both ways) apart by 0.039-0.065, each for a pose 0.8-1.7 deg from the truth; on
+//   the 28 right registrations of those objects and 6014-6017 (both ways) the kept pose led every
+//   turn in colour by 0.047-0.187. The margin was chosen on these same registrations: no held-out
+//   ambiguous pair was measured (docs/registration.md, "Colour").
 inline constexpr double kTurnSwitchMargin = 0.03;
 inline constexpr double kTurnAmbiguityMargin = 0.08;
+inline constexpr double kTurnColourMargin = 0.03;
 
 // The turn check's poses: `kept` turned about each principal axis of `source_points` ([3, N],
 // the source's occupied points) through their centroid by 180, 90 and -90 deg, each refined by

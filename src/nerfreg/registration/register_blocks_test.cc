@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <vector>
 
 #include "nerfreg/data/splat_test_util.h"
@@ -178,6 +180,73 @@ TEST(RegisterBlocks, APoseATurnMatchesNearlyAsWellIsUntrusted) {
   JudgeRegistration(&r);
   EXPECT_EQ(r.status, "registered");
   EXPECT_TRUE(r.status_reason.empty());
+  // Colour tells the turns apart: trusted again, but only by the margin.
+  r.turn_margin = kTurnAmbiguityMargin - 0.01;
+  r.turn_colour_margin = kTurnColourMargin + 0.01;
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "registered");
+  r.turn_colour_margin = std::numeric_limits<double>::quiet_NaN();  // colour could not tell them apart
+  JudgeRegistration(&r);
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_NE(r.status_reason.find("colours do not tell"), std::string::npos) << r.status_reason;
+}
+
+// A box's splats, two samplings in two frames: its shape looks the same turned by half about each
+// of its axes. Coloured by octant, the turn check's colour step keeps the truth and trusts it; in
+// one colour it cannot tell the turns apart and the result is untrusted.
+Splats BoxSplats(const Sim3d& frame_from_shape, bool two_colours, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const Eigen::Vector3d half(0.6, 0.35, 0.2);
+  const int n = 1500;
+  Splats s;
+  s.Resize(n, 0, false);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d p(u(rng) * half.x(), u(rng) * half.y(), u(rng) * half.z());
+    const int axis = i % 3;
+    p(axis) = (u(rng) > 0 ? 1 : -1) * half(axis);  // on a face
+    // Each channel bright on one side of an axis (SH degree 0: rgb = 0.5 + C0 f_dc): every half
+    // turn about an axis swaps the sides of the other two.
+    Eigen::Vector3f colour(1.5f, -1.5f, -1.5f);
+    if (two_colours)
+      for (int k = 0; k < 3; ++k) colour(k) = p(k) > 0 ? 1.5f : -1.5f;
+    s.position.col(i) = (frame_from_shape * p).cast<float>();
+    s.f_dc.col(i) = colour;
+    s.log_scale.col(i).setConstant(std::log(0.035f));
+    s.opacity(i) = 3.f;
+    s.rotation.col(i) = Eigen::Vector4f(1, 0, 0, 0);
+  }
+  return s;
+}
+
+TEST(RegisterBlocks, ColourTellsTheTurnsOfASymmetricShapeApart) {
+  const Sim3d source_from_shape = Pose(40, {1, 2, 0.5}, {0.2, -0.1, 0.3});
+  const Sim3d target_from_shape = Pose(-70, {0.3, -1, 1}, {-0.1, 0.2, 0.05});
+  const Sim3d truth = target_from_shape * source_from_shape.Inverse();
+  BlockRegistrationOptions o;  // ransac, refined on the fields, the scale free
+  o.field.max_samples = 2000;  // the test's time
+  o.voxel = 0.1;
+  o.max_points = 1000;
+  o.seed = 0;
+  for (const bool two_colours : {true, false}) {
+    SplatInput source(BoxSplats(source_from_shape, two_colours, 1), SplatFieldOptions());
+    SplatInput target(BoxSplats(target_from_shape, two_colours, 2), SplatFieldOptions());
+    const BlockRegistrationResult r = RegisterBlocks(source, target, o, nullptr);
+    const double rot = RotationErrorDeg(r.target_from_source.rotation, truth.rotation);
+    std::printf("box %s: %.2f deg, status %s, turn margin %.3f, colour %s\n",
+                two_colours ? "by octant" : "in one colour", rot, r.status.c_str(), r.turn_margin,
+                r.turns.contains("colour") ? r.turns["colour"].dump().c_str() : "-");
+    ASSERT_TRUE(r.turns.contains("colour")) << "the shape looks alike turned: " << r.turns.dump();
+    EXPECT_LT(r.turn_margin, kTurnAmbiguityMargin) << r.turns.dump();
+    if (two_colours) {
+      EXPECT_EQ(r.status, "registered") << r.status_reason;
+      EXPECT_LT(rot, 2.0) << r.turns.dump();
+      EXPECT_GE(r.turn_colour_margin, kTurnColourMargin);
+    } else {
+      EXPECT_EQ(r.status, "untrusted");
+      EXPECT_NE(r.status_reason.find("colours do not tell"), std::string::npos) << r.status_reason;
+    }
+  }
 }
 
 TEST(RegisterBlocks, NamesRoundTripAndBadNamesAreInputErrors) {
