@@ -99,19 +99,21 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
       LOG_INFO("pair {} -> {} ({} of {})", i, j, edges_json.size() + 1, n * (n - 1) / 2);
       const BlockRegistrationResult r = RegisterBlocks(*inputs[i], *inputs[j], o, net);
       const bool used = r.status == "registered";
-      edges_json.push_back({{"source", i},
-                            {"target", j},
-                            {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
-                            {"scale", r.target_from_source.scale},
-                            {"confidence", r.confidence},
-                            {"method", r.method},
-                            {"status", r.status},
-                            {"status_reason", r.status_reason},
-                            {"turn_margin", std::isnan(r.turn_margin) ? Json() : Json(r.turn_margin)},
-                            {"agreeing_candidates", r.agreeing_candidates},
-                            {"seconds", r.seconds},
-                            {"used", used},
-                            {"field", r.field}});
+      edges_json.push_back(
+          {{"source", i},
+           {"target", j},
+           {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+           {"scale", r.target_from_source.scale},
+           {"confidence", r.confidence},
+           {"method", r.method},
+           {"status", r.status},
+           {"status_reason", r.status_reason},
+           {"turn_margin", std::isnan(r.turn_margin) ? Json() : Json(r.turn_margin)},
+           {"turn_colour_margin", std::isnan(r.turn_colour_margin) ? Json() : Json(r.turn_colour_margin)},
+           {"agreeing_candidates", r.agreeing_candidates},
+           {"seconds", r.seconds},
+           {"used", used},
+           {"field", r.field}});
       if (!used) {
         ++result.untrusted;
         warn("{} -> {}: untrusted, not used: {}", paths[i], paths[j], r.status_reason);

@@ -38,7 +38,7 @@ struct ManyBlockRegistrationOptions {
 struct ManyBlockRegistrationResult {
   // {status ("registered", or "untrusted" when an input is not connected), status_reason,
   // untrusted_pairs, world_from_block: [4x4...], scale: [...], connected, edges: [{source, target,
-  // target_from_source, scale, confidence, method, status, status_reason, turn_margin,
+  // target_from_source, scale, confidence, method, status, status_reason, turn_margin, turn_colour_margin,
   // agreeing_candidates, seconds, used, field, inlier, rotation_residual_deg, translation_residual,
   // scale_residual, dropped}], normalization, seconds, blocks}, as reg register-many writes it.
   // Poses in the inputs' own units; the residuals in the graph's (normalised with kFree) units.

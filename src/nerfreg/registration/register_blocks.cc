@@ -291,9 +291,10 @@ class BlockRegistration {
         second = std::max(second, colour);
       }
     }
+    if (alike.empty()) return record;  // the caller asks only where a turn is that close
     const double margin = best - second;
     record["margin"] = margin;
-    if (alike.empty() || margin < kTurnColourMargin) return record;
+    if (margin < kTurnColourMargin) return record;
     if (best_turn < poses->size()) {
       record["switched"] = true;
       record["switched_from"] = MatrixToJson(c.target_from_source.ToMatrix());
