@@ -39,16 +39,16 @@ RegistrationResult RegisterPoints(const Eigen::Matrix3Xd& source, const Eigen::M
   return out;
 }
 
-// ICP on the D = 32 grids drifts even from the true pose, most at low overlap; on the finer
-// occupied points it lands closer (docs/notes/2026-11-24-block-icp-and-agreement.md). It only
-// polishes a pose already in its basin. The recorded fitness is no overlap check (blocks of
-// different objects reach high fitness too).
 Eigen::Matrix3d PrincipalAxes(const Eigen::Matrix3Xd& points, Eigen::Vector3d* centroid) {
   *centroid = points.rowwise().mean();
   const Eigen::Matrix3Xd centred = points.colwise() - *centroid;  // [3, N]
   return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(centred * centred.transpose()).eigenvectors();
 }
 
+// ICP on the D = 32 grids drifts even from the true pose, most at low overlap; on the finer
+// occupied points it lands closer (docs/notes/2026-11-24-block-icp-and-agreement.md). It only
+// polishes a pose already in its basin. The recorded fitness is no overlap check (blocks of
+// different objects reach high fitness too).
 Sim3d RefineOnBlockPoints(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& tgt, const Sim3d& start, double voxel,
                           Json* json, bool with_scaling) {
   if (src.cols() < 3 || tgt.cols() < 3) {
