@@ -65,6 +65,8 @@ torch::Tensor ImageToTensor(const Image& image) {
   return rgb.permute({2, 0, 1}).contiguous().clone();
 }
 
+torch::Tensor ImageToTensor(const PackedImage& image) { return ImageToTensor(UnpackImage(image)); }
+
 Image TensorToImage(const torch::Tensor& chw) {
   const torch::Tensor hwc = chw.detach().to(torch::kCPU, torch::kFloat).clamp(0, 1).permute({1, 2, 0}).contiguous();
   Image image(static_cast<int>(hwc.size(1)), static_cast<int>(hwc.size(0)), static_cast<int>(hwc.size(2)));

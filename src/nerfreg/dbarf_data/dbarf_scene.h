@@ -107,6 +107,7 @@ torch::Tensor IntrinsicsToTensor(const Camera& camera);
 
 // Image [H, W, C] in [0, 1] -> tensor [3, H, W] float32 (alpha composited over white), and back.
 torch::Tensor ImageToTensor(const Image& image);
+torch::Tensor ImageToTensor(const PackedImage& image);
 Image TensorToImage(const torch::Tensor& chw);
 
 // Inverse depth for viewing (depth [H, W], valid [H, W] bool): near is white, far black, invalid

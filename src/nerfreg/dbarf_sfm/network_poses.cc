@@ -130,8 +130,11 @@ std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const V
       grey_std, ThumbnailSimilarity(images), [&images](int64_t i) { return images[i]; }, graph, matched, names);
 }
 
-std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, const ViewGraph& graph, bool matched,
-                                            const std::vector<std::string>& names) {
+namespace {
+
+template <typename ImageT>
+std::vector<std::string> InputProblemsOf(const std::vector<ImageT>& images, const ViewGraph& graph, bool matched,
+                                         const std::vector<std::string>& names) {
   torch::NoGradGuard no_grad;
   const int64_t v = static_cast<int64_t>(images.size());
   torch::Tensor grey_std = torch::empty({v});  // [V]
@@ -145,6 +148,18 @@ std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, co
   return InputProblems(
       grey_std, torch::matmul(all, all.t()), [&images](int64_t i) { return ImageToTensor(images[i]); }, graph, matched,
       names);
+}
+
+}  // namespace
+
+std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, const ViewGraph& graph, bool matched,
+                                            const std::vector<std::string>& names) {
+  return InputProblemsOf(images, graph, matched, names);
+}
+
+std::vector<std::string> ImageInputProblems(const std::vector<PackedImage>& images, const ViewGraph& graph,
+                                            bool matched, const std::vector<std::string>& names) {
+  return InputProblemsOf(images, graph, matched, names);
 }
 
 std::vector<int> ChooseSources(int target, const ViewGraph& graph, const std::vector<std::vector<int>>& appearance,
@@ -400,7 +415,8 @@ namespace {
 // The network's inputs: images [V, 3, H', W'] and intrinsics [V, 3, 3], shrunk to max_width.
 // Shrunk one image at a time: stacking the folder at full size first held two more copies of every
 // image at once, the largest allocation of a large folder's run (issue 44's memory profile).
-std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<Image>& images,
+template <typename ImageT>
+std::pair<torch::Tensor, torch::Tensor> NetworkInputs(const std::vector<ImageT>& images,
                                                       const std::vector<Camera>& cameras, int max_width) {
   std::vector<torch::Tensor> shrunk, intrinsics;
   for (size_t i = 0; i < images.size(); ++i) {
@@ -671,9 +687,12 @@ std::string NetworkPoseRejection(const ImagePoseConfidence& c, const ImagePosesO
   return buf;
 }
 
-ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                                    const std::vector<std::string>& names, const ImagePosesOptions& options,
-                                    const std::string& source) {
+namespace {
+
+template <typename ImageT>
+ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vector<Camera>& cameras,
+                               const std::vector<std::string>& names, const ImagePosesOptions& options,
+                               const std::string& source) {
   options.Check();
   if (images.size() != cameras.size() || images.size() != names.size()) {
     throw std::invalid_argument("EstimateImagePoses: images, cameras and names differ in count");
@@ -685,7 +704,7 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   }
   // The networks stack images, so they need one size; the SfM takes any sizes.
   bool one_size = true;
-  for (const Image& im : images) one_size = one_size && im.width == images[0].width && im.height == images[0].height;
+  for (const ImageT& im : images) one_size = one_size && im.width == images[0].width && im.height == images[0].height;
   CheckImageSizes(images, cameras, names, /*equal_sizes=*/options.method == "network");
   const Timer timer;
   // Weights are read before any work, so a bad file fails at once (even in auto, where the SfM may
@@ -865,6 +884,20 @@ ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std:
   if (result.seconds_network > 0) result.times.Record("network", result.seconds_network);
   result.seconds = timer.Seconds();
   return result;
+}
+
+}  // namespace
+
+ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                                    const std::vector<std::string>& names, const ImagePosesOptions& options,
+                                    const std::string& source) {
+  return EstimatePoses(images, cameras, names, options, source);
+}
+
+ImagePosesResult EstimateImagePoses(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                                    const std::vector<std::string>& names, const ImagePosesOptions& options,
+                                    const std::string& source) {
+  return EstimatePoses(images, cameras, names, options, source);
 }
 
 }  // namespace nerfreg

@@ -150,6 +150,9 @@ struct ImagePosesResult {
 ImagePosesResult EstimateImagePoses(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                                     const std::vector<std::string>& names, const ImagePosesOptions& options,
                                     const std::string& source = "images");
+ImagePosesResult EstimateImagePoses(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                                    const std::vector<std::string>& names, const ImagePosesOptions& options,
+                                    const std::string& source = "images");
 
 // Why method auto leaves an image the network placed beside the SfM's cameras unposed ("" to keep
 // it): a problem with the image (textureless, collapsed onto another camera, ...), no edge to the
@@ -178,6 +181,8 @@ std::vector<std::string> ImageInputProblems(const torch::Tensor& images, const V
 // The same from the images as read, one at a time (a set of full-size images is never stacked).
 std::vector<std::string> ImageInputProblems(const std::vector<Image>& images, const ViewGraph& graph, bool matched,
                                             const std::vector<std::string>& names);
+std::vector<std::string> ImageInputProblems(const std::vector<PackedImage>& images, const ViewGraph& graph,
+                                            bool matched, const std::vector<std::string>& names);
 
 // Per image, every other image ranked by the similarity of grey 16 x 12 thumbnails (zero-mean,
 // unit-norm, dot product), most similar first: neighbours for images the matcher cannot relate.

@@ -83,7 +83,7 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
 // util/exif.h), principal point at the centre, no distortion; `group` gets one camera group per
 // make / model / size, whose intrinsics the SfM estimates and refines together. size_guess: whether
 // every prior came from the image size (no EXIF focal length at all).
-std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const std::vector<Image>& images,
+std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const std::vector<PackedImage>& images,
                                  const std::vector<ExifInfo>& exif, const std::string& dir, std::vector<int>* group,
                                  bool* size_guess) {
   std::vector<Camera> cameras;
@@ -91,7 +91,7 @@ std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const st
   group->clear();
   *size_guess = true;
   for (size_t k = 0; k < names.size(); ++k) {
-    const Image& im = images[k];
+    const PackedImage& im = images[k];
     const FocalPrior prior = FocalPriorFromExif(exif[k], im.width, im.height, JoinPaths(dir, names[k]));
     if (prior.source != "image-size") *size_guess = false;
     const std::string maker = exif[k].make + (exif[k].model.empty() ? "" : " " + exif[k].model);
@@ -109,7 +109,7 @@ std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const st
 }
 
 ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras, const std::vector<std::string>& names,
-                         const std::vector<Image>& images) {
+                         const std::vector<PackedImage>& images) {
   ColmapModel model;
   std::vector<std::uint32_t> camera_id(cameras.size());
   for (size_t k = 0; k < cameras.size(); ++k) {
@@ -145,7 +145,7 @@ ColmapModel ModelFromSfm(const SfmResult& r, const std::vector<Camera>& cameras,
     for (const auto& e : p.elements) {
       const Eigen::Vector2d& uv = r.view_graph.keypoints[e.image][e.keypoint];
       error += ReprojectionErrorPx(cameras[e.image], r.cam_from_world[e.image], p.x_in_world, uv) / p.elements.size();
-      const Image& img = images[e.image];
+      const PackedImage& img = images[e.image];
       const int x = std::clamp(static_cast<int>(uv.x()), 0, img.width - 1),
                 y = std::clamp(static_cast<int>(uv.y()), 0, img.height - 1);
       for (int c = 0; c < 3; ++c) rgb(c) += img.at(x, y, std::min(c, img.channels - 1)) / p.elements.size();
@@ -312,11 +312,14 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   if (names.size() < 3)
     ThrowInputError(o.images_dir, "",
                     "at least 3 PNG / JPEG / PGM / PPM images, found " + std::to_string(names.size()));
-  std::vector<Image> images;
+  // Held as the files' integers for the whole run (a quarter of float's memory for 8-bit files),
+  // each decoded to float once on the way.
+  std::vector<PackedImage> images;
   std::vector<ExifInfo> exif;
   for (const auto& name : names) {
     ImageFileFacts facts;
-    images.push_back(ReadImage(JoinPaths(o.images_dir, name), ImageReadOptions(), &facts));
+    const Image im = ReadImage(JoinPaths(o.images_dir, name), ImageReadOptions(), &facts);
+    images.push_back(PackImage(im, facts.bits_per_channel == 16 ? 16 : 8));
     exif.push_back(facts.exif);
   }
   std::vector<Camera> cameras;
@@ -325,7 +328,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   if (!o.intrinsics.empty()) {
     cameras = CamerasFromTransforms(o.intrinsics, o.images_dir, names, &splits);
   } else if (o.focal > 0) {
-    for (const Image& im : images)
+    for (const PackedImage& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   } else {
     bool size_guess = false;

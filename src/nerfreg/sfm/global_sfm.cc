@@ -598,9 +598,12 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   return std::move(results[best]);
 }
 
-SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names, const SfmOptions& options,
-                     const std::vector<int>& camera_group) {
+namespace {
+
+template <typename ImageT>
+SfmResult PoseImageSet(const std::vector<ImageT>& images, const std::vector<Camera>& cameras,
+                       const std::vector<std::string>& names, const SfmOptions& options,
+                       const std::vector<int>& camera_group) {
   options.Check();
   if (images.size() != cameras.size() || images.size() != names.size()) {
     throw std::invalid_argument("PoseImages: images, cameras and names differ in count");
@@ -628,6 +631,20 @@ SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>
   for (size_t k = 0; k < names.size(); ++k)
     if (!result.posed[k]) LOG_WARN("{}: not posed ({})", names[k], result.not_posed_reason[k]);
   return result;
+}
+
+}  // namespace
+
+SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, const SfmOptions& options,
+                     const std::vector<int>& camera_group) {
+  return PoseImageSet(images, cameras, names, options, camera_group);
+}
+
+SfmResult PoseImages(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, const SfmOptions& options,
+                     const std::vector<int>& camera_group) {
+  return PoseImageSet(images, cameras, names, options, camera_group);
 }
 
 }  // namespace nerfreg

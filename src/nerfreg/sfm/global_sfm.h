@@ -183,6 +183,9 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
 SfmResult PoseImages(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, const SfmOptions& options,
                      const std::vector<int>& camera_group = {});
+SfmResult PoseImages(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, const SfmOptions& options,
+                     const std::vector<int>& camera_group = {});
 
 // Per image, another posed image whose camera centre coincides with its own (closer than
 // `fraction` of the root-mean-square spread of the posed centres), or -1. A solution with such

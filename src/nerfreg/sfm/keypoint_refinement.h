@@ -49,5 +49,9 @@ KeypointRefinementSummary RefineTrackKeypoints(const std::vector<Image>& images,
                                                const std::vector<Track>& tracks,
                                                const KeypointRefinementOptions& options,
                                                std::vector<std::vector<Eigen::Vector2d>>* keypoints);
+KeypointRefinementSummary RefineTrackKeypoints(const std::vector<PackedImage>& images, const ViewGraph& graph,
+                                               const std::vector<Track>& tracks,
+                                               const KeypointRefinementOptions& options,
+                                               std::vector<std::vector<Eigen::Vector2d>>* keypoints);
 
 }  // namespace nerfreg

@@ -110,6 +110,27 @@ TEST(KeypointRefinement, AlignsTheKeypointsOfAnAffinelyWarpedViewToATenthOfAPixe
   std::printf("moved %d of %d, worst disagreement %.4f px\n", s.num_moved, n, worst);
 }
 
+// The photos of a posing run are held packed (8 bits a channel): the refinement reads the same grey
+// levels from them as from their float images, so it moves the keypoints to the same places.
+TEST(KeypointRefinement, PackedImagesMoveTheKeypointsAsTheirFloatImages) {
+  const TwoViews v = MakeTwoViews(0.8);
+  std::vector<PackedImage> packed;
+  std::vector<Image> unpacked;
+  for (const Image& im : v.images) {
+    packed.push_back(PackImage(im, 8));
+    unpacked.push_back(UnpackImage(packed.back()));
+  }
+  const std::vector<Track> tracks = BuildTracks(v.graph, {}, TrackOptions{});
+  std::vector<std::vector<Eigen::Vector2d>> from_float = v.graph.keypoints, from_packed = v.graph.keypoints;
+  const KeypointRefinementSummary a =
+      RefineTrackKeypoints(unpacked, v.graph, tracks, KeypointRefinementOptions{}, &from_float);
+  const KeypointRefinementSummary b =
+      RefineTrackKeypoints(packed, v.graph, tracks, KeypointRefinementOptions{}, &from_packed);
+  EXPECT_GT(a.num_moved, a.num_tracks / 2);
+  EXPECT_EQ(a.num_moved, b.num_moved);
+  EXPECT_EQ(from_float, from_packed);
+}
+
 TEST(KeypointRefinement, LeavesKeypointsWhereTheImagesHaveNoTexture) {
   const TwoViews v = MakeTwoViews(0.8, /*flat=*/true);
   std::vector<std::vector<Eigen::Vector2d>> keypoints = v.graph.keypoints;

@@ -4,6 +4,7 @@
 // and JPEG. In memory an image is float in [0, 1] (16-bit values / 65535, 8-bit / 255), row-major,
 // interleaved channels: data[(y * width + x) * channels + c], y down from the top row.
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,42 @@ struct Image {
   float at(int x, int y, int c) const { return data[(static_cast<size_t>(y) * width + x) * channels + c]; }
   bool empty() const { return data.empty(); }
 };
+
+// An image held as its file's integers: 8 or 16 bits a channel, a quarter or half of the float
+// Image's memory. A folder of photos is held this way for the whole of a posing run (500 photos of
+// 1008 x 756 were 4.6 GB as float, issue 44); code that reads pixels reads them through at(), which
+// returns the float ReadImage would have given (v / 255 or v / 65535), so it may take either type.
+// v / 255.f for v = 0..255, looked up: as exact as the division, and cheaper in per-pixel loops.
+struct ByteToUnitTable {
+  float value[256];
+  ByteToUnitTable() {
+    for (int v = 0; v < 256; ++v) value[v] = static_cast<float>(v) / 255.f;
+  }
+};
+inline const ByteToUnitTable kByteToUnit;
+
+struct PackedImage {
+  int width = 0;
+  int height = 0;
+  int channels = 0;                // as Image's
+  int bits = 8;                    // 8 or 16
+  std::vector<std::uint8_t> data;  // [height * width * channels * bits / 8], 16-bit values native-endian
+
+  float at(int x, int y, int c) const {
+    const size_t i = (static_cast<size_t>(y) * width + x) * channels + c;
+    if (bits == 8) return kByteToUnit.value[data[i]];
+    std::uint16_t v;
+    std::memcpy(&v, &data[2 * i], 2);
+    return static_cast<float>(v) / 65535.f;
+  }
+  bool empty() const { return data.empty(); }
+};
+
+// The image at `bits` (8 or 16) a channel, values clamped to [0, 1] and rounded: exact for an
+// image ReadImage decoded from a file of that depth (UnpackImage(PackImage(im)) == im; a PNM's
+// maxval 255 or 65535). Throws std::invalid_argument for other bits.
+PackedImage PackImage(const Image& image, int bits);
+Image UnpackImage(const PackedImage& image);
 
 // Images larger than this many pixels are refused before decoding (a corrupt or hostile header
 // could otherwise ask for tens of GB).

@@ -249,6 +249,37 @@ TEST(Image, BinaryPgmAndPpm) {
   EXPECT_NE(InputErrorOf([&] { ReadImage(dir.File("short.pgm")); }).find("short.pgm"), std::string::npos);
 }
 
+// A posing run holds its photos packed (the files' integers): unpacked they must be the floats
+// ReadImage gave, bit for bit, for 8- and 16-bit PNGs and PNMs alike.
+TEST(Image, PackedImagesGiveBackTheFloatsReadFromTheFile) {
+  ScopedTempDir dir;
+  const std::vector<std::uint16_t> grey16 = {0, 1, 257, 12345, 32768, 65535};
+  WritePng16(dir.File("g16.png"), 3, 2, 1, grey16);
+  Image rgb8(4, 3, 3);
+  for (size_t i = 0; i < rgb8.data.size(); ++i) rgb8.data[i] = static_cast<float>((i * 37) % 256) / 255.f;
+  WriteImage(dir.File("c8.png"), rgb8);
+  WriteFileAtomic(dir.File("a.pgm"), std::string("P5 3 1 255\n") + char(0) + char(77) + char(255));
+  WriteFileAtomic(dir.File("b.pgm"), std::string("P5 2 1 65535\n") + "\x30\x39\xff\xff");
+  for (const std::string name : {"g16.png", "c8.png", "a.pgm", "b.pgm"}) {
+    ImageFileFacts facts;
+    const Image im = ReadImage(dir.File(name), ImageReadOptions(), &facts);
+    const PackedImage packed = PackImage(im, facts.bits_per_channel);
+    EXPECT_EQ(packed.data.size(), im.data.size() * facts.bits_per_channel / 8) << name;
+    const Image back = UnpackImage(packed);
+    ASSERT_EQ(back.width, im.width);
+    ASSERT_EQ(back.channels, im.channels);
+    for (size_t i = 0; i < im.data.size(); ++i) ASSERT_EQ(back.data[i], im.data[i]) << name << " " << i;
+    EXPECT_EQ(packed.at(im.width - 1, im.height - 1, im.channels - 1), im.data.back()) << name;
+  }
+  // A float image between the levels is rounded to the nearest, out-of-range values clamped.
+  Image odd(2, 1, 1);
+  odd.data = {0.3f / 255.f, 2.f};
+  const PackedImage p8 = PackImage(odd, 8);
+  EXPECT_EQ(p8.data[0], 0);
+  EXPECT_EQ(p8.data[1], 255);
+  EXPECT_THROW(PackImage(odd, 12), std::invalid_argument);
+}
+
 TEST(Image, TruncatedAndCorruptJpegsAreInputErrors) {
   ScopedTempDir dir;
   const std::string jpeg = EncodeImage(TestCard(), ".jpg", "card.jpg");

@@ -215,7 +215,8 @@ int RansacIterationCap(int num_matches, int min_inliers, int sample_size, double
   return static_cast<int>(std::clamp(n, 1.0, static_cast<double>(max_iterations)));
 }
 
-cv::Mat ToGray8(const Image& im) {
+template <typename ImageT>
+cv::Mat ToGray8(const ImageT& im) {
   cv::Mat gray(im.height, im.width, CV_8UC1);
   for (int y = 0; y < im.height; ++y)
     for (int x = 0; x < im.width; ++x)
@@ -677,7 +678,10 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
   return edge;
 }
 
-SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options) {
+namespace {
+
+template <typename ImageT>
+SiftFeatures ExtractSift(const ImageT& image, const ViewGraphOptions& options) {
   const int up = EffectiveUpsample(options, std::max(image.width, image.height));
   cv::Mat gray = ToGray8(image);
   if (up > 1) cv::resize(gray, gray, cv::Size(), up, up, cv::INTER_LINEAR);
@@ -705,8 +709,9 @@ SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& opt
   return out;
 }
 
-void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                     const std::vector<std::string>& names, bool equal_sizes) {
+template <typename ImageT>
+void CheckSizes(const std::vector<ImageT>& images, const std::vector<Camera>& cameras,
+                const std::vector<std::string>& names, bool equal_sizes) {
   for (size_t k = 0; k < images.size(); ++k) {
     if (equal_sizes && (images[k].width != images[0].width || images[k].height != images[0].height)) {
       ThrowInputError(names[k], "size",
@@ -720,9 +725,10 @@ void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>
   }
 }
 
-ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
-                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times,
-                         const std::vector<int>& camera_group, const std::vector<std::pair<int, int>>& pairs_in) {
+template <typename ImageT>
+ViewGraph BuildGraph(const std::vector<ImageT>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times,
+                     const std::vector<int>& camera_group, const std::vector<std::pair<int, int>>& pairs_in) {
   options.Check();
   if (images.size() != cameras.size() || images.size() != names.size() ||
       (!camera_group.empty() && camera_group.size() != images.size())) {
@@ -790,6 +796,38 @@ ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Cam
   }
   for (int k : graph.Isolated()) LOG_WARN("{}: no geometric matches to any other image; left out", names[k]);
   return graph;
+}
+
+}  // namespace
+
+SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options) {
+  return ExtractSift(image, options);
+}
+
+SiftFeatures ExtractSiftFeatures(const PackedImage& image, const ViewGraphOptions& options) {
+  return ExtractSift(image, options);
+}
+
+void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, bool equal_sizes) {
+  CheckSizes(images, cameras, names, equal_sizes);
+}
+
+void CheckImageSizes(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, bool equal_sizes) {
+  CheckSizes(images, cameras, names, equal_sizes);
+}
+
+ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times,
+                         const std::vector<int>& camera_group, const std::vector<std::pair<int, int>>& pairs) {
+  return BuildGraph(images, cameras, names, options, times, camera_group, pairs);
+}
+
+ViewGraph BuildViewGraph(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options, StageTimes* times,
+                         const std::vector<int>& camera_group, const std::vector<std::pair<int, int>>& pairs) {
+  return BuildGraph(images, cameras, names, options, times, camera_group, pairs);
 }
 
 }  // namespace nerfreg

@@ -137,7 +137,8 @@ int EffectiveUpsample(const ViewGraphOptions& options, int max_side);
 // The grey level SIFT sees at pixel (x, y), in [0, 1] before clamping: the luma (0.299, 0.587,
 // 0.114) of RGB, RGBA composited over white, a grey image's own. Code that samples the images
 // again for the keypoints (sfm's keypoint refinement) reads the same levels.
-inline float FeatureGrey(const Image& im, int x, int y) {
+template <typename ImageT>  // Image or PackedImage
+inline float FeatureGrey(const ImageT& im, int x, int y) {
   if (im.channels < 3) return im.at(x, y, 0);
   const float v = 0.299f * im.at(x, y, 0) + 0.587f * im.at(x, y, 1) + 0.114f * im.at(x, y, 2);
   return im.channels == 4 ? v * im.at(x, y, 3) + (1 - im.at(x, y, 3)) : v;
@@ -155,6 +156,7 @@ struct SiftFeatures {
 // options.sparse_contrast_threshold where the image is enlarged or the first gives too few
 // (sparse_image_keypoints).
 SiftFeatures ExtractSiftFeatures(const Image& image, const ViewGraphOptions& options);
+SiftFeatures ExtractSiftFeatures(const PackedImage& image, const ViewGraphOptions& options);
 
 // How MatchDescriptors multiplies the descriptors. Both give the same integers, so the same matches.
 enum class DescriptorProduct {
@@ -189,6 +191,8 @@ std::optional<ViewGraphEdge> EstimateTwoViewGeometry(const std::vector<Eigen::Ve
 // `equal_sizes`, from the first image's (the networks stack images; the SfM takes any sizes).
 void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, bool equal_sizes = true);
+void CheckImageSizes(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
+                     const std::vector<std::string>& names, bool equal_sizes = true);
 
 // Builds the graph over the pairs options.pairs selects (or the given `pairs`, i < j). images: 8-bit-range float images
 // (grey or colour), any sizes; cameras: one per image (intrinsics only; the focal lengths are
@@ -196,8 +200,12 @@ void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>
 // shares when it is estimated (empty: one group per image size). Throws InputError naming the
 // image when an image's size differs from its camera's. times (optional): the stages "features",
 // "matching" (descriptors), "focal estimation" (when on) and "geometry" (essential matrices) are
-// recorded there.
+// recorded there. The PackedImage overload gives the same graph for the same pixels.
 ViewGraph BuildViewGraph(const std::vector<Image>& images, const std::vector<Camera>& cameras,
+                         const std::vector<std::string>& names, const ViewGraphOptions& options,
+                         StageTimes* times = nullptr, const std::vector<int>& camera_group = {},
+                         const std::vector<std::pair<int, int>>& pairs = {});
+ViewGraph BuildViewGraph(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
                          const std::vector<std::string>& names, const ViewGraphOptions& options,
                          StageTimes* times = nullptr, const std::vector<int>& camera_group = {},
                          const std::vector<std::pair<int, int>>& pairs = {});

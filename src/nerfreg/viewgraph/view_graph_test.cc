@@ -101,6 +101,30 @@ TEST(ViewGraph, LinksOverlappingViewsWithTheirRelativePoseAndNotDisjointOnes) {
   EXPECT_LT(far_from_line, ab->num_inliers / 20) << "of " << ab->num_inliers;
 }
 
+// `dbarf poses` holds its photos packed (8 bits a channel): the graph from the packed images is the
+// float images' graph, keypoints and edges alike, for the same pixels.
+TEST(ViewGraph, PackedImagesGiveTheGraphOfTheirFloatImages) {
+  const Camera cam = Camera::Pinhole(192, 144, 160, 160, 96, 72);
+  std::vector<Image> images;
+  std::vector<PackedImage> packed;
+  for (const auto& p : {LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()),
+                        LookAt({0.6, -0.3, 2.8}, {0.2, 0.1, 0}, Eigen::Vector3d::UnitY()),
+                        LookAt({-0.5, -0.4, 2.9}, {-0.1, 0, 0}, Eigen::Vector3d::UnitY())}) {
+    packed.push_back(PackImage(RenderPlane(cam, p), 8));
+    images.push_back(UnpackImage(packed.back()));  // the floats an 8-bit file would give
+  }
+  const std::vector<std::string> names = {"a.png", "b.png", "c.png"};
+  const ViewGraph a = BuildViewGraph(images, {cam, cam, cam}, names, ViewGraphOptions{});
+  const ViewGraph b = BuildViewGraph(packed, {cam, cam, cam}, names, ViewGraphOptions{});
+  ASSERT_GE(a.edges.size(), 2u);
+  EXPECT_EQ(a.keypoints, b.keypoints);
+  ASSERT_EQ(a.edges.size(), b.edges.size());
+  for (size_t e = 0; e < a.edges.size(); ++e) {
+    EXPECT_EQ(a.edges[e].inlier_matches, b.edges[e].inlier_matches);
+    EXPECT_EQ(a.edges[e].j_from_i.translation, b.edges[e].j_from_i.translation);
+  }
+}
+
 // A planar scene (the textured ground plane): both estimators recover the relative pose. USAC's
 // own final fit is an eight-point least-squares fit, undetermined on a plane (2.3 deg and 9.2 deg
 // off here before its pose was refined on the Sampson distances; 0.40 and 1.5 deg after, RANSAC's
