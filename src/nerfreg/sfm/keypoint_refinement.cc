@@ -38,9 +38,11 @@ struct Grey {
   template <typename ImageT>  // Image or PackedImage
   explicit Grey(const ImageT& im) : width(im.width), height(im.height), v(static_cast<size_t>(im.width) * im.height) {
     for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x)
+      for (int x = 0; x < width; ++x) {
+        const float g = FeatureGrey(im, x, y);  // clamped to [0, 1], NaN to 0
         v[static_cast<size_t>(y) * width + x] =
-            static_cast<std::uint16_t>(std::clamp(FeatureGrey(im, x, y), 0.f, 1.f) * 65535.f + 0.5f);
+            static_cast<std::uint16_t>((g > 0.f ? (g < 1.f ? g : 1.f) : 0.f) * 65535.f + 0.5f);
+      }
   }
   bool Inside(double x, double y) const { return x >= 0 && y >= 0 && x <= width - 1.001 && y <= height - 1.001; }
   // Requires Inside(x, y).
