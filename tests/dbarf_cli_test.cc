@@ -92,6 +92,9 @@ TEST(DbarfCli, PosesARenderedForwardFacingSceneAndEvaluatesThem) {
   }
   EXPECT_FALSE(times.contains("network")) << times.dump();  // the SfM posed everything
   EXPECT_GE(times["total"].get<double>(), sum - 1e-6) << times.dump();
+  // The run's own peak resident memory, in MB (a process that loaded torch holds tens at least).
+  ASSERT_TRUE(j["dbarf_poses"].contains("peak_memory_mb")) << j["dbarf_poses"].dump();
+  EXPECT_GT(j["dbarf_poses"]["peak_memory_mb"].get<double>(), 10.0);
   const ColmapModel model = ReadColmapModel(out + "/sparse/0");
   EXPECT_EQ(model.images.size(), 10u);
   EXPECT_GT(model.points3d.size(), 100u);

@@ -21,6 +21,7 @@
 #include "nerfreg/util/file_util.h"
 #include "nerfreg/util/json_util.h"
 #include "nerfreg/util/logging.h"
+#include "nerfreg/util/memory.h"
 #include "nerfreg/util/stage_times.h"
 #include "nerfreg/util/timer.h"
 
@@ -410,6 +411,7 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     times.Record("write output", writing.Seconds());
     posed.info["timings_s"] = times.ToJson();
     posed.info["timings_s"]["total"] = timer.Seconds();
+    posed.info["peak_memory_mb"] = PeakResidentMegabytes();
     WritePosedImages(JoinPaths(tmp, "transforms.json"), posed);
     output.Commit();
   }
@@ -423,7 +425,8 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   }
   summary.well_constrained = quality.WellConstrained();
   summary.seconds = timer.Seconds();
-  LOG_INFO("stages (s): {}; total {:.2f}", times.Summary(), timer.Seconds());
+  LOG_INFO("stages (s): {}; total {:.2f}; peak memory {:.0f} MB", times.Summary(), timer.Seconds(),
+           PeakResidentMegabytes());
   LOG_INFO("posed {}/{} images ({} by the network){}, {} points, mean reprojection error {:.3f} px, in {:.2f} s -> {}",
            summary.posed, names.size(), summary.posed_by_network,
            summary.well_constrained ? "" : " (NOT well constrained: see the warnings)", r.points.size(),
