@@ -27,10 +27,6 @@ struct Image {
   bool empty() const { return data.empty(); }
 };
 
-// An image held as its file's integers: 8 or 16 bits a channel, a quarter or half of the float
-// Image's memory. A folder of photos is held this way for the whole of a posing run (500 photos of
-// 1008 x 756 were 4.6 GB as float, issue 44); code that reads pixels reads them through at(), which
-// returns the float ReadImage would have given (v / 255 or v / 65535), so it may take either type.
 // v / 255.f for v = 0..255, looked up: as exact as the division, and cheaper in per-pixel loops.
 struct ByteToUnitTable {
   float value[256];
@@ -40,6 +36,10 @@ struct ByteToUnitTable {
 };
 inline const ByteToUnitTable kByteToUnit;
 
+// An image held as its file's integers: 8 or 16 bits a channel, a quarter or half of the float
+// Image's memory. A folder of photos is held this way for the whole of a posing run (500 photos of
+// 1008 x 756 were 4.6 GB as float, issue 44); code that reads pixels reads them through at(), which
+// returns the float ReadImage would have given (v / 255 or v / 65535), so it may take either type.
 struct PackedImage {
   int width = 0;
   int height = 0;

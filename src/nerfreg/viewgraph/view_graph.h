@@ -194,7 +194,7 @@ void CheckImageSizes(const std::vector<Image>& images, const std::vector<Camera>
 void CheckImageSizes(const std::vector<PackedImage>& images, const std::vector<Camera>& cameras,
                      const std::vector<std::string>& names, bool equal_sizes = true);
 
-// Builds the graph over the pairs options.pairs selects (or the given `pairs`, i < j). images: 8-bit-range float images
+// Builds the graph over the pairs options.pairs selects (or the given `pairs`, i < j). images: float or packed
 // (grey or colour), any sizes; cameras: one per image (intrinsics only; the focal lengths are
 // priors with options.estimate_focal). camera_group: per image, the camera whose focal length it
 // shares when it is estimated (empty: one group per image size). Throws InputError naming the
