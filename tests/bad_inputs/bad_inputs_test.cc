@@ -180,6 +180,11 @@ const std::vector<BadInputCase>& Cases() {
          return "dbarf poses " + d + " --focal 100 --sift-sparse-keypoints -1 --out " + d + "/p";
        },
        "error: --sift-sparse-keypoints: expected >= 0, got -1", "p"},
+      {"dbarf_poses_unknown_sift_normalization",
+       [](const std::string& d) {
+         return "dbarf poses " + d + " --focal 100 --sift-normalization root --out " + d + "/p";
+       },
+       "error: --sift-normalization: expected l1-root or l2, got 'root'", "p"},
       {"dbarf_poses_unknown_pairs",
        [](const std::string& d) { return "dbarf poses " + d + " --pairs nearby --out " + d + "/p"; },
        "error: --pairs: expected exhaustive, sequential, retrieval or auto, got \"nearby\"", "p"},

@@ -21,8 +21,20 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The view graph's flags that name a choice, as given, until Apply parses them into the options.
+struct ViewGraphChoices {
+  explicit ViewGraphChoices(const ViewGraphOptions& o)
+      : two_view(TwoViewEstimatorName(o.estimator)), normalization(SiftNormalizationName(o.normalization)) {}
+  void Apply(ViewGraphOptions* o) const {
+    o->pairs.strategy = ParsePairStrategy(pairs);
+    o->estimator = ParseTwoViewEstimator(two_view);
+    o->normalization = ParseSiftNormalization(normalization);
+  }
+  std::string pairs = "auto", two_view, normalization;
+};
+
 // The view graph's flags (features, pairs, two-view geometry) of dbarf poses.
-void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs, std::string* two_view) {
+void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, ViewGraphChoices* choices) {
   app.add_option("--max-features", o->max_features, "SIFT keypoints per image (default 4000)");
   app.add_option("--min-inliers", o->min_inliers, "Fewest essential-matrix inliers of an edge (default 15)");
   app.add_option("--sift-contrast", o->contrast_threshold,
@@ -31,14 +43,17 @@ void AddViewGraphOptions(CLI::App& app, ViewGraphOptions* o, std::string* pairs,
                  "SIFT contrast threshold of enlarged (small) images and of those with fewer than "
                  "--sift-sparse-keypoints keypoints at --sift-contrast (default 0.005; 0: --sift-contrast everywhere)");
   app.add_option("--sift-sparse-keypoints", o->sparse_image_keypoints, "See --sift-contrast-sparse (default 300)");
+  app.add_option("--sift-normalization", choices->normalization,
+                 "SIFT descriptors matched as l1-root (RootSIFT, COLMAP's default) or l2 (OpenCV's) (default " +
+                     choices->normalization + ")");
   app.add_option("--sift-upsample", o->upsample, "Enlarge images by this factor before SIFT (default 2)");
   app.add_option("--sift-upsample-max-side", o->upsample_max_side,
                  "... only while the enlarged image's longer side stays within this (default 1000; 0: always)");
   app.add_option("--ransac-px", o->ransac_threshold_px, "Two-view RANSAC threshold in pixels (default 1)");
-  app.add_option(
-      "--two-view", *two_view,
-      "Two-view geometry estimator: usac (OpenCV's MAGSAC++) or ransac (OpenCV's RANSAC) (default " + *two_view + ")");
-  app.add_option("--pairs", *pairs,
+  app.add_option("--two-view", choices->two_view,
+                 "Two-view geometry estimator: usac (OpenCV's MAGSAC++) or ransac (OpenCV's RANSAC) (default " +
+                     choices->two_view + ")");
+  app.add_option("--pairs", choices->pairs,
                  "Pairs to match: exhaustive, sequential (name order, --overlap), retrieval (a vocabulary of the "
                  "images' own features) or auto (exhaustive up to 50 images, else retrieval, plus sequential for "
                  "numbered frames) (default auto)");
@@ -108,8 +123,8 @@ int RunDbarfPoses(int argc, char** argv) {
   app.add_flag("--no-keypoint-refinement{false}", options.sfm.refine_keypoints,
                "Keep SIFT's keypoint positions (default: each track's keypoints aligned with one another on the "
                "images by an affine warp of their windows before the solve)");
-  std::string pairs = "auto", two_view = TwoViewEstimatorName(options.sfm.view_graph.estimator);
-  AddViewGraphOptions(app, &options.sfm.view_graph, &pairs, &two_view);
+  ViewGraphChoices choices(options.sfm.view_graph);
+  AddViewGraphOptions(app, &options.sfm.view_graph, &choices);
   unsigned int seed = 0;
   app.add_option("--seed", seed,
                  "Random seed of the two-view estimates (USAC) and of global positioning's start (default 0); other "
@@ -117,8 +132,7 @@ int RunDbarfPoses(int argc, char** argv) {
   std::string device = "cpu";
   AddDeviceOption(app, &device);
   if (int rc = ParseCommand(app, argc, argv, common); rc >= 0) return rc;
-  options.sfm.view_graph.pairs.strategy = ParsePairStrategy(pairs);
-  options.sfm.view_graph.estimator = ParseTwoViewEstimator(two_view);
+  choices.Apply(&options.sfm.view_graph);
   options.sfm.view_graph.seed = seed;
   options.sfm.global_positioning.seed += seed;
   options.device = ParseDevice(device);

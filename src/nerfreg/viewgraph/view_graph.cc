@@ -40,6 +40,16 @@ std::string TwoViewEstimatorName(TwoViewEstimator estimator) {
   return estimator == TwoViewEstimator::kUsac ? "usac" : "ransac";
 }
 
+SiftNormalization ParseSiftNormalization(const std::string& name) {
+  if (name == "l1-root") return SiftNormalization::kL1Root;
+  if (name == "l2") return SiftNormalization::kL2;
+  ThrowInputError("--sift-normalization", "", "l1-root or l2, got '" + name + "'");
+}
+
+std::string SiftNormalizationName(SiftNormalization normalization) {
+  return normalization == SiftNormalization::kL1Root ? "l1-root" : "l2";
+}
+
 void ViewGraphOptions::Check() const {
   // Named by the command-line options that set them (dbarf poses), since users set them there.
   if (max_features <= 0) ThrowInputError("--max-features", "", "> 0, got " + std::to_string(max_features));
@@ -700,9 +710,18 @@ SiftFeatures ExtractSift(const ImageT& image, const ViewGraphOptions& options) {
   }
   SiftFeatures out;
   out.descriptors.resize(desc.rows, 128);
-  for (int r = 0; r < desc.rows && desc.cols == 128; ++r)
-    for (int c = 0; c < 128; ++c)
-      out.descriptors(r, c) = static_cast<uint8_t>(std::clamp(desc.at<float>(r, c), 0.f, 255.f) + 0.5f);
+  for (int r = 0; r < desc.rows && desc.cols == 128; ++r) {
+    // OpenCV's descriptor is 512x a unit vector; RootSIFT's bytes are 512x the square roots of its
+    // unit-L1 version (COLMAP's FeatureDescriptorsToUnsignedByte scales and clamps alike).
+    const float* d = desc.ptr<float>(r);
+    float l1 = 0;
+    for (int c = 0; c < 128; ++c) l1 += std::abs(d[c]);
+    for (int c = 0; c < 128; ++c) {
+      const float v =
+          options.normalization == SiftNormalization::kL1Root && l1 > 0 ? 512.f * std::sqrt(std::abs(d[c]) / l1) : d[c];
+      out.descriptors(r, c) = static_cast<uint8_t>(std::clamp(v, 0.f, 255.f) + 0.5f);
+    }
+  }
   // OpenCV puts pixel centres at integer coordinates, nerfreg at +0.5; an image enlarged by `up`
   // (pixel-area aligned, as cv::resize is) maps x_up + 0.5 = up * (x + 0.5).
   for (const auto& kp : keypoints) out.keypoints.emplace_back((kp.pt.x + 0.5) / up, (kp.pt.y + 0.5) / up);

@@ -37,6 +37,17 @@ enum class TwoViewEstimator {
 TwoViewEstimator ParseTwoViewEstimator(const std::string& name);
 std::string TwoViewEstimatorName(TwoViewEstimator estimator);
 
+// How SIFT's descriptors are normalised before they are matched (COLMAP's
+// SiftExtraction.normalization), as bytes of 512x the unit vector.
+enum class SiftNormalization {
+  kL2,      // OpenCV's own: unit length
+  kL1Root,  // RootSIFT (Arandjelovic & Zisserman 2012): the square roots of the unit-L1 descriptor
+};
+
+// "l1-root" or "l2" (the values of --sift-normalization); anything else throws InputError.
+SiftNormalization ParseSiftNormalization(const std::string& name);
+std::string SiftNormalizationName(SiftNormalization normalization);
+
 struct ViewGraphOptions {
   int max_features = 4000;           // SIFT keypoints kept per image (strongest first)
   double ratio = 0.8;                // Lowe ratio test
@@ -69,6 +80,11 @@ struct ViewGraphOptions {
   // would make the pair planar (0.8 of the essential matrix's), and at most 500 (view_graph.cc,
   // kMaxEarlyHomographyIterations). false: 1000 / 2000 hypotheses and every homography fitted.
   bool early_rejection = true;
+  // RootSIFT by default, as COLMAP's: its distances weigh the histograms' small bins more, so views
+  // further apart match, and the tracks that span an orbit hold its shape (more accurate poses at
+  // 24, 96 and 192 views of the photo-like orbit, a little less at 48:
+  // docs/notes/2026-11-30-orbit-accuracy.md).
+  SiftNormalization normalization = SiftNormalization::kL1Root;
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
   double contrast_threshold = 0.04;
@@ -148,7 +164,7 @@ inline float FeatureGrey(const ImageT& im, int x, int y) {
 struct SiftFeatures {
   // Image coordinates in pixels (centre of pixel (c, r) at (c + 0.5, r + 0.5)).
   std::vector<Eigen::Vector2d> keypoints;
-  SiftDescriptors descriptors;  // OpenCV's SIFT values (integers 0..255), 128 bytes a keypoint
+  SiftDescriptors descriptors;  // 128 bytes a keypoint, normalised by ViewGraphOptions::normalization
 };
 
 // OpenCV SIFT on the image's grey levels (enlarged by EffectiveUpsample first), the

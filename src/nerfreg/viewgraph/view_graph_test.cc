@@ -599,5 +599,39 @@ TEST(ViewGraph, FaintAndSmallImagesAreSearchedAtTheSparseContrastThreshold) {
   EXPECT_THROW(o.Check(), InputError);
 }
 
+// RootSIFT's bytes are 512x the square roots of the unit-L1 descriptor whose unit-L2 version
+// OpenCV gives, at the same keypoints; l2 keeps OpenCV's.
+TEST(ViewGraph, RootSiftDescriptorsAreSquareRootsOfTheUnitL1Descriptors) {
+  const Camera cam = Camera::Pinhole(384, 288, 320, 320, 192, 144);
+  const Image image = RenderPlane(cam, LookAt({0, -0.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitY()));
+  ViewGraphOptions o;
+  o.contrast_threshold = 0.01;
+  ASSERT_EQ(o.normalization, SiftNormalization::kL1Root) << "COLMAP's default";
+  const SiftFeatures root = ExtractSiftFeatures(image, o);
+  o.normalization = SiftNormalization::kL2;
+  const SiftFeatures l2 = ExtractSiftFeatures(image, o);
+  ASSERT_GT(root.keypoints.size(), 50u);
+  ASSERT_EQ(root.keypoints, l2.keypoints);
+  int compared = 0, differ = 0;
+  for (Eigen::Index r = 0; r < root.descriptors.rows(); ++r) {
+    const Eigen::Matrix<double, 1, 128> a = l2.descriptors.row(r).cast<double>();
+    const Eigen::Matrix<double, 1, 128> b = root.descriptors.row(r).cast<double>();
+    EXPECT_NEAR(b.squaredNorm() / (512.0 * 512.0), 1.0, 0.05) << "row " << r;
+    for (int c = 0; c < 128; ++c) {
+      if (a(c) < 10) continue;  // the L2 byte's rounding is under 5 % of it
+      const double expected = 512 * std::sqrt(a(c) / a.sum());
+      EXPECT_NEAR(b(c), expected, 0.03 * expected + 1) << "row " << r << " bin " << c;
+      ++compared;
+      differ += std::abs(b(c) - a(c)) > 2;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(differ, compared / 2);
+  EXPECT_EQ(ParseSiftNormalization("l1-root"), SiftNormalization::kL1Root);
+  EXPECT_EQ(ParseSiftNormalization("l2"), SiftNormalization::kL2);
+  EXPECT_EQ(SiftNormalizationName(SiftNormalization::kL1Root), "l1-root");
+  EXPECT_THROW(ParseSiftNormalization("root"), InputError);
+}
+
 }  // namespace
 }  // namespace nerfreg
