@@ -25,7 +25,7 @@ struct SfmSceneCamerasOptions {
 
 // Bumped whenever what an SfM cache entry holds, or how the SfM result it stores is computed by
 // default, changes.
-inline constexpr int kSfmCacheVersion = 2;  // 2: RootSIFT descriptors
+inline constexpr int kSfmCacheVersion = 1;
 
 // The estimator DbarfSceneOptions::estimate_cameras takes: the SfM, through the cache folder.
 DbarfCameraEstimator SfmCameraEstimator(const SfmSceneCamerasOptions& options);

@@ -80,11 +80,12 @@ struct ViewGraphOptions {
   // would make the pair planar (0.8 of the essential matrix's), and at most 500 (view_graph.cc,
   // kMaxEarlyHomographyIterations). false: 1000 / 2000 hypotheses and every homography fitted.
   bool early_rejection = true;
-  // RootSIFT by default, as COLMAP's: its distances weigh the histograms' small bins more, so views
-  // further apart match, and the tracks that span an orbit hold its shape (more accurate poses at
-  // 24, 96 and 192 views of the photo-like orbit, a little less at 48:
-  // docs/notes/2026-11-30-orbit-accuracy.md).
-  SiftNormalization normalization = SiftNormalization::kL1Root;
+  // RootSIFT's distances weigh the histograms' small bins more, so views further apart match, and
+  // the tracks that span an orbit hold its shape (more accurate poses at 24, 96 and 192 views of
+  // the photo-like orbit, a little less at 48: docs/notes/2026-11-30-orbit-accuracy.md). dbarf
+  // poses uses it by default; the SfM behind the DBARF training and evaluation commands keeps L2,
+  // with which their results were measured.
+  SiftNormalization normalization = SiftNormalization::kL2;
   // OpenCV SIFT's contrast threshold (its default 0.04; COLMAP's peak threshold 0.02 / 3 layers
   // equals 0.02 here). Small, dark renders need a lower one to give more than a few dozen keypoints.
   double contrast_threshold = 0.04;
