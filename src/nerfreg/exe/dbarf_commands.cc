@@ -123,7 +123,6 @@ int RunDbarfPoses(int argc, char** argv) {
   app.add_flag("--no-keypoint-refinement{false}", options.sfm.refine_keypoints,
                "Keep SIFT's keypoint positions (default: each track's keypoints aligned with one another on the "
                "images by an affine warp of their windows before the solve)");
-  options.sfm.view_graph.normalization = SiftNormalization::kL1Root;  // measured for posing (view_graph.h)
   ViewGraphChoices choices(options.sfm.view_graph);
   AddViewGraphOptions(app, &options.sfm.view_graph, &choices);
   unsigned int seed = 0;

@@ -27,8 +27,14 @@ struct ImageFolderPosesOptions {
   std::string out;                   // output folder
   bool force = false;                // replace an existing output
   std::string neighbours = "graph";  // network: graph (SIFT view graph) or appearance (thumbnails only)
-  ImagePosesOptions poses;           // the method and its options (network.match_images follows neighbours)
-  void Check() const;                // throws InputError naming the flag
+  // The method and its options (network.match_images follows neighbours); RootSIFT descriptors,
+  // measured for posing (viewgraph/view_graph.h), where the library's default stays L2.
+  ImagePosesOptions poses = [] {
+    ImagePosesOptions p;
+    p.sfm.view_graph.normalization = SiftNormalization::kL1Root;
+    return p;
+  }();
+  void Check() const;  // throws InputError naming the flag
 };
 
 struct ImageFolderPosesResult {

@@ -710,15 +710,16 @@ SiftFeatures ExtractSift(const ImageT& image, const ViewGraphOptions& options) {
   }
   SiftFeatures out;
   out.descriptors.resize(desc.rows, 128);
+  const bool root = options.normalization == SiftNormalization::kL1Root;
   for (int r = 0; r < desc.rows && desc.cols == 128; ++r) {
     // OpenCV's descriptor is 512x a unit vector; RootSIFT's bytes are 512x the square roots of its
     // unit-L1 version (COLMAP's FeatureDescriptorsToUnsignedByte scales and clamps alike).
     const float* d = desc.ptr<float>(r);
     float l1 = 0;
-    for (int c = 0; c < 128; ++c) l1 += std::abs(d[c]);
+    if (root)
+      for (int c = 0; c < 128; ++c) l1 += std::abs(d[c]);
     for (int c = 0; c < 128; ++c) {
-      const float v =
-          options.normalization == SiftNormalization::kL1Root && l1 > 0 ? 512.f * std::sqrt(std::abs(d[c]) / l1) : d[c];
+      const float v = root && l1 > 0 ? 512.f * std::sqrt(std::abs(d[c]) / l1) : d[c];
       out.descriptors(r, c) = static_cast<uint8_t>(std::clamp(v, 0.f, 255.f) + 0.5f);
     }
   }
