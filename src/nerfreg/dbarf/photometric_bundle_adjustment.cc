@@ -34,8 +34,10 @@ struct Problem {
   double ssim_weight = 0.85;
 };
 
-// Mean per-pixel error over the valid pixels of every pair (robustly clipped per pair).
-torch::Tensor PhotometricTerm(const Problem& p, const torch::Tensor& cam_from_world, const torch::Tensor& grid) {
+// Mean per-pixel error over the valid pixels of every pair (robustly clipped per pair);
+// valid_fraction (optional): the share of the pairs' target pixels that warp inside the source.
+torch::Tensor PhotometricTerm(const Problem& p, const torch::Tensor& cam_from_world, const torch::Tensor& grid,
+                              double* valid_fraction = nullptr) {
   const int64_t h = p.images.size(2), w = p.images.size(3);
   const torch::Tensor correction = F::interpolate(
       grid, F::InterpolateFuncOptions().size(std::vector<int64_t>{h, w}).mode(torch::kBilinear).align_corners(false));
@@ -56,6 +58,7 @@ torch::Tensor PhotometricTerm(const Problem& p, const torch::Tensor& cam_from_wo
     const torch::Tensor limit = (mean + p.clip_std_factor * var.sqrt()).view({-1, 1, 1, 1});
     error = torch::minimum(error, limit);
   }
+  if (valid_fraction != nullptr) *valid_fraction = valid.mean().item<double>();
   return (error * valid).sum() / valid.sum().clamp_min(1.0);
 }
 
@@ -164,7 +167,8 @@ PhotometricBundleAdjustmentResult PhotometricBundleAdjust(const torch::Tensor& i
       ++result.iterations;
     }
   }
-  if (!pairs.empty()) result.final_loss = PhotometricTerm(full, cameras(), grid).item<double>();
+  if (!pairs.empty())
+    result.final_loss = PhotometricTerm(full, cameras(), grid, &result.final_valid_fraction).item<double>();
   torch::Tensor refined = cameras().to(torch::kDouble);
   refined.slice(1, 0, 3).select(2, 3).mul_(median_depth);
   // The fixed camera exactly as given (float rounding aside, its update is the identity).

@@ -46,6 +46,9 @@ struct PhotometricBundleAdjustmentResult {
   torch::Tensor inv_depths;      // [V, 1, H, W] float32, refined, in the input's units
   double initial_loss = 0;       // mean photometric error over valid pixels, full resolution
   double final_loss = 0;
+  // The share of the pairs' target pixels that warp inside their source at the end: the losses
+  // count only those, so cameras that make few pixels overlap can score low on them.
+  double final_valid_fraction = 0;
   int iterations = 0;
   double seconds = 0;
 };

@@ -164,6 +164,30 @@ TEST(PhotometricBundleAdjustment, WithTheCamerasHeldTheTruthScoresBetterThanWron
   EXPECT_LT(truth.final_loss, 0.7 * off.final_loss) << truth.final_loss << " vs " << off.final_loss;
 }
 
+// The loss counts only pixels that land inside the source: cameras turned away from one another
+// see nothing in common, their loss says nothing (0 here), and the overlap says so.
+TEST(PhotometricBundleAdjustment, TheOverlapTellsCamerasThatSeeTheSameFromCamerasThatDoNot) {
+  const Case c = MakeCase();
+  PhotometricBundleAdjustmentOptions options;
+  options.optimize_poses = false;
+  options.levels = 1;
+  options.iterations_per_level = 5;
+  const PhotometricBundleAdjustmentResult truth =
+      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, c.truth, c.pairs, 0, options);
+  EXPECT_GT(truth.final_valid_fraction, 0.5);
+  // Camera k turned k * 72 deg about its y axis (wider than the field of view): no two look the
+  // same way.
+  torch::Tensor away = c.truth.clone().to(torch::kFloat);
+  for (int64_t k = 1; k < away.size(0); ++k) {
+    const double angle = 2 * M_PI * static_cast<double>(k) / static_cast<double>(away.size(0));
+    away[k] = torch::matmul(Se3Exp(torch::tensor({0.0, 0.0, 0.0, 0.0, angle, 0.0}, torch::kFloat)), away[k]);
+  }
+  const PhotometricBundleAdjustmentResult turned =
+      PhotometricBundleAdjust(c.images, c.intrinsics, c.inv_depths, away, c.pairs, 0, options);
+  EXPECT_LT(turned.final_valid_fraction, 0.05) << turned.final_valid_fraction;
+  EXPECT_LT(turned.final_loss, truth.final_loss) << turned.final_loss;  // why the loss alone cannot rank them
+}
+
 TEST(PhotometricBundleAdjustment, RejectsBadInput) {
   const Case c = MakeCase();
   PhotometricBundleAdjustmentOptions options;

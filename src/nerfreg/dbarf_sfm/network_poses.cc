@@ -567,13 +567,20 @@ void PoseAllWithNetwork(DbarfModel& model, const torch::Tensor& images, const to
   result->seconds_network += timer.Seconds();
 }
 
+// Below this share of the pairs' pixels seen by both images, cameras do not explain the images
+// whatever their error on those few: the error counts only overlapping pixels, and on validation
+// set 3104 (low-texture) the SfM's cameras made no pixel overlap and scored 0, the best possible.
+constexpr double kMinScoredOverlap = 0.1;
+
 // How well cameras explain the images: the photometric error (DBARF's SfM loss) of warping every
 // network pair through the network's depths, each depth map given its best smooth correction
 // with the cameras held. One measure for any method's cameras, so auto can compare them. Lower is
-// better; infinity when no pair has both images posed.
+// better; infinity when no pair has both images posed or the pairs hardly overlap (*overlap: the
+// share of their pixels that do, 0 without pairs).
 double PhotometricCameraScore(const torch::Tensor& images, const torch::Tensor& intrinsics, const NetworkRunState& net,
                               const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
-                              const PhotometricBundleAdjustmentOptions& base) {
+                              const PhotometricBundleAdjustmentOptions& base, double* overlap) {
+  *overlap = 0;
   const int n = static_cast<int>(images.size(0));
   int fixed = -1;
   std::vector<std::pair<int, int>> pairs;
@@ -594,8 +601,10 @@ double PhotometricCameraScore(const torch::Tensor& images, const torch::Tensor& 
   o.optimize_depth = true;
   o.levels = 2;
   o.iterations_per_level = 30;
-  return PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, o)
-      .final_loss;
+  const PhotometricBundleAdjustmentResult r =
+      PhotometricBundleAdjust(images, intrinsics, torch::stack(depth_maps), torch::stack(cams), pairs, fixed, o);
+  *overlap = r.final_valid_fraction;
+  return r.final_valid_fraction >= kMinScoredOverlap ? r.final_loss : std::numeric_limits<double>::infinity();
 }
 
 // Method auto: the images the SfM left out, each registered against posed sources.
@@ -640,19 +649,32 @@ int NumCoincidentCentres(const ImagePosesResult& result) {
   return static_cast<int>(std::count_if(coincident.begin(), coincident.end(), [](int c) { return c >= 0; }));
 }
 
-// The share of the posed images whose own measurements disagree with their poses (the
-// low-confidence rule of EstimateImagePoses, the pixels' problems aside).
+// Whether a posed image's own measurements disagree with its pose (the low-confidence rule of
+// EstimateImagePoses, the pixels' problems aside).
+bool Doubted(const ImagePosesResult& result, int k, const ImagePosesOptions& options) {
+  const ImagePoseConfidence& c = result.confidence[k];
+  return c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
+         c.direction_residual_deg > options.low_confidence_direction_deg ||
+         (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+}
+
+// The share of the posed images that are Doubted.
 double DoubtedFraction(const ImagePosesResult& result, const ImagePosesOptions& options) {
   int posed = 0, doubted = 0;
   for (size_t k = 0; k < result.posed.size(); ++k) {
     if (!result.posed[k]) continue;
     ++posed;
-    const ImagePoseConfidence& c = result.confidence[k];
-    doubted += c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
-               c.direction_residual_deg > options.low_confidence_direction_deg ||
-               (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+    doubted += Doubted(result, static_cast<int>(k), options);
   }
   return posed > 0 ? static_cast<double>(doubted) / posed : 0.0;
+}
+
+// The posed images that are not Doubted.
+int NumConfident(const ImagePosesResult& result, const ImagePosesOptions& options) {
+  int confident = 0;
+  for (size_t k = 0; k < result.posed.size(); ++k)
+    confident += result.posed[k] && !Doubted(result, static_cast<int>(k), options);
+  return confident;
 }
 
 }  // namespace
@@ -689,6 +711,41 @@ std::string NetworkPoseRejection(const ImagePoseConfidence& c, const ImagePosesO
 
 namespace {
 
+// Methods classical and auto: the SfM's cameras (sfm: its options) from the given intrinsics
+// (result->cameras), and in auto the images it left out registered by the network where there
+// are enough posed ones to register against. Returns true where auto must pose all images with
+// the network instead.
+template <typename ImageT>
+bool PoseClassically(const std::vector<ImageT>& images, const std::vector<std::string>& names,
+                     const ImagePosesOptions& options, const SfmOptions& sfm, const std::string& source, bool one_size,
+                     DbarfModel* model, ImagePosesResult* result) {
+  const int n = static_cast<int>(images.size());
+  result->sfm = PoseImages(images, result->cameras, names, sfm, options.camera_group);
+  result->sift_normalization = sfm.view_graph.normalization;
+  result->times.Append(result->sfm.times);
+  result->cameras = result->sfm.cameras;  // refined where the SfM self-calibrated
+  int num_posed = 0;
+  for (bool p : result->sfm.posed) num_posed += p;
+  const bool complete = num_posed == n;
+  const bool have_range = SfmDepthRange(result->sfm, source, &result->near, &result->far);
+  if (options.method == "classical" || complete || !one_size) {
+    // The classical result as it was: the depth range is required (InputError otherwise).
+    if (!one_size && !complete && options.method != "classical")
+      LOG_WARN("images of several sizes: the network cannot pose the images the SfM left out");
+    if (num_posed > 0) DepthRangeFromPoints(result->sfm, source, &result->near, &result->far);
+    SetSfmConfidence(result->sfm, result->cameras, result);
+  } else if (num_posed >= 3 && have_range) {
+    SetSfmConfidence(result->sfm, result->cameras, result);
+    const auto [net_images, net_intrinsics] = NetworkInputs(images, result->cameras, options.network.max_width);
+    RegisterUnposedWithNetwork(*model, net_images, net_intrinsics, options.network, result);
+  } else {
+    LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
+             num_posed, n);
+    return true;
+  }
+  return false;
+}
+
 template <typename ImageT>
 ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vector<Camera>& cameras,
                                const std::vector<std::string>& names, const ImagePosesOptions& options,
@@ -723,32 +780,42 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
   result.posed_by.assign(n, "");
   result.confidence.assign(n, ImagePoseConfidence());
   result.method_used = options.method;
+  result.sift_normalization = options.sfm.view_graph.normalization;
 
   bool run_network_on_all = options.method == "network";
   if (options.method != "network") {
-    result.sfm = PoseImages(images, cameras, names, options.sfm, options.camera_group);
-    result.times.Append(result.sfm.times);
-    result.cameras = result.sfm.cameras;  // refined where the SfM self-calibrated
-    int num_posed = 0;
-    for (bool p : result.sfm.posed) num_posed += p;
-    const bool complete = num_posed == n;
-    const bool have_range = SfmDepthRange(result.sfm, source, &result.near, &result.far);
-    if (options.method == "classical" || complete || !one_size) {
-      // The classical result as it was: the depth range is required (InputError otherwise).
-      if (!one_size && !complete && options.method != "classical")
-        LOG_WARN("images of several sizes: the network cannot pose the images the SfM left out");
-      if (num_posed > 0) DepthRangeFromPoints(result.sfm, source, &result.near, &result.far);
-      SetSfmConfidence(result.sfm, result.cameras, &result);
-    } else if (num_posed >= 3 && have_range) {
-      SetSfmConfidence(result.sfm, result.cameras, &result);
-      const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, options.network.max_width);
-      RegisterUnposedWithNetwork(*model, net_images, net_intrinsics, options.network, &result);
-    } else {
-      LOG_WARN("the SfM posed {} of {} images, too few to register the others against: posing all with the network",
-               num_posed, n);
-      run_network_on_all = true;
-      result.method_used = "network";
+    const ImagePosesResult before_sfm = result;
+    run_network_on_all = PoseClassically(images, names, options, options.sfm, source, one_size, model.get(), &result);
+    // Low-texture and repetitive images match differently with each descriptor normalisation, and
+    // where the SfM doubts its answer the other one often does better (validation hard sets
+    // 3101-3110: ...). The answer with more confidently posed images is kept.
+    const bool doubted = run_network_on_all || DoubtedFraction(result, options) >= options.auto_doubt_fraction;
+    if (options.method == "auto" && options.auto_second_sfm && doubted &&
+        options.sfm.view_graph.normalization != SiftNormalization::kL2) {
+      LOG_WARN("the SfM doubts its answer: a second SfM, matching L2-normalised SIFT descriptors");
+      SfmOptions l2 = options.sfm;
+      l2.view_graph.normalization = SiftNormalization::kL2;
+      ImagePosesResult second = before_sfm;
+      const bool second_all = PoseClassically(images, names, options, l2, source, one_size, model.get(), &second);
+      const int first_confident = run_network_on_all ? -1 : NumConfident(result, options);
+      const int second_confident = second_all ? -1 : NumConfident(second, options);
+      LOG_INFO("images posed confidently: {} matching RootSIFT, {} matching L2 descriptors; keeping the {} SfM's",
+               std::max(0, first_confident), std::max(0, second_confident),
+               second_confident > first_confident ? "L2" : "RootSIFT");
+      const std::vector<int> confident = {first_confident, second_confident};
+      second.auto_sfm_confident = confident;
+      result.auto_sfm_confident = confident;
+      if (second_confident > first_confident) {
+        second.times.Append(result.times);
+        second.seconds_network += result.seconds_network;
+        result = std::move(second);
+        run_network_on_all = second_all;
+      } else {
+        result.times.Append(second.times);
+        result.seconds_network += second.seconds_network;
+      }
     }
+    if (run_network_on_all) result.method_used = "network";
   }
   if (options.method == "auto" && !run_network_on_all && model != nullptr) {
     // A solution the SfM calls well constrained is put to the test too (until 2026-11-29 it was
@@ -771,15 +838,19 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
       NetworkRunState state;
       const auto [net_images, net_intrinsics] = NetworkInputs(images, result.cameras, options.network.max_width);
       PoseAllWithNetwork(*model, net_images, net_intrinsics, result.sfm.view_graph, options.network, &net, &state);
+      double sfm_overlap = 0, network_overlap = 0;
       result.auto_sfm_score = PhotometricCameraScore(net_images, net_intrinsics, state, result.cam_from_world,
-                                                     result.posed, options.network.photometric_ba);
+                                                     result.posed, options.network.photometric_ba, &sfm_overlap);
       result.auto_network_score = PhotometricCameraScore(net_images, net_intrinsics, state, net.cam_from_world,
-                                                         net.posed, options.network.photometric_ba);
+                                                         net.posed, options.network.photometric_ba, &network_overlap);
       // Cameras the network collapsed onto each other are never kept, however they score
       // photometrically: on a photo-like orbit its collapsed cameras scored better than the SfM's.
       const int network_collapsed = NumCoincidentCentres(net);
-      LOG_INFO("photometric error of the cameras: SfM {:.4f}, network {:.4f}; network cameras collapsed: {}",
-               result.auto_sfm_score, result.auto_network_score, network_collapsed);
+      LOG_INFO(
+          "photometric error of the cameras: SfM {:.4f} ({:.0f}% of the pairs' pixels overlap), network {:.4f} "
+          "({:.0f}%); network cameras collapsed: {}",
+          result.auto_sfm_score, 100 * sfm_overlap, result.auto_network_score, 100 * network_overlap,
+          network_collapsed);
       if (result.auto_network_score < result.auto_sfm_score && network_collapsed == 0) {
         const SfmResult sfm = std::move(result.sfm);
         const double sfm_score = result.auto_sfm_score, network_score = result.auto_network_score;

@@ -240,6 +240,7 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                 {"posed_by_network", num_by_network},
                 {"method", o.poses.method},
                 {"method_used", result.method_used},
+                {"sift_normalization", SiftNormalizationName(result.sift_normalization)},
                 {"points", r.points.size()},
                 {"mean_reprojection_error_px", r.mean_reprojection_error_px},
                 {"edges", r.view_graph.edges.size()},
@@ -274,6 +275,12 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
     posed.info["auto_check"] = {{"kept", result.auto_choice},
                                 {"sfm_photometric_error", result.auto_sfm_score},
                                 {"network_photometric_error", result.auto_network_score}};
+  }
+  if (result.auto_sfm_confident.size() == 2) {
+    posed.info["second_sfm"] = {{"kept", SiftNormalizationName(result.sift_normalization)},
+                                {"confident_images",
+                                 {{SiftNormalizationName(SiftNormalization::kL1Root), result.auto_sfm_confident[0]},
+                                  {SiftNormalizationName(SiftNormalization::kL2), result.auto_sfm_confident[1]}}}};
   }
   if (any_sfm) {
     posed.info["quality"] = {{"min_image_side_px", quality.min_image_side_px},
