@@ -669,14 +669,6 @@ double DoubtedFraction(const ImagePosesResult& result, const ImagePosesOptions& 
   return posed > 0 ? static_cast<double>(doubted) / posed : 0.0;
 }
 
-// The posed images that are not Doubted.
-int NumConfident(const ImagePosesResult& result, const ImagePosesOptions& options) {
-  int confident = 0;
-  for (size_t k = 0; k < result.posed.size(); ++k)
-    confident += result.posed[k] && !Doubted(result, static_cast<int>(k), options);
-  return confident;
-}
-
 }  // namespace
 
 std::string DescribeLowConfidence(const ImagePosesResult& result, const std::vector<std::string>& names) {
@@ -784,37 +776,7 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
 
   bool run_network_on_all = options.method == "network";
   if (options.method != "network") {
-    const ImagePosesResult before_sfm = result;
     run_network_on_all = PoseClassically(images, names, options, options.sfm, source, one_size, model.get(), &result);
-    // Low-texture and repetitive images match differently with each descriptor normalisation, and
-    // where the SfM doubts its answer the other one often does better (validation hard sets
-    // 3101-3110: ...). The answer with more confidently posed images is kept.
-    const bool doubted = run_network_on_all || DoubtedFraction(result, options) >= options.auto_doubt_fraction;
-    if (options.method == "auto" && options.auto_second_sfm && doubted &&
-        options.sfm.view_graph.normalization != SiftNormalization::kL2) {
-      LOG_WARN("the SfM doubts its answer: a second SfM, matching L2-normalised SIFT descriptors");
-      SfmOptions l2 = options.sfm;
-      l2.view_graph.normalization = SiftNormalization::kL2;
-      ImagePosesResult second = before_sfm;
-      const bool second_all = PoseClassically(images, names, options, l2, source, one_size, model.get(), &second);
-      const int first_confident = run_network_on_all ? -1 : NumConfident(result, options);
-      const int second_confident = second_all ? -1 : NumConfident(second, options);
-      LOG_INFO("images posed confidently: {} matching RootSIFT, {} matching L2 descriptors; keeping the {} SfM's",
-               std::max(0, first_confident), std::max(0, second_confident),
-               second_confident > first_confident ? "L2" : "RootSIFT");
-      const std::vector<int> confident = {first_confident, second_confident};
-      second.auto_sfm_confident = confident;
-      result.auto_sfm_confident = confident;
-      if (second_confident > first_confident) {
-        second.times.Append(result.times);
-        second.seconds_network += result.seconds_network;
-        result = std::move(second);
-        run_network_on_all = second_all;
-      } else {
-        result.times.Append(second.times);
-        result.seconds_network += second.seconds_network;
-      }
-    }
     if (run_network_on_all) result.method_used = "network";
   }
   if (options.method == "auto" && !run_network_on_all && model != nullptr) {

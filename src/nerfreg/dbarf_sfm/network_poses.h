@@ -107,10 +107,6 @@ struct ImagePosesOptions {
   // all images as well, and the cameras with the lower photometric error over the network's pairs
   // are kept (PhotometricCameraScore). 1 turns the check off.
   double auto_doubt_fraction = 0.25;
-  // Method auto, where the SfM matched RootSIFT descriptors (SfmOptions::view_graph.normalization)
-  // and doubts its answer as above or posed too few images: a second SfM matching L2-normalised
-  // descriptors, whose answer is kept where it poses more images confidently.
-  bool auto_second_sfm = true;
   double low_confidence_deg = 5.0;             // rotation residual
   double low_confidence_direction_deg = 30.0;  // direction residual
   int low_confidence_observations = 10;
@@ -138,11 +134,8 @@ struct ImagePosesResult {
   // -1 where the check did not run.
   std::string auto_choice;
   double auto_sfm_score = -1, auto_network_score = -1;
-  // The descriptors the kept SfM matched (ImagePosesOptions::auto_second_sfm may change them).
+  // The SIFT descriptors the view graph matched (SfmOptions::view_graph.normalization).
   SiftNormalization sift_normalization = SiftNormalization::kL2;
-  // Where auto ran a second SfM (auto_second_sfm): the images the first (RootSIFT) and the second
-  // (L2) posed confidently, -1 for one that posed too few to register against; empty otherwise.
-  std::vector<int> auto_sfm_confident;
   int num_network_edges = 0;  // relative poses predicted by the network
   // The (target, source) pairs the network was run on (once each, whatever the passes): neighbours
   // for dbarf finetune / render where the view graph has none (images without matches).

@@ -276,12 +276,6 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
                                 {"sfm_photometric_error", result.auto_sfm_score},
                                 {"network_photometric_error", result.auto_network_score}};
   }
-  if (result.auto_sfm_confident.size() == 2) {
-    posed.info["second_sfm"] = {{"kept", SiftNormalizationName(result.sift_normalization)},
-                                {"confident_images",
-                                 {{SiftNormalizationName(SiftNormalization::kL1Root), result.auto_sfm_confident[0]},
-                                  {SiftNormalizationName(SiftNormalization::kL2), result.auto_sfm_confident[1]}}}};
-  }
   if (any_sfm) {
     posed.info["quality"] = {{"min_image_side_px", quality.min_image_side_px},
                              {"min_points_per_image", quality.min_points_per_image},
