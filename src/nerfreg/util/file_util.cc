@@ -2,7 +2,9 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -49,10 +51,37 @@ std::string TempPathFor(const std::string& path) {
       .string();
 }
 
+// Whether the process (or thread) `pid` started after `written` (the file's modification time):
+// then it is not the writer of that file but another that took its PID (PIDs and thread ids are
+// reused, under a parallel test run within seconds). /proc/PID/stat's start time is in clock ticks
+// since boot; the file's time is brought onto that clock through the clocks' current offset.
+// 50 ms of margin covers the ticks (10 ms) and the two clock reads. False where it cannot tell.
+bool StartedAfter(long pid, const struct timespec& written) {
+  std::ifstream stat_file("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(stat_file, line)) return false;
+  const size_t close = line.rfind(')');  // the command name may hold spaces and ')'
+  if (close == std::string::npos || close + 2 > line.size()) return false;
+  std::istringstream fields(line.substr(close + 2));
+  std::string field;
+  for (int k = 3; k < 22; ++k)  // fields 3..21, then the start time (field 22)
+    if (!(fields >> field)) return false;
+  unsigned long long start_ticks = 0;
+  if (!(fields >> start_ticks)) return false;
+  const long ticks_per_s = ::sysconf(_SC_CLK_TCK);
+  struct timespec boot_now, real_now;
+  if (ticks_per_s <= 0 || ::clock_gettime(CLOCK_BOOTTIME, &boot_now) != 0 ||
+      ::clock_gettime(CLOCK_REALTIME, &real_now) != 0)
+    return false;
+  const auto seconds = [](const struct timespec& t) { return static_cast<double>(t.tv_sec) + 1e-9 * t.tv_nsec; };
+  const double written_since_boot = seconds(written) - (seconds(real_now) - seconds(boot_now));
+  return static_cast<double>(start_ticks) / ticks_per_s > written_since_boot + 0.05;
+}
+
 // Temporary files and folders of `path` left by a writer that was killed (SIGKILL cannot be
 // caught, so its own clean-up never ran): ".NAME.tmp.PID.N" whose PID is no longer a running
-// process. Removed by the next write of the same path, so a killed and resumed run ends with no
-// leftovers.
+// process, or is one that started after the file was written. Removed by the next write of the
+// same path, so a killed and resumed run ends with no leftovers.
 void RemoveStaleTempFiles(const std::string& path) {
   const fs::path p(path);
   const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
@@ -65,7 +94,10 @@ void RemoveStaleTempFiles(const std::string& path) {
     char* end = nullptr;
     const long pid = std::strtol(rest.c_str(), &end, 10);
     if (end == rest.c_str() || *end != '.' || pid <= 0) continue;
-    if (pid == ::getpid() || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    if (pid == ::getpid()) continue;
+    const bool gone = ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+    struct stat info;
+    if (!gone && !(::lstat(entry.path().c_str(), &info) == 0 && StartedAfter(pid, info.st_mtim))) continue;
     fs::remove_all(entry.path(), ec);
   }
 }

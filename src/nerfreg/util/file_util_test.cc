@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <functional>
 
@@ -41,6 +42,32 @@ TEST(FileUtil, NextWriteRemovesTempFilesOfDeadWriters) {
   EXPECT_FALSE(std::filesystem::exists(dead));
   EXPECT_TRUE(std::filesystem::exists(live));
   EXPECT_TRUE(std::filesystem::exists(other));  // another file's
+}
+
+// A killed writer's PID may be taken by another process before the next write (under a parallel
+// test run, within seconds): a temporary file whose PID belongs to a process started after the
+// file was written is stale too.
+TEST(FileUtil, TempFilesOfAReusedPidAreStale) {
+  ScopedTempDir dir;
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::pause();
+    ::_exit(0);
+  }
+  const std::string reused = dir.File(".x.json.tmp." + std::to_string(child) + ".0");
+  WriteFileAtomic(reused, "partial");
+  namespace fs = std::filesystem;
+  fs::last_write_time(reused, fs::last_write_time(reused) - std::chrono::seconds(60));
+  WriteFileAtomic(dir.File("x.json"), "{}");
+  EXPECT_FALSE(fs::exists(reused));
+  // Written while it ran: its own.
+  const std::string own = dir.File(".x.json.tmp." + std::to_string(child) + ".1");
+  WriteFileAtomic(own, "partial");
+  WriteFileAtomic(dir.File("x.json"), "{}");
+  EXPECT_TRUE(fs::exists(own));
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
 }
 
 TEST(FileUtil, FailedWriterLeavesOldFileUntouched) {
