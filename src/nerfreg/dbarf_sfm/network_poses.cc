@@ -649,8 +649,8 @@ int NumCoincidentCentres(const ImagePosesResult& result) {
   return static_cast<int>(std::count_if(coincident.begin(), coincident.end(), [](int c) { return c >= 0; }));
 }
 
-// Whether a posed image's own measurements disagree with its pose (the low-confidence rule of
-// EstimateImagePoses, the pixels' problems aside).
+// Whether a posed image's own measurements disagree with its pose: with a problem of its pixels,
+// what makes it low-confidence (ImagePoseConfidence::low).
 bool Doubted(const ImagePosesResult& result, int k, const ImagePosesOptions& options) {
   const ImagePoseConfidence& c = result.confidence[k];
   return c.edges == 0 || c.rotation_residual_deg > options.low_confidence_deg ||
@@ -703,17 +703,15 @@ std::string NetworkPoseRejection(const ImagePoseConfidence& c, const ImagePosesO
 
 namespace {
 
-// Methods classical and auto: the SfM's cameras (sfm: its options) from the given intrinsics
-// (result->cameras), and in auto the images it left out registered by the network where there
-// are enough posed ones to register against. Returns true where auto must pose all images with
-// the network instead.
+// Methods classical and auto: the SfM's cameras from the given intrinsics (result->cameras), and
+// in auto the images it left out registered by the network where there are enough posed ones to
+// register against. Returns true where auto must pose all images with the network instead.
 template <typename ImageT>
 bool PoseClassically(const std::vector<ImageT>& images, const std::vector<std::string>& names,
-                     const ImagePosesOptions& options, const SfmOptions& sfm, const std::string& source, bool one_size,
-                     DbarfModel* model, ImagePosesResult* result) {
+                     const ImagePosesOptions& options, const std::string& source, bool one_size, DbarfModel* model,
+                     ImagePosesResult* result) {
   const int n = static_cast<int>(images.size());
-  result->sfm = PoseImages(images, result->cameras, names, sfm, options.camera_group);
-  result->sift_normalization = sfm.view_graph.normalization;
+  result->sfm = PoseImages(images, result->cameras, names, options.sfm, options.camera_group);
   result->times.Append(result->sfm.times);
   result->cameras = result->sfm.cameras;  // refined where the SfM self-calibrated
   int num_posed = 0;
@@ -776,7 +774,7 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
 
   bool run_network_on_all = options.method == "network";
   if (options.method != "network") {
-    run_network_on_all = PoseClassically(images, names, options, options.sfm, source, one_size, model.get(), &result);
+    run_network_on_all = PoseClassically(images, names, options, source, one_size, model.get(), &result);
     if (run_network_on_all) result.method_used = "network";
   }
   if (options.method == "auto" && !run_network_on_all && model != nullptr) {
@@ -889,10 +887,7 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
     if (c.problem.empty() && coincident[k] >= 0 && (by_network || result.posed_by[coincident[k]] == "network")) {
       c.problem = "its camera centre coincides with " + names[coincident[k]] + "'s (a collapsed solution)";
     }
-    const bool disagrees = c.rotation_residual_deg > options.low_confidence_deg ||
-                           c.direction_residual_deg > options.low_confidence_direction_deg;
-    c.low = !c.problem.empty() || c.edges == 0 || disagrees ||
-            (result.posed_by[k] == "sfm" && c.observations < options.low_confidence_observations);
+    c.low = !c.problem.empty() || Doubted(result, k, options);
     // A camera the network placed beside the SfM's that its own measurements contradict is not an
     // answer: it is left out with the reason, never counted as posed.
     if (options.method == "auto" && result.method_used == "auto" && by_network) {
