@@ -38,7 +38,12 @@ TEST(NerfCli, SigkillMidRunThenResume) {
   const Json summary = ReadJsonFile(dir.File("b.ckpt.json"));
   EXPECT_EQ(summary["iters"].get<int>(), target);
   for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
-    EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
+    const std::string name = e.path().filename().string();
+    const size_t tmp = name.find(".tmp.");
+    // On failure, what the sweep saw of the writer's PID (".NAME.tmp.PID.N").
+    EXPECT_EQ(tmp, std::string::npos)
+        << e.path() << "; the writer's process: "
+        << RunShell("cat /proc/" + name.substr(tmp + 5, name.rfind('.') - tmp - 5) + "/stat").output;
   }
   // A new run over an existing checkpoint is refused without --force.
   const CommandResult again =

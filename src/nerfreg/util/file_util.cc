@@ -51,20 +51,27 @@ std::string TempPathFor(const std::string& path) {
       .string();
 }
 
-// Whether the process (or thread) `pid` started after `written` (the file's modification time):
-// then it is not the writer of that file but another that took its PID (PIDs and thread ids are
-// reused, under a parallel test run within seconds). /proc/PID/stat's start time is in clock ticks
-// since boot; the file's time is brought onto that clock through the clocks' current offset.
-// 50 ms of margin covers the ticks (10 ms) and the two clock reads. False where it cannot tell.
-bool StartedAfter(long pid, const struct timespec& written) {
+// Whether the process (or thread) `pid` cannot be the writer of a file last written at `written`
+// (its modification time), though kill(pid, 0) finds it:
+//  - it is a zombie (state Z): dead, its files closed, only not yet reaped; a killed writer whose
+//    parent is gone stays one where PID 1 does not reap (containers);
+//  - it started after `written`: another process that took the PID (PIDs and thread ids are
+//    reused, under a parallel test run within seconds). /proc/PID/stat's start time is in clock
+//    ticks since boot; the file's time is brought onto that clock through the clocks' current
+//    offset. 50 ms of margin covers the ticks (10 ms) and the two clock reads.
+// False where it cannot tell.
+bool NotTheWriter(long pid, const struct timespec& written) {
   std::ifstream stat_file("/proc/" + std::to_string(pid) + "/stat");
   std::string line;
   if (!std::getline(stat_file, line)) return false;
   const size_t close = line.rfind(')');  // the command name may hold spaces and ')'
   if (close == std::string::npos || close + 2 > line.size()) return false;
   std::istringstream fields(line.substr(close + 2));
+  std::string state;
+  if (!(fields >> state)) return false;  // field 3
+  if (state == "Z" || state == "X") return true;
   std::string field;
-  for (int k = 3; k < 22; ++k)  // fields 3..21, then the start time (field 22)
+  for (int k = 4; k < 22; ++k)  // fields 4..21, then the start time (field 22)
     if (!(fields >> field)) return false;
   unsigned long long start_ticks = 0;
   if (!(fields >> start_ticks)) return false;
@@ -80,7 +87,7 @@ bool StartedAfter(long pid, const struct timespec& written) {
 
 // Temporary files and folders of `path` left by a writer that was killed (SIGKILL cannot be
 // caught, so its own clean-up never ran): ".NAME.tmp.PID.N" whose PID is no longer a running
-// process, or is one that started after the file was written. Removed by the next write of the
+// process, or is a zombie or one that started after the file was written. Removed by the next write of the
 // same path, so a killed and resumed run ends with no leftovers.
 void RemoveStaleTempFiles(const std::string& path) {
   const fs::path p(path);
@@ -97,7 +104,7 @@ void RemoveStaleTempFiles(const std::string& path) {
     if (pid == ::getpid()) continue;
     const bool gone = ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
     struct stat info;
-    if (!gone && !(::lstat(entry.path().c_str(), &info) == 0 && StartedAfter(pid, info.st_mtim))) continue;
+    if (!gone && !(::lstat(entry.path().c_str(), &info) == 0 && NotTheWriter(pid, info.st_mtim))) continue;
     fs::remove_all(entry.path(), ec);
   }
 }

@@ -9,7 +9,9 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <thread>
 
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/test_util.h"
@@ -67,6 +69,30 @@ TEST(FileUtil, TempFilesOfAReusedPidAreStale) {
   WriteFileAtomic(dir.File("x.json"), "{}");
   EXPECT_TRUE(fs::exists(own));
   ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+}
+
+// A killed writer not yet reaped (a zombie: kill(pid, 0) still finds it) left its file.
+TEST(FileUtil, TempFilesOfAZombieAreStale) {
+  ScopedTempDir dir;
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) ::_exit(0);
+  // Not reaped until the end: wait for the kernel to make it a zombie.
+  const std::string stat_path = "/proc/" + std::to_string(child) + "/stat";
+  bool zombie = false;
+  for (int i = 0; i < 500 && !zombie; ++i) {
+    std::ifstream stat_file(stat_path);  // /proc files report size 0: read as a stream
+    std::string line;
+    zombie = std::getline(stat_file, line) && line.find(") Z ") != std::string::npos;
+    if (!zombie) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(zombie);
+  ASSERT_EQ(::kill(child, 0), 0);
+  const std::string left = dir.File(".x.json.tmp." + std::to_string(child) + ".0");
+  WriteFileAtomic(left, "partial");
+  WriteFileAtomic(dir.File("x.json"), "{}");
+  EXPECT_FALSE(std::filesystem::exists(left));
   ::waitpid(child, nullptr, 0);
 }
 
