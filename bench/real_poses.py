@@ -344,6 +344,39 @@ def prepare_spider(name, spec, work, nerfreg, views, scene=None, size="640x480")
     return info
 
 
+def exif_copy(info):
+    """The set's images as photos with an EXIF focal and no calibration file: JPEG (quality 95) with
+    Make / Model and FocalLengthIn35mmFilm, the calibrated focal in whole 35 mm-equivalent
+    millimetres as cameras write it (so the EXIF focal itself is off by the rounding). Poses are
+    compared by image name: `names` maps the copies' names back to the originals'."""
+    from PIL import Image
+    w, h = info["size"]
+    f = 0.5 * (info["intrinsics"]["fl_x"] + info["intrinsics"]["fl_y"])
+    f35 = int(round(f * 36.0 / max(w, h)))
+    d = os.path.join(os.path.dirname(info["images_dir"]), "images_exif")
+    os.makedirs(d, exist_ok=True)
+    names = {}
+    for n in sorted(os.listdir(info["images_dir"])):
+        jpg = os.path.splitext(n)[0] + ".jpg"
+        names[jpg] = n
+        if not os.path.exists(os.path.join(d, jpg)):
+            im = Image.open(os.path.join(info["images_dir"], n))
+            exif = Image.Exif()
+            exif[0x010F] = "nerfreg-bench"  # Make
+            exif[0x0110] = "exif-35mm"  # Model
+            exif.get_ifd(0x8769)[0xA405] = f35  # FocalLengthIn35mmFilm
+            im.save(os.path.join(d, jpg), quality=95, exif=exif)
+    out = dict(info, images_dir=d, exif_focal_35mm=f35, exif_focal_px=f35 / 36.0 * max(w, h))
+    return out, names
+
+
+def renamed(triple, names):
+    """A run on exif_copy's images with its poses under the originals' names."""
+    r, p, pts = triple
+    return r, {names.get(n, n): v for n, v in p.items()}, pts
+
+
+# ---------------------------------------------------------------- runs
 # ---------------------------------------------------------------- runs
 
 
@@ -683,6 +716,24 @@ def bench_set(info, args, python):
         add("COLMAP 3.8 uncal", run_colmap38(info, os.path.join(work, "colmap38_uncal"), False)[0][1])
     if ("colmap4" in methods and not calibrated) or "colmap4uncal" in methods:
         add("COLMAP 4 global uncal", run_colmap4(info, os.path.join(work, "colmap4_uncal"), False, python)[0][1])
+    # The same photos with an EXIF focal (35 mm equivalent) and no calibration file, every method
+    # reading it as its prior (issue 42: "uncalibrated, EXIF-only"); nerfreg every seed.
+    if calibrated:
+        ex, names = exif_copy(info)
+        res_exif = {"focal_35mm": ex["exif_focal_35mm"], "focal_px": ex["exif_focal_px"], "images_dir": ex["images_dir"]}
+        if "nerfreg" in methods:
+            add("nerfreg exif", renamed(run_nerfreg(ex, os.path.join(work, "nerfreg_exif"), args.nerfreg, None, False),
+                                        names))
+            for seed in seed_list:
+                r, p, _ = renamed(run_nerfreg(ex, os.path.join(work, "nerfreg_exif_seed%d" % seed), args.nerfreg, None,
+                                              False, seed), names)
+                seed_runs.setdefault("nerfreg exif", {})[seed] = (r, p)
+                log("%s nerfreg exif --seed %d: %s, %.1f s" % (name, seed, r["status"], r.get("wall_s", 0)))
+        if "colmap38" in methods:
+            add("COLMAP 3.8 exif", renamed(run_colmap38(ex, os.path.join(work, "colmap38_exif"), False)[0][1], names))
+        if "colmap4" in methods:
+            add("COLMAP 4 global exif", renamed(run_colmap4(ex, os.path.join(work, "colmap4_exif"), False, python)[0][1],
+                                                names))
     # A set without a calibration file: nerfreg given COLMAP 4's self-calibration of the same images
     # as one (a user's second run with the intrinsics of a first), every seed. On the cube this is
     # where planar pairs' essential matrices once put all cameras 7 deg off for some seeds.
@@ -704,6 +755,8 @@ def bench_set(info, args, python):
                                                                                                r.get("wall_s", 0)))
 
     res = {k: v for k, v in info.items() if k not in ("gt_matrices",)}
+    if calibrated:
+        res["exif"] = res_exif
     res["runs"] = runs
     res["poses"] = {k: poses_json(v) for k, v in poses.items()}
     # The references: the calibrated COLMAPs where there are intrinsics, else the uncalibrated ones.
@@ -791,7 +844,7 @@ def targets(res, calibrated, c38, c4, castle):
     # consensus: one of them failed (COLMAP 3.8 on Castle-simu came out 26.7 deg off the truth in
     # one run, 0.15 in another), and 2x their difference would pass anything.
     no_consensus = floor is not None and floor > NO_CONSENSUS_DEG
-    for k in (["nerfreg classical", "nerfreg auto"] if calibrated else []) + ["nerfreg uncal"]:
+    for k in (["nerfreg classical", "nerfreg auto"] if calibrated else []) + ["nerfreg uncal", "nerfreg exif"]:
         r = runs.get(k)
         if r is None:
             continue
@@ -813,6 +866,9 @@ def targets(res, calibrated, c38, c4, castle):
         if castle:
             m = pair(res, k, "truth").get("rot_deg_median")
             t["truth_0.1deg"] = {"pass": m is not None and m <= 0.1, "median_deg": m}
+        if calibrated and k in ("nerfreg uncal", "nerfreg exif"):  # self-calibrated: the focal within 1 %
+            e = r.get("focal_error_pct")
+            t["focal_1pct"] = {"pass": bool(e is not None and abs(e) <= 1.0), "error_pct": e}
         out[k] = t
     return out
 
@@ -842,7 +898,10 @@ def write_md(j, path):
              "the given intrinsics a prior that bundle adjustment refines (focal, distortion; principal point "
              "fixed); their time is that mapping alone. Uncalibrated runs get no intrinsics (COLMAP: `SIMPLE_RADIAL`, "
              "focal guessed at 1.2x the longer side and refined, COLMAP 4 after `calibrate_view_graph`; nerfreg: "
-             "no `--intrinsics`). Pairs are compared over the images both posed. Rotations: difference of "
+             "no `--intrinsics`). `exif` runs: the same images as JPEGs (quality 95) carrying the calibrated focal as "
+             "EXIF `FocalLengthIn35mmFilm` in whole millimetres (as cameras write it; the sets' `exif` entry in the "
+             "JSON gives it), no calibration file; each method takes it as its prior (COLMAP: `SIMPLE_RADIAL`, "
+             "refined). Pairs are compared over the images both posed. Rotations: difference of "
              "cam_from_world after the best rotation alignment (robust chordal mean, refit on the 80 % closest). "
              "Centres: after a Sim(3) by Umeyama on the camera centres (fit on all, refit on the 80 % closest), in "
              "% of the reference's widest baseline. `rot c`: the rotation difference after that centre-only Sim(3), "
@@ -919,11 +978,13 @@ def write_md(j, path):
             for block in s["seeds"]:
                 vals = [x["rot_deg_median"] for x in block["runs"] if x.get("rot_deg_median") is not None]
                 per = ", ".join("%d: %s%s" % (x["seed"], fmt(x.get("rot_deg_median")),
-                                              " (%.0f)" % np.mean(x["focal_px"]) if block["run"] == "nerfreg uncal"
-                                              and x.get("focal_px") else "") for x in block["runs"])
+                                              " (%.0f)" % np.mean(x["focal_px"])
+                                              if block["run"] in ("nerfreg uncal", "nerfreg exif") and x.get("focal_px")
+                                              else "") for x in block["runs"])
                 if block["reference"] == "truth":
-                    c38k, c4k = (("COLMAP 3.8 uncal", "COLMAP 4 global uncal") if block["run"] == "nerfreg uncal"
-                                 else ("COLMAP 3.8", "COLMAP 4 global"))
+                    c38k, c4k = {"nerfreg uncal": ("COLMAP 3.8 uncal", "COLMAP 4 global uncal"),
+                                 "nerfreg exif": ("COLMAP 3.8 exif", "COLMAP 4 global exif")}.get(
+                                     block["run"], ("COLMAP 3.8", "COLMAP 4 global"))
                     refs = " / ".join(fmt(pair(s, c, "truth").get("rot_deg_median")) for c in (c38k, c4k))
                 else:
                     refs = "-"
@@ -937,8 +998,8 @@ def write_md(j, path):
              "COLMAPs (%s) <= max(0.2 deg, 2x their own median difference); Castle-simu: median rotation error "
              "<= 0.1 deg against the truth." % "calibrated where the set has intrinsics")
     L.append("")
-    L.append("| set | run | covers COLMAP 4 | rotation agreement | Castle-simu vs truth |")
-    L.append("|---|---|---|---|---|")
+    L.append("| set | run | covers COLMAP 4 | rotation agreement | Castle-simu vs truth | focal within 1 % |")
+    L.append("|---|---|---|---|---|---|")
 
     def pf(v):
         return "-" if v is None else ("pass" if v else "FAIL")
@@ -956,8 +1017,10 @@ def write_md(j, path):
                 rot = pf(ra["pass"]) + (" (%s <= %s)" % (fmt(ra.get("worst_median_deg")), fmt(ra.get("threshold_deg")))
                                         if ra.get("threshold_deg") is not None else "")
             tr = t.get("truth_0.1deg")
-            L.append("| %s | %s | %s | %s | %s |" % (s["name"], k, cov, rot,
-                                                    (pf(tr["pass"]) + " (%s deg)" % fmt(tr["median_deg"])) if tr else "-"))
+            fo = t.get("focal_1pct")
+            L.append("| %s | %s | %s | %s | %s | %s |" % (
+                s["name"], k, cov, rot, (pf(tr["pass"]) + " (%s deg)" % fmt(tr["median_deg"])) if tr else "-",
+                (pf(fo["pass"]) + " (%s %%)" % fmt(fo["error_pct"], "%+.2f")) if fo else "-"))
     L.append("")
     L.append("## Data notes")
     L.append("")

@@ -31,6 +31,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// With EXIF focal lengths, the standard deviation (of the focal) beyond which the photos count as
+// leaving the focal free even where the two starts agree: far beyond an EXIF focal's error, so
+// below it the photos' own answer is kept (spider24's 1.0 % refined a prior 4 % off to within 1 %).
+constexpr double kHoldExifFocalAboveRelativeStddev = 0.05;
+
 // PNG / JPEG / PGM / PPM files of a folder, sorted by name.
 std::vector<std::string> ListImages(const std::string& dir) {
   if (!DirExists(dir)) ThrowInputError(dir, "", "a folder of images");
@@ -83,18 +88,21 @@ std::vector<Camera> CamerasFromTransforms(const std::string& path, const std::st
 // Cameras of photos without a calibration file: a focal prior per image from its EXIF (or its size,
 // util/exif.h), principal point at the centre, no distortion; `group` gets one camera group per
 // make / model / size, whose intrinsics the SfM estimates and refines together. size_guess: whether
-// every prior came from the image size (no EXIF focal length at all).
+// every prior came from the image size (no EXIF focal length at all); all_exif: whether every one
+// came from EXIF.
 std::vector<Camera> PriorCameras(const std::vector<std::string>& names, const std::vector<PackedImage>& images,
                                  const std::vector<ExifInfo>& exif, const std::string& dir, std::vector<int>* group,
-                                 bool* size_guess) {
+                                 bool* size_guess, bool* all_exif) {
   std::vector<Camera> cameras;
   std::map<std::string, int> group_of;
   group->clear();
   *size_guess = true;
+  *all_exif = true;
   for (size_t k = 0; k < names.size(); ++k) {
     const PackedImage& im = images[k];
     const FocalPrior prior = FocalPriorFromExif(exif[k], im.width, im.height, JoinPaths(dir, names[k]));
     if (prior.source != "image-size") *size_guess = false;
+    if (prior.source == "image-size") *all_exif = false;
     const std::string maker = exif[k].make + (exif[k].model.empty() ? "" : " " + exif[k].model);
     const std::string key =
         (maker.empty() ? "unknown camera" : maker) + " " + std::to_string(im.width) + "x" + std::to_string(im.height);
@@ -172,6 +180,7 @@ struct GroupCalibration {
   double focal_stddev_px = 0;  // 0 when the adjustment did not state it
   bool stddev_known = false;
   bool determined = false;
+  bool held = false;  // the focal is the (EXIF) prior, held: the photos left it free
   double k1 = 0, k2 = 0;
 };
 
@@ -189,7 +198,8 @@ std::vector<GroupCalibration> CalibrationByGroup(const std::vector<int>& camera_
     g.focal_px = c.fx;
     g.stddev_known = k < sds.size();
     g.focal_stddev_px = g.stddev_known ? sds[k] : 0.0;
-    g.determined = g.stddev_known && FocalDetermined(c.fx, g.focal_stddev_px, max_relative_stddev);
+    g.held = result.sfm.focal_prior_held;
+    g.determined = !g.held && g.stddev_known && FocalDetermined(c.fx, g.focal_stddev_px, max_relative_stddev);
     g.k1 = c.k1;
     g.k2 = c.k2;
     groups.push_back(g);
@@ -267,7 +277,8 @@ PosedImages MakePosedImages(const ImageFolderPosesOptions& o, const std::vector<
       groups.push_back({{"first_image", names[g.first_image]},
                         {"focal_px", g.focal_px},
                         {"focal_stddev_px", std::isfinite(sd) ? nlohmann::json(sd) : nlohmann::json(nullptr)},
-                        {"determined", g.determined}});
+                        {"determined", g.determined},
+                        {"held_at_prior", g.held}});
     }
     posed.info["self_calibration"] = groups;
   }
@@ -333,11 +344,19 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
     for (const PackedImage& im : images)
       cameras.push_back(Camera::Pinhole(im.width, im.height, o.focal, o.focal, 0.5 * im.width, 0.5 * im.height));
   } else {
-    bool size_guess = false;
-    cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group, &size_guess);
+    bool size_guess = false, all_exif = false;
+    cameras = PriorCameras(names, images, exif, o.images_dir, &o.poses.camera_group, &size_guess, &all_exif);
     // A focal length guessed from the image size can start the solve in a wrong minimum: solved
     // again from 1.4x it (SfmOptions::focal_starts).
     if (size_guess) o.poses.sfm.focal_starts = {1.0, 1.4};
+    // Every photo's focal from EXIF: solved from it and from 1.2x it; where the photos leave the
+    // focal free (the two end apart with as much support), EXIF's focal is held rather than the
+    // start choosing one (SfmOptions::hold_focal_prior_above).
+    if (all_exif) {
+      o.poses.sfm.focal_starts = {1.0, 1.2};
+      o.poses.sfm.focal_start_below = 0;
+      o.poses.sfm.hold_focal_prior_above = kHoldExifFocalAboveRelativeStddev;
+    }
   }
   if (!calibrated || o.refine_intrinsics) {
     o.poses.sfm.view_graph.estimate_focal = !calibrated;
@@ -354,6 +373,13 @@ ImageFolderPosesResult PoseImageFolder(ImageFolderPosesOptions o) {
   if (!calibrated || o.refine_intrinsics) {
     for (const GroupCalibration& g : calibration) {
       const std::string& name = names[g.first_image];
+      if (g.held) {
+        LOG_WARN(
+            "{} and its camera group: the photos leave the focal length free (refined it would be uncertain by "
+            "+- {:.1f} px, {:.1f} %): EXIF's {:.1f} px is kept, held; k1 {:.4f}, k2 {:.4f}",
+            name, g.focal_stddev_px, 100.0 * g.focal_stddev_px / g.focal_px, g.focal_px, g.k1, g.k2);
+        continue;
+      }
       LOG_INFO("{} and its camera group: focal {:.1f} +- {:.1f} px (prior {:.1f}), k1 {:.4f}, k2 {:.4f}", name,
                g.focal_px, g.focal_stddev_px, g.prior_focal_px, g.k1, g.k2);
       if (g.stddev_known && !g.determined) {

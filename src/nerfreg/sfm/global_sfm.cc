@@ -42,7 +42,9 @@ void SfmOptions::Check() const {
   if (round_reprojection_error_px.empty() || !(min_triangulation_angle_deg >= 0) || !(collapse_fraction >= 0) ||
       !(reverify_matches_px >= 0) ||
       !(max_edge_direction_residual_deg >= 0 && max_edge_direction_residual_deg <= 180) || collapse_retries < 0 ||
-      !(focal_start_below >= 0 && std::isfinite(focal_start_below)) || subset_cells < 0 || subset_per_cell < 1) {
+      !(focal_start_below >= 0 && std::isfinite(focal_start_below)) ||
+      !(hold_focal_prior_above >= 0 && std::isfinite(hold_focal_prior_above)) || subset_cells < 0 ||
+      subset_per_cell < 1) {
     throw std::invalid_argument("SfmOptions: out of range");
   }
   for (double t : round_reprojection_error_px)
@@ -577,9 +579,51 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
   }
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
+  const auto log_starts = [&] {
+    for (size_t s = 0; s < starts.size(); ++s) {
+      LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
+               cameras[0].fx * starts[s], starts[s], results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx,
+               results[s].num_points, results[s].num_observations);
+    }
+  };
+  const bool disagree = FocalStartsDisagree(results);
+  if (options.hold_focal_prior_above > 0) {
+    const int best = MostObservations(results);
+    WidenFocalStddevBySpread(best, starts, &results);
+    // The photos leave the focal free where the starts end apart with as much support (the start
+    // decides), or where even the widened standard deviation is beyond the bound (pure translation).
+    bool free_focal = disagree;
+    for (size_t k = 0; k < results[best].focal_stddev_px.size(); ++k) {
+      const double sd = results[best].focal_stddev_px[k];
+      free_focal |= !(sd <= options.hold_focal_prior_above * results[best].cameras[k].fx);
+    }
+    log_starts();
+    if (!free_focal) {
+      LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", starts[best], starts.size(),
+               timer.Seconds());
+      return std::move(results[best]);
+    }
+    SfmOptions held = options;
+    held.refine_focal = false;
+    held.focal_starts.clear();
+    held.hold_focal_prior_above = 0;
+    ViewGraph measured = graph;
+    if (measured.cameras.size() == cameras.size()) MeasureEdgesWithIntrinsics(cameras, &measured);
+    SfmResult result = SolveFromCameras(measured, cameras, held, camera_group);
+    result.focal_stddev_px = results[best].focal_stddev_px;
+    result.focal_prior_held = true;
+    LOG_INFO(
+        "sfm: the photos leave the focal free ({}; start x{:.2f}: {:.1f} +- {:.1f} px): solved with the prior focal "
+        "held ({:.1f} px), {} points, {} observations; {} solves in {:.2f} s",
+        disagree ? "the starts end apart with as much support" : "its standard deviation is beyond the bound",
+        starts[best], results[best].cameras[0].fx,
+        results[best].focal_stddev_px.empty() ? 0.0 : results[best].focal_stddev_px[0], cameras[0].fx,
+        result.num_points, result.num_observations, starts.size() + 1, timer.Seconds());
+    return result;
+  }
   // Where the starts end apart with as much support the photos leave the focal free: one more start,
   // below the prior, samples the other side of the valley (and a wide-angle lens without EXIF).
-  if (options.focal_start_below > 0 && FocalStartsDisagree(results)) {
+  if (options.focal_start_below > 0 && disagree) {
     starts.push_back(options.focal_start_below);
     results.emplace_back();
     errors.emplace_back();
@@ -587,11 +631,7 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     if (errors.back()) std::rethrow_exception(errors.back());
   }
   const int best = MostObservations(results);
-  for (size_t s = 0; s < starts.size(); ++s) {
-    LOG_INFO("sfm: self-calibration from focal {:.1f} px (x{:.2f}): {:.1f} px, {} points, {} observations",
-             cameras[0].fx * starts[s], starts[s], results[s].cameras.empty() ? 0.0 : results[s].cameras[0].fx,
-             results[s].num_points, results[s].num_observations);
-  }
+  log_starts();
   LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", starts[best], starts.size(),
            timer.Seconds());
   WidenFocalStddevBySpread(best, starts, &results);

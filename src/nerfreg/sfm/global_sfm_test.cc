@@ -428,6 +428,43 @@ TEST(GlobalSfm, FocalStartsEndingApartWithAsMuchSupportWidenTheFocalsStandardDev
   EXPECT_FALSE(FocalStartsDisagree({result(740, 5000, 5)}));
 }
 
+// SfmOptions::hold_focal_prior_above (an EXIF focal): where the photos determine the focal,
+// a prior 5 % off is refined away; where the camera only translates, which leaves the focal free,
+// the prior is held and the solution says so.
+TEST(GlobalSfm, AFocalPriorIsHeldOnlyWhereThePhotosLeaveTheFocalFree) {
+  SfmOptions o;
+  o.refine_focal = true;
+  o.focal_starts = {1.0, 1.2};
+  o.focal_start_below = 0;
+  o.hold_focal_prior_above = 0.05;
+  const auto prior_of = [](const SyntheticScene& s, double factor) {
+    std::vector<Camera> prior = s.cameras;
+    for (Camera& c : prior) c.fx *= factor, c.fy *= factor;
+    return prior;
+  };
+  SyntheticSceneOptions so;
+  so.num_cameras = 10;
+  const SyntheticScene determined = MakeSyntheticScene(so);
+  const SfmResult r = RunGlobalSfm(determined.graph, prior_of(determined, 1.05), o);
+  std::printf("focal prior 5 %% off, cameras turned: %.2f px (truth %.2f), held %d, stddev %.2f\n", r.cameras[0].fx,
+              determined.cameras[0].fx, r.focal_prior_held, r.focal_stddev_px.empty() ? -1.0 : r.focal_stddev_px[0]);
+  EXPECT_FALSE(r.focal_prior_held);
+  EXPECT_NEAR(r.cameras[0].fx, determined.cameras[0].fx, 0.01 * determined.cameras[0].fx);
+  so.pure_translation = true;
+  const SyntheticScene free = MakeSyntheticScene(so);
+  const std::vector<Camera> prior = prior_of(free, 1.05);
+  const SfmResult h = RunGlobalSfm(free.graph, prior, o);
+  std::printf("focal prior 5 %% off, cameras translated: %.2f px (prior %.2f), held %d, stddev %.2f\n", h.cameras[0].fx,
+              prior[0].fx, h.focal_prior_held, h.focal_stddev_px.empty() ? -1.0 : h.focal_stddev_px[0]);
+  EXPECT_TRUE(h.focal_prior_held);
+  for (const Camera& c : h.cameras) EXPECT_EQ(c.fx, prior[0].fx);
+  for (bool p : h.posed) EXPECT_TRUE(p);
+  ASSERT_EQ(h.focal_stddev_px.size(), h.cameras.size());
+  EXPECT_GT(h.focal_stddev_px[0], 0.01 * prior[0].fx);  // reported as not determined
+  o.hold_focal_prior_above = 0;
+  EXPECT_FALSE(RunGlobalSfm(free.graph, prior, o).focal_prior_held);
+}
+
 TEST(GlobalSfm, FewerThanThreeImagesOrASizeUnlikeItsCameraAreInputErrorsNamingTheFile) {
   const Camera cam = Camera::Pinhole(32, 24, 30, 30, 16, 12);
   try {

@@ -22,6 +22,9 @@ struct SyntheticSceneOptions {
   double outlier_edge_fraction = 0.0;   // edges whose relative pose is replaced by a random one
   double outlier_match_fraction = 0.0;  // extra wrong matches per edge, as a fraction of its inliers
   unsigned seed = 1;
+  // Every camera looking along +y (one rotation), centres within 12 deg of the -y axis: the camera
+  // only translates, which leaves the focal length free.
+  bool pure_translation = false;
 };
 
 struct SyntheticScene {
@@ -67,12 +70,13 @@ inline SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& o) {
   const Camera cam = Camera::Pinhole(320, 240, 280, 280, 160, 120);
   for (int c = 0; c < o.num_cameras; ++c) {
     // Centres on a cap of radius 6 within 35 degrees of the -y axis, looking near the origin.
-    const double az = u(rng) * 2 * M_PI, el = u(rng) * 35 * M_PI / 180;
+    const double az = u(rng) * 2 * M_PI, el = u(rng) * (o.pure_translation ? 12 : 35) * M_PI / 180;
     const Eigen::Vector3d center =
         6.0 * Eigen::Vector3d(std::sin(el) * std::cos(az), -std::cos(el), std::sin(el) * std::sin(az));
     const Eigen::Vector3d target(u(rng) * 0.6 - 0.3, u(rng) * 0.6 - 0.3, u(rng) * 0.6 - 0.3);
     s.cameras.push_back(cam);
-    s.cam_from_world.push_back(SyntheticLookAt(center, target));
+    s.cam_from_world.push_back(
+        SyntheticLookAt(center, o.pure_translation ? Eigen::Vector3d(center + Eigen::Vector3d::UnitY()) : target));
   }
   const int n = o.num_cameras;
   s.graph.names.resize(n);
