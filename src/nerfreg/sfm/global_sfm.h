@@ -117,9 +117,9 @@ struct SfmOptions {
   // once more with every focal held at its prior (focal_starts' first multiple should be 1), the
   // distortion still refined, and that solution is returned (SfmResult::focal_prior_held);
   // focal_start_below is then not solved. 0: never. Measured with an EXIF focal (35 mm equivalent,
-  // docs/poses_and_views.md): on Castle-simu (EXIF 0.95 % below the truth) the starts disagree for 3
-  // seeds of 4 and the focal refined 1.2-2.6 % above; spider24's starts agree (1.0 %), so a prior
-  // 4 % off is still refined to within 1 %.
+  // docs/poses_and_views.md): on Castle-simu (EXIF 0.95 % below the truth) the EXIF focal is held
+  // for 4 seeds of 5, where refined it ended 1.2-2.6 % above; spider24's starts agree (1.0 %), so a
+  // prior 4 % off is still refined to within 1 %.
   double hold_focal_prior_above = 0;
   // PoseImages: each track's keypoints aligned with one another on the images before the solve
   // (RefineTrackKeypoints, on the tracks of every edge).
@@ -208,6 +208,16 @@ SfmResult PoseImages(const std::vector<PackedImage>& images, const std::vector<C
 // calls it a collapse where the two images' own matches show parallax.
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction = 0.01);
+
+// The median angle (degrees) between the two rays of an edge's inlier matches once both are
+// rotated into the world frame by cam_from_world's rotations: ~0 for photos taken from one spot (a
+// pure rotation), larger the more the two views' centres differ relative to the scene's depth.
+double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world);
+
+// Parallax above which two images cannot share a camera centre (a collapse, where their solved
+// centres coincide).
+constexpr double kCollapseParallaxDeg = 1.0;
 
 // How far the solved camera centres contradict the view graph's own two-view geometry: per edge
 // between posed images, the angle between the edge's translation direction (from its essential
