@@ -419,6 +419,31 @@ TEST(DbarfCli, AutoDropsTheViewGraphsEdgesWhereTheyCollapseTheNetworksCameras) {
   EXPECT_LT(MedianRotationError(dir.File("auto"), data), 3.0);
 }
 
+// Method network on a low-texture set (seed 7008) where it puts 4 camera centres onto others' whose
+// SIFT matches show parallax (the photos were not taken from one spot): those cameras are a
+// collapsed solution, so they are not posed, each with the reason, and never written as posed
+// (issue 42). Centres that coincide where no matches tell are posed, low-confidence.
+TEST(DbarfCli, NetworkCamerasCollapsedOntoOthersDespiteParallaxAreNotPosed) {
+  ScopedTempDir dir;
+  const std::string data = RenderHardSet(dir, 7008, "low-texture");
+  const CommandResult r = RunNerfreg("dbarf poses " + data + "/images --intrinsics " + data +
+                                     "/transforms.json --method network --out " + dir.File("net"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json posed = ReadJsonFile(dir.File("net") + "/transforms.json");
+  const Json& not_posed = posed["not_posed"];
+  ASSERT_GE(not_posed.size(), 1u) << r.output;
+  EXPECT_EQ(posed["frames"].size() + not_posed.size(), 10u);
+  for (const Json& name : not_posed) {
+    const std::string line = name.get<std::string>() + ": not posed (the network put its camera centre onto ";
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << "\n" << r.output;
+  }
+  EXPECT_NE(r.output.find("although their matches show parallax (a collapsed solution)"), std::string::npos);
+  for (const Json& f : posed["frames"]) {
+    const std::string name = std::filesystem::path(f["file_path"].get<std::string>()).filename().string();
+    for (const Json& n : not_posed) EXPECT_NE(name, n.get<std::string>());
+  }
+}
+
 // Images no method can pose with confidence (a flat grey one, two identical, one of another scene
 // drawn upside down): each is posed or not, but never a confident pose; the warning names each
 // with its confidence and the reason. A weights file of another kind is a named error.

@@ -5,12 +5,14 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 
 #include "nerfreg/dbarf/dbarf_model.h"
 #include "nerfreg/dbarf_data/dbarf_scene.h"
 #include "nerfreg/dbarf_sfm/scene_cameras.h"
+#include "nerfreg/sfm/global_sfm.h"
 #include "nerfreg/sfm/sfm_quality.h"
 #include "nerfreg/util/error.h"
 #include "nerfreg/util/logging.h"
@@ -874,8 +876,21 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
   const bool matched = options.method != "network" || options.network.match_images;
   const std::vector<std::string> problems = ImageInputProblems(images, result.sfm.view_graph, matched, names);
   // The SfM checks its own cameras for a collapse (with the matches' parallax, global_sfm.h);
-  // here, centres the network placed onto another's.
+  // here, centres the network placed onto another's: collapsed where the two images' own matches
+  // show parallax at the network's rotations (not posed), else only doubted (photos taken from
+  // almost one spot; no matches to tell).
   const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);
+  std::map<std::pair<int, int>, const ViewGraphEdge*> edge_of;
+  for (const ViewGraphEdge& e : result.sfm.view_graph.edges) edge_of[{std::min(e.i, e.j), std::max(e.i, e.j)}] = &e;
+  std::vector<bool> collapsed(n, false);  // decided before any camera is taken out
+  for (int k = 0; k < n; ++k) {
+    const int c = coincident[k];
+    if (!result.posed[k] || c < 0 || (result.posed_by[k] != "network" && result.posed_by[c] != "network")) continue;
+    const auto it = edge_of.find({std::min(k, c), std::max(k, c)});
+    collapsed[k] = it != edge_of.end() && result.sfm.view_graph.keypoints.size() == static_cast<size_t>(n) &&
+                   MedianParallaxDeg(*it->second, result.sfm.view_graph.keypoints, result.cameras,
+                                     result.cam_from_world) > kCollapseParallaxDeg;
+  }
   result.not_posed_reason.assign(n, "");
   for (int k = 0; k < n; ++k) {
     if (!result.posed[k] && k < static_cast<int>(result.sfm.not_posed_reason.size()))
@@ -885,7 +900,18 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
     c.problem = problems[k];
     const bool by_network = result.posed_by[k] == "network";
     if (c.problem.empty() && coincident[k] >= 0 && (by_network || result.posed_by[coincident[k]] == "network")) {
-      c.problem = "its camera centre coincides with " + names[coincident[k]] + "'s (a collapsed solution)";
+      if (collapsed[k]) {
+        // Not an answer: left out with the reason (issue 42: a pose the program calls collapsed is
+        // never written as posed).
+        result.posed[k] = false;
+        result.posed_by[k] = "";
+        result.cam_from_world[k] = Rigid3d();
+        result.not_posed_reason[k] = "the network put its camera centre onto " + names[coincident[k]] +
+                                     "'s although their matches show parallax (a collapsed solution)";
+        continue;
+      }
+      c.problem = "its camera centre coincides with " + names[coincident[k]] +
+                  "'s (their matches do not tell whether the photos were taken from one spot)";
     }
     c.low = !c.problem.empty() || Doubted(result, k, options);
     // A camera the network placed beside the SfM's that its own measurements contradict is not an

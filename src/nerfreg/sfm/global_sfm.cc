@@ -138,24 +138,6 @@ std::vector<int> DefaultCameraGroups(const std::vector<Camera>& cameras) {
   return same;
 }
 
-// The median angle (degrees) between the two rays of an edge's inlier matches once both are
-// rotated into the world frame: ~0 for photos taken from one spot (a pure rotation), larger the
-// more the two views' centres differ relative to the scene's depth.
-double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
-                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
-  std::vector<double> angles;
-  for (const auto& [a, b] : edge.inlier_matches) {
-    const Eigen::Vector3d ra =
-        cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
-    const Eigen::Vector3d rb =
-        cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
-    angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
-  }
-  if (angles.empty()) return 0;
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
-  return angles[angles.size() / 2];
-}
-
 // The edge's inlier matches whose Sampson distance to the epipolar geometry of the two posed
 // cameras is below max_px (pixels, at image j's focal length); none when the two centres coincide.
 std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
@@ -194,8 +176,6 @@ ViewGraph PoseVerifiedGraph(const ViewGraph& graph, const std::vector<Camera>& c
   return verified;
 }
 
-// Parallax above which two images cannot share a camera centre.
-constexpr double kCollapseParallaxDeg = 1.0;
 // Centres whose rms distance from their line is below this fraction of their spread along it are
 // said to lie on it (in the report of a contradicted solution).
 constexpr double kOnLineFraction = 0.05;
@@ -524,6 +504,21 @@ int MostObservations(const std::vector<SfmResult>& results) {
 }
 
 }  // namespace
+
+double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
+  std::vector<double> angles;
+  for (const auto& [a, b] : edge.inlier_matches) {
+    const Eigen::Vector3d ra =
+        cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    const Eigen::Vector3d rb =
+        cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
+  }
+  if (angles.empty()) return 0;
+  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+  return angles[angles.size() / 2];
+}
 
 bool FocalStartsDisagree(const std::vector<SfmResult>& results) {
   if (results.empty()) return false;
