@@ -247,8 +247,8 @@ class BlockRegistration {
     // With a free scale, the fields are aligned again at the turned pose (scale free) before the
     // polish holds the scale: the one it had was fitted at the pose the turn replaced. On
     // bench/registration_sim3.sh's trained blocks of objects 6009 and 6010, where turns replaced a
-    // pose 90 deg off, the scale errors -1.76, -2.79 and -1.94 % became -0.42, -0.36 and -1.41 % (docs/registration.md,
-    // section 7).
+    // pose 90 deg off, the scale errors -1.76, -2.79 and -1.94 % became -0.42, -0.36 and -1.41 %
+    // (docs/registration.md, section 7).
     if (o_.scale == ScaleMode::kFree && o_.refine == RegistrationRefinement::kField) {
       const Json before_turn = c.field;
       RefineOnFields(pair_, o_, &c);
