@@ -146,14 +146,21 @@ TEST(DbarfCli, TooFewImagesIsAOneLineErrorNamingTheFolder) {
   EXPECT_FALSE(std::filesystem::exists(dir.File("o")));
 }
 
+// Four 128 x 96 forward-facing views of procedural scene 2 in DIR/scene (a motion that pins the
+// focal length down poorly).
+std::string RenderFourViews(const ScopedTempDir& dir) {
+  const std::string data = dir.File("scene");
+  const CommandResult r =
+      RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return data;
+}
+
 // Without intrinsics the images are self-calibrated (the focal length written with the poses); an
 // image whose size is not its camera's is a one-line error naming it, exit code 2, no output left.
 TEST(DbarfCli, MissingIntrinsicsSelfCalibrateAndAnImageOfAnotherSizeIsAOneLineError) {
   ScopedTempDir dir;
-  const std::string data = dir.File("scene");
-  ASSERT_EQ(
-      RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data).exit_code,
-      0);
+  const std::string data = RenderFourViews(dir);
   CommandResult r = RunNerfreg("dbarf poses " + data + "/images --quiet --out " + dir.File("o"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json posed = ReadJsonFile(dir.File("o") + "/transforms.json");
@@ -192,10 +199,7 @@ TEST(DbarfCli, MissingIntrinsicsSelfCalibrateAndAnImageOfAnotherSizeIsAOneLineEr
 // is kept, held, and the output says so (SfmOptions::hold_focal_prior_above).
 TEST(DbarfCli, AnExifFocalIsHeldWhereThePhotosLeaveTheFocalFree) {
   ScopedTempDir dir;
-  const std::string data = dir.File("scene");
-  ASSERT_EQ(
-      RunNerfreg("render --procedural 2 --trajectory forward --views 4 --test-every 4 --quiet --out " + data).exit_code,
-      0);
+  const std::string data = RenderFourViews(dir);
   const double truth = ReadJsonFile(data + "/transforms.json")["fl_x"].get<double>();
   const std::string photos = dir.File("photos");
   std::filesystem::create_directories(photos);

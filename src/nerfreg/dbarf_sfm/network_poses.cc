@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
 
@@ -880,17 +879,9 @@ ImagePosesResult EstimatePoses(const std::vector<ImageT>& images, const std::vec
   // show parallax at the network's rotations (not posed), else only doubted (photos taken from
   // almost one spot; no matches to tell).
   const std::vector<int> coincident = CoincidentCentres(result.cam_from_world, result.posed);
-  std::map<std::pair<int, int>, const ViewGraphEdge*> edge_of;
-  for (const ViewGraphEdge& e : result.sfm.view_graph.edges) edge_of[{std::min(e.i, e.j), std::max(e.i, e.j)}] = &e;
-  std::vector<bool> collapsed(n, false);  // decided before any camera is taken out
-  for (int k = 0; k < n; ++k) {
-    const int c = coincident[k];
-    if (!result.posed[k] || c < 0 || (result.posed_by[k] != "network" && result.posed_by[c] != "network")) continue;
-    const auto it = edge_of.find({std::min(k, c), std::max(k, c)});
-    collapsed[k] = it != edge_of.end() && result.sfm.view_graph.keypoints.size() == static_cast<size_t>(n) &&
-                   MedianParallaxDeg(*it->second, result.sfm.view_graph.keypoints, result.cameras,
-                                     result.cam_from_world) > kCollapseParallaxDeg;
-  }
+  // Decided before any camera is taken out.
+  const std::vector<bool> collapsed =
+      CollapsedCentres(result.sfm.view_graph, result.cameras, result.cam_from_world, coincident);
   result.not_posed_reason.assign(n, "");
   for (int k = 0; k < n; ++k) {
     if (!result.posed[k] && k < static_cast<int>(result.sfm.not_posed_reason.size()))

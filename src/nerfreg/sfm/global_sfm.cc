@@ -138,6 +138,27 @@ std::vector<int> DefaultCameraGroups(const std::vector<Camera>& cameras) {
   return same;
 }
 
+// The median angle (degrees) between the two rays of an edge's inlier matches once both are
+// rotated into the world frame: ~0 for photos taken from one spot (a pure rotation), larger the
+// more the two views' centres differ relative to the scene's depth.
+double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
+                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
+  std::vector<double> angles;
+  for (const auto& [a, b] : edge.inlier_matches) {
+    const Eigen::Vector3d ra =
+        cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
+    const Eigen::Vector3d rb =
+        cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
+    angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
+  }
+  if (angles.empty()) return 0;
+  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+  return angles[angles.size() / 2];
+}
+
+// Parallax above which two images cannot share a camera centre.
+constexpr double kCollapseParallaxDeg = 1.0;
+
 // The edge's inlier matches whose Sampson distance to the epipolar geometry of the two posed
 // cameras is below max_px (pixels, at image j's focal length); none when the two centres coincide.
 std::vector<std::pair<int, int>> MatchesAgreeingWithPoses(const ViewGraphEdge& edge,
@@ -352,14 +373,11 @@ SfmResult SolveFromCameras(const ViewGraph& graph, const std::vector<Camera>& ca
     int num_collapsed = 0;
     if (options.collapse_fraction > 0) {
       const std::vector<int> coincident = CoincidentCentres(s.cam_from_world, s.posed, options.collapse_fraction);
+      const std::vector<bool> collapsed = CollapsedCentres(graph, s.cameras, s.cam_from_world, coincident);
       for (int k = 0; k < n; ++k) {
-        if (coincident[k] < 0) continue;
-        const ViewGraphEdge* edge = graph.FindEdge(k, coincident[k]);
-        if (edge != nullptr &&
-            MedianParallaxDeg(*edge, graph.keypoints, s.cameras, s.cam_from_world) > kCollapseParallaxDeg) {
-          s.collapsed_with[k] = coincident[k];
-          ++num_collapsed;
-        }
+        if (!collapsed[k]) continue;
+        s.collapsed_with[k] = coincident[k];
+        ++num_collapsed;
       }
     }
     solution = std::move(s);
@@ -503,21 +521,30 @@ int MostObservations(const std::vector<SfmResult>& results) {
   return best;
 }
 
+// Whether the photos leave the focal free (SfmOptions::hold_focal_prior_above): the starts end apart
+// with as much support (`disagree`: the start decides), or the kept start's standard deviation is
+// above `bound` of its focal for some camera (pure translation). Where the starts agree their spread
+// is below the standard deviation, so widening it by the spread would change nothing here.
+bool FocalLeftFree(const std::vector<SfmResult>& results, bool disagree, double bound) {
+  const SfmResult& kept = results[MostObservations(results)];
+  bool free_focal = disagree;
+  for (size_t k = 0; k < kept.focal_stddev_px.size(); ++k)
+    free_focal |= !(kept.focal_stddev_px[k] <= bound * kept.cameras[k].fx);
+  return free_focal;
+}
+
 }  // namespace
 
-double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
-                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world) {
-  std::vector<double> angles;
-  for (const auto& [a, b] : edge.inlier_matches) {
-    const Eigen::Vector3d ra =
-        cam_from_world[edge.i].rotation.inverse() * cameras[edge.i].CamFromImg(keypoints[edge.i][a]);
-    const Eigen::Vector3d rb =
-        cam_from_world[edge.j].rotation.inverse() * cameras[edge.j].CamFromImg(keypoints[edge.j][b]);
-    angles.push_back(std::atan2(ra.cross(rb).norm(), ra.dot(rb)) * 180 / M_PI);
+std::vector<bool> CollapsedCentres(const ViewGraph& graph, const std::vector<Camera>& cameras,
+                                   const std::vector<Rigid3d>& cam_from_world, const std::vector<int>& coincident) {
+  std::vector<bool> collapsed(coincident.size(), false);
+  for (size_t k = 0; k < coincident.size(); ++k) {
+    if (coincident[k] < 0) continue;
+    const ViewGraphEdge* edge = graph.FindEdge(static_cast<int>(k), coincident[k]);
+    collapsed[k] =
+        edge != nullptr && MedianParallaxDeg(*edge, graph.keypoints, cameras, cam_from_world) > kCollapseParallaxDeg;
   }
-  if (angles.empty()) return 0;
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
-  return angles[angles.size() / 2];
+  return collapsed;
 }
 
 bool FocalStartsDisagree(const std::vector<SfmResult>& results) {
@@ -582,22 +609,10 @@ SfmResult RunGlobalSfm(const ViewGraph& graph, const std::vector<Camera>& camera
     }
   };
   const bool disagree = FocalStartsDisagree(results);
-  if (options.hold_focal_prior_above > 0) {
+  if (options.hold_focal_prior_above > 0 && FocalLeftFree(results, disagree, options.hold_focal_prior_above)) {
     const int best = MostObservations(results);
-    WidenFocalStddevBySpread(best, starts, &results);
-    // The photos leave the focal free where the starts end apart with as much support (the start
-    // decides), or where even the widened standard deviation is beyond the bound (pure translation).
-    bool free_focal = disagree;
-    for (size_t k = 0; k < results[best].focal_stddev_px.size(); ++k) {
-      const double sd = results[best].focal_stddev_px[k];
-      free_focal |= !(sd <= options.hold_focal_prior_above * results[best].cameras[k].fx);
-    }
     log_starts();
-    if (!free_focal) {
-      LOG_INFO("sfm: kept the start x{:.2f} (most observations); {} starts in {:.2f} s", starts[best], starts.size(),
-               timer.Seconds());
-      return std::move(results[best]);
-    }
+    WidenFocalStddevBySpread(best, starts, &results);
     SfmOptions held = options;
     held.refine_focal = false;
     held.focal_starts.clear();

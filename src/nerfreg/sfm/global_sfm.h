@@ -209,15 +209,12 @@ SfmResult PoseImages(const std::vector<PackedImage>& images, const std::vector<C
 std::vector<int> CoincidentCentres(const std::vector<Rigid3d>& cam_from_world, const std::vector<bool>& posed,
                                    double fraction = 0.01);
 
-// The median angle (degrees) between the two rays of an edge's inlier matches once both are
-// rotated into the world frame by cam_from_world's rotations: ~0 for photos taken from one spot (a
-// pure rotation), larger the more the two views' centres differ relative to the scene's depth.
-double MedianParallaxDeg(const ViewGraphEdge& edge, const std::vector<std::vector<Eigen::Vector2d>>& keypoints,
-                         const std::vector<Camera>& cameras, const std::vector<Rigid3d>& cam_from_world);
-
-// Parallax above which two images cannot share a camera centre (a collapse, where their solved
-// centres coincide).
-constexpr double kCollapseParallaxDeg = 1.0;
+// Per image whose centre coincides with image coincident[k]'s (CoincidentCentres; -1: none),
+// whether the two images' own matches in `graph` show parallax at cam_from_world's rotations (the
+// rays' median angle above 1 deg), which two photos taken from one spot cannot: a collapsed
+// solution. False where the graph has no edge between them (nothing tells).
+std::vector<bool> CollapsedCentres(const ViewGraph& graph, const std::vector<Camera>& cameras,
+                                   const std::vector<Rigid3d>& cam_from_world, const std::vector<int>& coincident);
 
 // How far the solved camera centres contradict the view graph's own two-view geometry: per edge
 // between posed images, the angle between the edge's translation direction (from its essential
