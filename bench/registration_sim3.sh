@@ -36,9 +36,10 @@ OUT_MD=${OUT_MD:-$ROOT/results/registration_sim3.md}
 mkdir -p "$WORK"
 # free / fixed: reg register's default chain with --scale free / fixed; baseline: FPFH + RANSAC +
 # ICP with scale (--method ransac --refine icp: similarity RANSAC hypotheses, then Open3D's
-# point-to-point ICP with_scaling=true before the point-to-plane pass), the comparison.
+# point-to-point ICP with_scaling=true before the point-to-plane pass), the comparison, one
+# way only (--no-reverse: the classical pipeline as other tools run it).
 mode_args() {
-  if [ "$1" = baseline ]; then echo "--scale free --method ransac --refine icp"; else echo "--scale $1"; fi
+  if [ "$1" = baseline ]; then echo "--scale free --method ransac --refine icp --no-reverse"; else echo "--scale $1"; fi
 }
 # reg eval's table line with its rotation (printed to 3 decimals) replaced by the full value of its
 # --out JSON, so the 2 deg target is judged on the pose itself (2.0003 printed as 2.000 passed).

@@ -120,8 +120,12 @@ TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister)
   const Json t = ReadJsonFile(dir.File("t.json"));
   EXPECT_EQ(t["status"], "untrusted") << t.dump();
   EXPECT_FALSE(t["status_reason"].get<std::string>().empty());
-  std::printf("different objects: confidence %.3f, %d agreeing\n", t["confidence"].get<double>(),
-              t["agreeing_candidates"].get<int>());
+  // Registered the other way too (target onto source), and untrusted that way as well.
+  ASSERT_TRUE(t["reverse"].is_object()) << t.dump();
+  EXPECT_FALSE(t["reverse"]["kept"].get<bool>());
+  EXPECT_EQ(t["reverse"]["other_way"]["status"], "untrusted");
+  std::printf("different objects: confidence %.3f, %d agreeing; the other way %.3f\n", t["confidence"].get<double>(),
+              t["agreeing_candidates"].get<int>(), t["reverse"]["other_way"]["confidence"].get<double>());
 
   // register-many registers the pair as reg register does: no edge, so the second capture is not
   // registered, the output says so, it stays out of the merged splats, and the command exits with 5.
@@ -135,6 +139,7 @@ TEST(SplatsCli, CapturesOfDifferentObjectsAreUntrustedAndScaledCapturesRegister)
   EXPECT_EQ(m["connected"], Json::array({true, false})) << m.dump();
   ASSERT_EQ(m["edges"].size(), 1u);
   EXPECT_EQ(m["edges"][0]["status"], "untrusted") << m.dump();
+  EXPECT_FALSE(m["edges"][0]["reverse"]["kept"].get<bool>()) << "tried the other way too: " << m.dump();
   EXPECT_FALSE(m["edges"][0]["used"].get<bool>());
   EXPECT_EQ(ReadSplatPly(dir.File("merged.ply")).size(), ReadSplatPly(dir.File("o7/block_0/splats.ply")).size());
 

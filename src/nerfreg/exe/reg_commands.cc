@@ -148,6 +148,9 @@ void nerfreg::AddPairRegistrationFlags(CLI::App& app, PairRegistrationFlags* f) 
   app.add_flag("--no-turn-check", f->no_turn_check,
                "--refine field: do not try the kept pose turned about the source's axes (by default a turn that "
                "agrees better replaces it, and one that agrees nearly as well makes the result untrusted)");
+  app.add_flag("--no-reverse", f->no_reverse,
+               "Do not register the pair the other way (target onto source) where the result is untrusted (by "
+               "default that one, inverted, is kept when it is registered)");
 }
 
 BlockRegistrationOptions nerfreg::ParsePairRegistrationFlags(const PairRegistrationFlags& f) {
@@ -161,6 +164,7 @@ BlockRegistrationOptions nerfreg::ParsePairRegistrationFlags(const PairRegistrat
   o.flips = !f.no_flips;
   o.block_icp = !f.no_block_icp;
   o.check_turns = !f.no_turn_check;
+  o.reverse_untrusted = !f.no_reverse;
   o.Check();
   return o;
 }

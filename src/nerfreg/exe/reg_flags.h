@@ -13,7 +13,7 @@ namespace nerfreg {
 
 struct PairRegistrationFlags {
   std::string method, refine = "field", dreg_solver = "procrustes", icp_points = "occupied", scale = "free";
-  bool no_flips = false, no_block_icp = false, no_turn_check = false;
+  bool no_flips = false, no_block_icp = false, no_turn_check = false, no_reverse = false;
   std::string device = "cpu";
   BlockRegistrationOptions options;
 };

@@ -44,6 +44,11 @@ std::string RegistrationSummary(const BlockRegistrationResult& r, const std::str
   std::string s = fmt::format("{:<11} {} ({}, scale {}), {:.1f} s\n", r.status, r.method,
                               RegistrationMethodName(r.options.method), ScaleModeName(r.options.scale), r.seconds);
   if (!r.status_reason.empty()) s += fmt::format("{:<11} {}\n", "why", r.status_reason);
+  if (r.reverse.is_object() && r.reverse.value("kept", false)) {
+    const Json& other = r.reverse["other_way"];
+    s += fmt::format("{:<11} source -> target was {} (confidence {:.2f}): the target onto the source, inverted\n",
+                     "other way", other.value("status", std::string()), other.value("confidence", 0.0));
+  }
   s += fmt::format("{:<11} {:.2f} deg about ({:.3f}, {:.3f}, {:.3f})\n", "rotation", aa.angle() * 180 / M_PI,
                    aa.axis().x(), aa.axis().y(), aa.axis().z());
   s += fmt::format("{:<11} ({:.4f}, {:.4f}, {:.4f}), |t| {:.4f} (target units)\n", "translation", t.x(), t.y(), t.z(),

@@ -108,6 +108,7 @@ ManyBlockRegistrationResult RegisterManyBlocks(const std::vector<std::string>& p
            {"method", r.method},
            {"status", r.status},
            {"status_reason", r.status_reason},
+           {"reverse", r.reverse},
            {"turn_margin", std::isnan(r.turn_margin) ? Json() : Json(r.turn_margin)},
            {"turn_colour_margin", std::isnan(r.turn_colour_margin) ? Json() : Json(r.turn_colour_margin)},
            {"agreeing_candidates", r.agreeing_candidates},

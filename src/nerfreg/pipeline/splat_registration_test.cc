@@ -96,6 +96,31 @@ TEST(SplatRegistration, KnownSimilarityIsRecoveredBetweenCapturesOfDifferentScal
   }
 }
 
+// The summary says when the kept pose is the other way's, inverted, and how the first way ended.
+TEST(SplatRegistration, TheSummarySaysWhenThePoseWasRegisteredTheOtherWay) {
+  BlockRegistrationResult forward;
+  forward.method = "dreg+icp+block+field+polish";
+  forward.status = "untrusted";
+  forward.status_reason = "confidence 0.43 < 0.60";
+  forward.confidence = 0.43;
+  BlockRegistrationResult back = forward;
+  back.method = "ransac-grid+icp+block+field+polish";
+  back.status = "registered";
+  back.status_reason.clear();
+  back.confidence = 0.63;
+  back.target_from_source = Sim3d(2.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0));
+  back.candidates = {back};
+  const BlockRegistrationResult r = RegisterEitherWay([&](bool reversed) { return reversed ? back : forward; }, true);
+  const std::string summary = RegistrationSummary(r, "T.json");
+  EXPECT_EQ(summary.rfind("registered  ransac-grid+icp+block+field+polish+reverse", 0), 0u) << summary;
+  EXPECT_NE(summary.find("other way   source -> target was untrusted (confidence 0.43): the target onto the source, "
+                         "inverted"),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("scale       0.5000"), std::string::npos) << summary;
+  EXPECT_EQ(RegistrationSummary(forward, "T.json").find("other way"), std::string::npos);
+}
+
 // register-many on three captures in three units: object 7's two captures (block 1's scaled by
 // 0.4) and block 0's again, scaled by 2.5, turned and shifted (a loop of one real registration
 // and two of one capture's copies). The Sim(3) pose graph brings each into block 0's frame, its

@@ -428,11 +428,11 @@ void CheckOccupied(Eigen::Index points, const std::string& name, double min_dens
   }
 }
 
-BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+namespace {
+
+// RegisterBlocks one way: source -> target.
+BlockRegistrationResult RegisterOneWay(RegistrationInput& source, RegistrationInput& target,
                                        const BlockRegistrationOptions& options, DregNet* net) {
-  options.Check();
-  if (options.UsesNetwork() && !net)
-    throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
   if (options.scale == ScaleMode::kFixed) return BlockRegistration(source, target, options, net).Run();
   const bool mixed = source.Kind() != target.Kind();
   Json normalization;
@@ -452,6 +452,72 @@ BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationIn
   CheckScaleInRange(r.target_from_source.scale, InputName(&source, "source"),
                     "scale to " + InputName(&target, "target"));
   return r;
+}
+
+// What a result records of the way not kept.
+Json OtherWayJson(const BlockRegistrationResult& r) {
+  return {{"status", r.status},
+          {"status_reason", r.status_reason},
+          {"method", r.method},
+          {"confidence", r.confidence},
+          {"agreeing_candidates", r.agreeing_candidates >= 0 ? Json(r.agreeing_candidates) : Json()},
+          {"target_from_source", MatrixToJson(r.target_from_source.ToMatrix())},
+          {"scale", r.target_from_source.scale},
+          {"seconds", r.seconds}};
+}
+
+}  // namespace
+
+BlockRegistrationResult ReversedResult(BlockRegistrationResult r) {
+  r.target_from_source = r.target_from_source.Inverse();
+  for (RegistrationResult& c : r.candidates) c.target_from_source = c.target_from_source.Inverse();
+  std::swap(r.source_cloud, r.target_cloud);
+  std::swap(r.source_kind, r.target_kind);
+  if (r.normalization.is_object()) {
+    r.normalization =
+        Json{{"source", r.normalization.value("target", Json())}, {"target", r.normalization.value("source", Json())}};
+  }
+  r.method += "+reverse";
+  r.candidates.at(r.chosen).method = r.method;
+  return r;
+}
+
+BlockRegistrationResult RegisterEitherWay(const std::function<BlockRegistrationResult(bool reversed)>& one_way,
+                                          bool reverse_untrusted) {
+  BlockRegistrationResult forward = one_way(false);
+  if (forward.status != "untrusted" || !reverse_untrusted) return forward;
+  LOG_WARN("untrusted ({}): registering the other way (target onto source)", forward.status_reason);
+  BlockRegistrationResult back = one_way(true);
+  if (back.status != "registered") {
+    forward.reverse = {{"kept", false}, {"other_way", OtherWayJson(back)}};
+    forward.status_reason +=
+        fmt::format("; the other way (target onto source) is untrusted too (confidence {:.2f})", back.confidence);
+    forward.seconds += back.seconds;
+    return forward;
+  }
+  const std::string message = fmt::format(
+      "source -> target was untrusted (confidence {:.2f}); the target registered onto the source (confidence {:.2f}) "
+      "is kept, inverted",
+      forward.confidence, back.confidence);
+  LOG_WARN("{}", message);
+  BlockRegistrationResult r = ReversedResult(std::move(back));
+  r.reverse = {{"kept", true}, {"other_way", OtherWayJson(forward)}};
+  r.seconds += forward.seconds;
+  // The kept way's warnings are about its own run; the first way's stay readable in other_way.
+  r.warnings.insert(r.warnings.begin(), message);
+  return r;
+}
+
+BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
+                                       const BlockRegistrationOptions& options, DregNet* net) {
+  options.Check();
+  if (options.UsesNetwork() && !net)
+    throw std::invalid_argument("RegisterBlocks: method dreg / auto needs the network");
+  return RegisterEitherWay(
+      [&](bool reversed) {
+        return reversed ? RegisterOneWay(target, source, options, net) : RegisterOneWay(source, target, options, net);
+      },
+      options.reverse_untrusted);
 }
 
 BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,
@@ -482,6 +548,7 @@ Json BlockRegistrationResult::ToJson() const {
             {"target_kind", target_kind},
             {"status", status},
             {"status_reason", status_reason},
+            {"reverse", reverse},
             {"normalization", normalization}};
   j.update(details);
   j["options"] = options.ToJson();

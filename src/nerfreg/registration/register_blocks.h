@@ -9,6 +9,7 @@
 // asks. Then one candidate is kept (ChooseCandidate, on common samples) and the result says how far
 // to trust it.
 #include <Eigen/Core>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -45,6 +46,11 @@ struct BlockRegistrationResult : RegistrationResult {
   // `reg register` then exits with kExitUntrusted. status_reason says why ("" when registered).
   std::string status = "registered";
   std::string status_reason;
+  // RegisterEitherWay's record (null where the pair was registered one way only): {"kept": true}
+  // where this result is the other way's registration (target -> source) inverted, false where the
+  // other way was untrusted too; "other_way" summarises the result not kept (status, reason,
+  // method, confidence, its target_from_source in its own direction, seconds).
+  Json reverse;
   std::vector<std::string> warnings;
   BlockRegistrationOptions options;
   std::string source_kind = "nerf", target_kind = "nerf";  // RegistrationInput::Kind()
@@ -134,6 +140,25 @@ inline constexpr int kExitUntrusted = 5;
 // Sets result->status and status_reason by the rules above (the confidence, then the turn margin).
 void JudgeRegistration(BlockRegistrationResult* result);
 
+// A pair registered target -> source where source -> target was untrusted. The chain is not
+// symmetric (the network and FPFH match source features into the target, the turn check turns the
+// source, each input is normalised by its own extent), and a pair one way cannot register can
+// register the other way: on bench/registration_sim3.sh's trained blocks of object 6009 (relative
+// scale 0.99), block 1 -> 0 ended 19 deg off, untrusted, where 0 -> 1 registered 1.2 deg from the
+// truth (docs/registration.md, "The other way").
+//
+// `one_way(false)` registers source -> target; where its result is untrusted and `reverse_untrusted`,
+// `one_way(true)` registers target -> source. Where that one is registered, it is returned inverted
+// (ReversedResult; its `reverse` {"kept": true, "other_way": the first result}); else the first
+// result is returned, its reason saying the other way was untrusted too (`reverse` {"kept":
+// false}). Each way is judged by the same rules (JudgeRegistration); seconds are both ways'.
+BlockRegistrationResult RegisterEitherWay(const std::function<BlockRegistrationResult(bool reversed)>& one_way,
+                                          bool reverse_untrusted);
+// A target -> source result as source -> target: every pose inverted (the kept one and each
+// candidate's), the clouds, kinds and normalisations swapped, "+reverse" appended to the method. The
+// stages' own records (field, block_icp, polish, turn_check) stay as the other way ran them.
+BlockRegistrationResult ReversedResult(BlockRegistrationResult other_way);
+
 // Fewer occupied points than this (cells with density > --min-density) in an input is no capture
 // to register: an InputError naming it, not a pose.
 inline constexpr int kMinOccupiedPoints = 10;
@@ -149,7 +174,9 @@ DregNet LoadCheckedDregNet(const BlockRegistrationOptions& options);
 // options.scale kFree the inputs are moved into their normalised frames while it runs and moved
 // back before it returns; the result (every candidate's pose, the clouds) is in their own frames.
 // InputError for an input with fewer than kMinOccupiedPoints occupied points, and for a scale
-// outside [kMinSim3Scale, kMaxSim3Scale] (an input's extent or the result's).
+// outside [kMinSim3Scale, kMaxSim3Scale] (an input's extent or the result's). With
+// options.reverse_untrusted (the default) an untrusted result is registered the other way too
+// (RegisterEitherWay).
 BlockRegistrationResult RegisterBlocks(RegistrationInput& source, RegistrationInput& target,
                                        const BlockRegistrationOptions& options, DregNet* net);
 BlockRegistrationResult RegisterBlocks(NerfBlock& source, NerfBlock& target, const BlockRegistrationOptions& options,

@@ -242,9 +242,17 @@ TEST(RegisterBlocks, ColourTellsTheTurnsOfASymmetricShapeApart) {
       EXPECT_EQ(r.status, "registered") << r.status_reason;
       EXPECT_LT(rot, 2.0) << r.turns.dump();
       EXPECT_GE(r.turn_colour_margin, kTurnColourMargin);
+      EXPECT_TRUE(r.reverse.is_null()) << "registered one way: the other way does not run";
     } else {
       EXPECT_EQ(r.status, "untrusted");
       EXPECT_NE(r.status_reason.find("colours do not tell"), std::string::npos) << r.status_reason;
+      // The other way (target onto source) ran, and a box in one colour cannot register that way
+      // either.
+      ASSERT_TRUE(r.reverse.is_object());
+      EXPECT_FALSE(r.reverse["kept"].get<bool>());
+      EXPECT_EQ(r.reverse["other_way"]["status"], "untrusted");
+      EXPECT_NE(r.status_reason.find("the other way (target onto source) is untrusted too"), std::string::npos)
+          << r.status_reason;
     }
   }
 }
@@ -315,6 +323,7 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   o.dreg_passes = 3;
   o.block_icp = false;
   o.check_turns = false;
+  o.reverse_untrusted = false;
   const Json j = Json::parse(o.ToJson().dump());  // through text, as T.json is read
   const BlockRegistrationOptions r = BlockRegistrationOptions::FromJson(j, "T.json");
   EXPECT_EQ(r.ToJson(), o.ToJson());
@@ -327,10 +336,17 @@ TEST(RegisterBlocks, OptionsRoundTripThroughJson) {
   EXPECT_FALSE(r.flips);
   EXPECT_FALSE(r.block_icp);
   EXPECT_FALSE(r.check_turns);
-  Json older = j;  // a T.json written before the turn check: it did not run
+  EXPECT_FALSE(r.reverse_untrusted);
+  EXPECT_TRUE(BlockRegistrationOptions().reverse_untrusted);  // the default
+  // A T.json written before the turn check and the other way: neither ran, though today's defaults
+  // run both.
+  Json older = BlockRegistrationOptions().ToJson();
+  ASSERT_TRUE(older["check_turns"].get<bool>() && older["reverse_untrusted"].get<bool>());
   older.erase("check_turns");
-  o.check_turns = true;
-  EXPECT_FALSE(BlockRegistrationOptions::FromJson(older, "T.json").check_turns);
+  older.erase("reverse_untrusted");
+  const BlockRegistrationOptions old = BlockRegistrationOptions::FromJson(older, "T.json");
+  EXPECT_FALSE(old.check_turns);
+  EXPECT_FALSE(old.reverse_untrusted);
   Json bad = j;
   bad["refine"] = "sometimes";
   EXPECT_THROW(BlockRegistrationOptions::FromJson(bad, "T.json"), InputError);
@@ -445,6 +461,106 @@ TEST(RegisterBlocks, AConfirmedPoseStillNeedsAConfidenceFloor) {
   EXPECT_LT(kConfirmedConfidenceFloor, kUntrustedConfidence);
   EXPECT_LT(kConfirmedConfidenceFloorMixed, kUntrustedConfidenceMixed);
   EXPECT_LT(kConfirmedConfidenceFloorMixed, kConfirmedConfidenceFloor);
+}
+
+Eigen::Matrix4d Matrix4FromJson(const Json& j) { return JsonField(j, "T.json").Matrix(4, 4); }
+
+// A result as the job makes it: `pose`, judged `status`, with two candidates (the kept one first).
+BlockRegistrationResult JudgedResult(const Sim3d& pose, const std::string& status, double confidence) {
+  BlockRegistrationResult r;
+  r.target_from_source = pose;
+  r.method = "ransac+icp+field";
+  r.confidence = confidence;
+  r.status = status;
+  r.status_reason = status == "untrusted" ? "confidence low" : "";
+  r.seconds = 2;
+  r.source_kind = "nerf";
+  r.target_kind = "splats";
+  r.source_cloud = Eigen::Matrix3Xd::Zero(3, 4);
+  r.target_cloud = Eigen::Matrix3Xd::Ones(3, 7);
+  r.normalization = {{"source", {{"scale", 2.0}}}, {"target", {{"scale", 0.5}}}};
+  RegistrationResult kept = r, other = r;
+  other.target_from_source = Pose(90, {0, 0, 1}, {1, 0, 0}) * pose;
+  other.method = "dreg+icp+field";
+  r.candidates = {kept, other};
+  r.chosen = 0;
+  return r;
+}
+
+// An untrusted result is registered the other way (target onto source); where that one is
+// registered, its inverse is kept, and only there. `one_way` is the job each way; here it returns
+// judged results, so each branch of the rule is seen.
+TEST(RegisterBlocks, AnUntrustedResultIsRegisteredTheOtherWay) {
+  const Sim3d forward_pose = Pose(25, {1, 0, 0}, {0.3, 0, 0});
+  const Sim3d back_pose(2.5, Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 1, -0.3).normalized())),
+                        Eigen::Vector3d(-0.2, 0.5, 0.1));  // target -> source
+  std::vector<bool> calls;
+  auto ways = [&](const std::string& forward_status, const std::string& back_status) {
+    return [&, forward_status, back_status](bool reversed) {
+      calls.push_back(reversed);
+      return reversed ? JudgedResult(back_pose, back_status, 0.66) : JudgedResult(forward_pose, forward_status, 0.43);
+    };
+  };
+
+  // Untrusted one way, registered the other: the other way's pose, inverted.
+  calls.clear();
+  BlockRegistrationResult r = RegisterEitherWay(ways("untrusted", "registered"), true);
+  EXPECT_EQ(calls, (std::vector<bool>{false, true}));
+  EXPECT_EQ(r.status, "registered");
+  EXPECT_TRUE(r.target_from_source.ToMatrix().isApprox(back_pose.Inverse().ToMatrix(), 1e-12));
+  EXPECT_NEAR(r.target_from_source.scale, 1 / 2.5, 1e-12);
+  EXPECT_TRUE((r.target_from_source * back_pose).ToMatrix().isApprox(Eigen::Matrix4d::Identity(), 1e-12));
+  EXPECT_EQ(r.method, "ransac+icp+field+reverse");
+  EXPECT_EQ(r.Chosen().method, r.method);
+  EXPECT_TRUE(r.candidates[1].target_from_source.ToMatrix().isApprox(
+      (Pose(90, {0, 0, 1}, {1, 0, 0}) * back_pose).Inverse().ToMatrix(), 1e-12));
+  EXPECT_DOUBLE_EQ(r.confidence, 0.66);
+  EXPECT_DOUBLE_EQ(r.seconds, 4);  // both ways
+  // The inputs' roles swapped back: the kept result is about the user's source and target.
+  EXPECT_EQ(r.source_kind, "splats");
+  EXPECT_EQ(r.target_kind, "nerf");
+  EXPECT_EQ(r.source_cloud.cols(), 7);
+  EXPECT_EQ(r.target_cloud.cols(), 4);
+  EXPECT_EQ(r.normalization["source"]["scale"], 0.5);
+  ASSERT_TRUE(r.reverse.is_object());
+  EXPECT_TRUE(r.reverse["kept"].get<bool>());
+  EXPECT_EQ(r.reverse["other_way"]["status"], "untrusted");
+  EXPECT_TRUE(Matrix4FromJson(r.reverse["other_way"]["target_from_source"]).isApprox(forward_pose.ToMatrix(), 1e-12));
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings[0].find("source -> target was untrusted (confidence 0.43)"), std::string::npos);
+  const Json j = r.ToJson();
+  EXPECT_EQ(j["status"], "registered");
+  EXPECT_TRUE(j["reverse"]["kept"].get<bool>());
+  EXPECT_TRUE(Matrix4FromJson(j["target_from_source"]).isApprox(back_pose.Inverse().ToMatrix(), 1e-12));
+
+  // Untrusted both ways: the first way's result, saying so.
+  calls.clear();
+  r = RegisterEitherWay(ways("untrusted", "untrusted"), true);
+  EXPECT_EQ(calls, (std::vector<bool>{false, true}));
+  EXPECT_EQ(r.status, "untrusted");
+  EXPECT_TRUE(r.target_from_source.ToMatrix().isApprox(forward_pose.ToMatrix(), 1e-12));
+  EXPECT_EQ(r.method, "ransac+icp+field");
+  EXPECT_EQ(r.status_reason, "confidence low; the other way (target onto source) is untrusted too (confidence 0.66)");
+  EXPECT_FALSE(r.reverse["kept"].get<bool>());
+  EXPECT_DOUBLE_EQ(r.seconds, 4);
+
+  // Registered the first way, or the other way not asked for: one way only.
+  for (const auto& [forward_status, reverse] :
+       {std::pair<std::string, bool>{"registered", true}, std::pair<std::string, bool>{"untrusted", false}}) {
+    calls.clear();
+    r = RegisterEitherWay(ways(forward_status, "registered"), reverse);
+    EXPECT_EQ(calls, (std::vector<bool>{false}));
+    EXPECT_EQ(r.status, forward_status);
+    EXPECT_TRUE(r.target_from_source.ToMatrix().isApprox(forward_pose.ToMatrix(), 1e-12));
+    EXPECT_TRUE(r.reverse.is_null());
+  }
+
+  // Reversed twice is the result itself (poses, clouds, kinds).
+  const BlockRegistrationResult once = ReversedResult(JudgedResult(back_pose, "registered", 0.7));
+  const BlockRegistrationResult twice = ReversedResult(once);
+  EXPECT_TRUE(twice.target_from_source.ToMatrix().isApprox(back_pose.ToMatrix(), 1e-12));
+  EXPECT_EQ(twice.source_kind, "nerf");
+  EXPECT_EQ(twice.source_cloud.cols(), 4);
 }
 
 // A capture with nothing dense (splats all but transparent) is a named error, not a pose, in

@@ -80,6 +80,7 @@ Json BlockRegistrationOptions::ToJson() const {
           {"dreg_passes", dreg_passes},
           {"block_icp", block_icp},
           {"check_turns", check_turns},
+          {"reverse_untrusted", reverse_untrusted},
           {"splat_density_scale", splats.density_scale},
           {"splat_blur", splats.blur}};
 }
@@ -112,6 +113,8 @@ BlockRegistrationOptions BlockRegistrationOptions::FromJson(const Json& json, co
   o.block_icp = j["block_icp"].Bool();
   // Absent in T.json files written before the turn check.
   o.check_turns = j.BoolOr("check_turns", false);
+  // Absent in T.json files written before an untrusted result was registered the other way.
+  o.reverse_untrusted = j.BoolOr("reverse_untrusted", false);
   // Absent in T.json files written before splat inputs.
   o.splats.density_scale = j.DoubleOr("splat_density_scale", o.splats.density_scale);
   o.splats.blur = j.DoubleOr("splat_blur", o.splats.blur);

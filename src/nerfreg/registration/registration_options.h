@@ -100,7 +100,10 @@ struct BlockRegistrationOptions {
   DregSolver dreg_solver = DregSolver::kProcrustes;  // --dreg-solver
   int dreg_passes = 1;                               // --dreg-passes, 1..10
   bool block_icp = true;                             // not --no-block-icp
-  bool check_turns = true;             // the turn check with kField (register_blocks.h, kTurnSwitchMargin)
+  bool check_turns = true;  // the turn check with kField (register_blocks.h, kTurnSwitchMargin)
+  // not --no-reverse: an untrusted result is registered the other way too (register_blocks.h,
+  // RegisterEitherWay).
+  bool reverse_untrusted = true;
   torch::Device device = torch::kCPU;  // --device: where the caller puts the blocks' fields and the network
   // --splat-density-scale, --splat-blur: how a splat PLY input becomes a density field.
   SplatFieldOptions splats;
